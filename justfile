@@ -1,0 +1,21 @@
+# Everyday recipes. The README's commands work without `just`.
+
+# The main job: the cos³ experiment.
+run:
+    cargo run --release -- run experiments/cos3.json
+
+# The default test suite (what CI runs).
+test:
+    cargo test --release
+
+# Long statistical tests, kept out of the default suite.
+test-long:
+    cargo test --release -- --ignored
+
+# Everything CI checks.
+ci:
+    bash .ci/run
+
+# Benchmarks (figures go in the README).
+bench:
+    cargo bench --bench core

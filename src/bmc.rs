@@ -1,0 +1,220 @@
+//! Bayesian Monte Carlo weights, posterior variance and diagnostics (math.md §4).
+//!
+//! `Q = K + σ_n² I`, `w = Q⁻¹ z` by Cholesky, `Var(I | D) = V̂ − zᵀ Q⁻¹ z = V̂ − zᵀ w`.
+//! BMC is `Î = wᵀ Y`; BMCP with constant prior `c` is `Î = 2πc + wᵀ (Y − c·1)`; both use the
+//! same weights.
+
+use crate::geometry::Vec3;
+use crate::kernel::Kernel;
+use crate::linalg::{FactorInfo, ILL_CONDITIONED, NotPositiveDefinite, SpdWorkspace};
+use serde::Serialize;
+
+/// The thesis's observation noise σ_n².
+pub const DEFAULT_NOISE: f64 = 0.01;
+
+/// A numerical event worth telling the user about; counted per weight set.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum NumericalWarning {
+    /// The factorisation needed jitter on the diagonal.
+    Jitter { amount: f64 },
+    /// The condition estimate of `Q` exceeds [`ILL_CONDITIONED`].
+    IllConditioned { estimate: f64 },
+}
+
+impl NumericalWarning {
+    /// One line with the remedy.
+    pub fn message(&self) -> String {
+        match self {
+            NumericalWarning::Jitter { amount } => format!(
+                "Cholesky of Q needed jitter {amount:.3e} on the diagonal; \
+                 increase the noise σ_n² or avoid (near-)duplicate points"
+            ),
+            NumericalWarning::IllConditioned { estimate } => format!(
+                "Q is ill-conditioned (condition estimate {estimate:.3e}); \
+                 increase the noise σ_n² or use fewer points"
+            ),
+        }
+    }
+}
+
+/// Everything worth knowing about one weight set.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Diagnostics {
+    pub n: usize,
+    /// `Σ w_i`; the integral of the constant 1 is 2π, which it approaches as N grows.
+    pub weight_sum: f64,
+    pub negative_weights: usize,
+    pub min_weight: f64,
+    pub max_weight: f64,
+    /// Jitter added to the diagonal of `Q` (0 when none).
+    pub jitter: f64,
+    /// See [`FactorInfo::condition_estimate`].
+    pub condition_estimate: f64,
+    /// `V̂`.
+    pub prior_variance: f64,
+    /// `V̂ − zᵀ Q⁻¹ z`.
+    pub posterior_variance: f64,
+    pub warnings: Vec<NumericalWarning>,
+}
+
+/// BMC weights for a point set, with their diagnostics.
+#[derive(Clone, Debug)]
+pub struct BmcWeights {
+    pub weights: Vec<f64>,
+    pub diagnostics: Diagnostics,
+}
+
+impl BmcWeights {
+    /// `Î = wᵀ Y` (zero prior mean).
+    pub fn bmc(&self, values: &[f64]) -> f64 {
+        dot(&self.weights, values)
+    }
+
+    /// `Î = 2πc + wᵀ (Y − c·1)` (constant prior mean `c`).
+    pub fn bmcp(&self, values: &[f64], c: f64) -> f64 {
+        let centred: f64 = self.weights.iter().zip(values).map(|(w, y)| w * (y - c)).sum();
+        std::f64::consts::TAU * c + centred
+    }
+
+    /// Posterior standard deviation of the integral (0 if rounding made the variance negative).
+    pub fn posterior_sd(&self) -> f64 {
+        self.diagnostics.posterior_variance.max(0.0).sqrt()
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "weights and values differ in length");
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The noise σ_n² must be finite and ≥ 0.
+pub fn validate_noise(noise: f64) -> Result<f64, String> {
+    if noise.is_finite() && noise >= 0.0 {
+        Ok(noise)
+    } else {
+        Err(format!("noise must be finite and >= 0, got {noise}"))
+    }
+}
+
+/// Computes `w = Q⁻¹ z` for `points` with kernel means `z` and prior variance `V̂`.
+///
+/// `Q` is assembled from its lower triangle only; the workspace is reused between calls.
+pub fn bmc_weights(
+    points: &[Vec3],
+    z: &[f64],
+    prior_variance: f64,
+    kernel: &Kernel,
+    noise: f64,
+    workspace: &mut SpdWorkspace,
+) -> Result<BmcWeights, NotPositiveDefinite> {
+    let n = points.len();
+    assert_eq!(z.len(), n, "one kernel mean per point");
+    let diag = kernel.diagonal() + noise;
+    workspace.assemble_lower(n, |i, j| {
+        if i == j {
+            diag
+        } else {
+            kernel.eval(&points[i], &points[j])
+        }
+    });
+    let FactorInfo {
+        jitter,
+        condition_estimate,
+    } = workspace.factor()?;
+    let mut weights = z.to_vec();
+    workspace.solve_in_place(&mut weights);
+
+    let mut warnings = Vec::new();
+    if jitter > 0.0 {
+        warnings.push(NumericalWarning::Jitter { amount: jitter });
+    }
+    if condition_estimate > ILL_CONDITIONED {
+        warnings.push(NumericalWarning::IllConditioned {
+            estimate: condition_estimate,
+        });
+    }
+    let diagnostics = Diagnostics {
+        n,
+        weight_sum: weights.iter().sum(),
+        negative_weights: weights.iter().filter(|&&w| w < 0.0).count(),
+        min_weight: weights.iter().copied().fold(f64::INFINITY, f64::min),
+        max_weight: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        jitter,
+        condition_estimate,
+        prior_variance,
+        posterior_variance: prior_variance - dot(z, &weights),
+        warnings,
+    };
+    Ok(BmcWeights { weights, diagnostics })
+}
+
+/// Where the kernel means of a sample set come from.
+#[derive(Clone, Debug)]
+pub enum KernelMeans {
+    /// The exact `z(μ)`, tabulated (shared between threads).
+    Exact(std::sync::Arc<crate::kernel_mean::KernelMeanTable>),
+    /// The thesis's per-point MC estimate with `samples` uniform directions (fresh per set).
+    MonteCarlo { samples: usize },
+}
+
+/// A BMC model: kernel, noise and kernel-mean source; turns point sets into weights.
+#[derive(Clone, Debug)]
+pub struct BmcModel {
+    pub kernel: Kernel,
+    pub noise: f64,
+    pub means: KernelMeans,
+    /// `V̂`, always exact (the MC mode estimates only the `z_i`, as the thesis did).
+    pub prior_variance: f64,
+}
+
+impl BmcModel {
+    /// Builds the model; the exact mode tabulates `z` here, once.
+    pub fn new(kernel: Kernel, noise: f64, mode: crate::kernel_mean::KernelMeanMode) -> Self {
+        let table = std::sync::Arc::new(crate::kernel_mean::KernelMeanTable::new(&kernel));
+        let prior_variance = table.prior_variance();
+        let means = match mode {
+            crate::kernel_mean::KernelMeanMode::Exact => KernelMeans::Exact(table),
+            crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => KernelMeans::MonteCarlo { samples },
+        };
+        BmcModel {
+            kernel,
+            noise,
+            means,
+            prior_variance,
+        }
+    }
+
+    /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
+    /// `rng` is drawn from only in the MC mode.
+    pub fn kernel_means<R: rand::Rng + ?Sized>(&self, points: &[Vec3], rng: &mut R) -> Vec<f64> {
+        match &self.means {
+            KernelMeans::Exact(table) => points.iter().map(|p| table.z(p.z)).collect(),
+            KernelMeans::MonteCarlo { samples } => {
+                let dirs = crate::sampling::Design::Uniform.sample_set(*samples, rng);
+                points
+                    .iter()
+                    .map(|p| crate::kernel_mean::kernel_mean_mc(&self.kernel, p, &dirs))
+                    .collect()
+            }
+        }
+    }
+
+    /// The weights for `points`.
+    pub fn weights<R: rand::Rng + ?Sized>(
+        &self,
+        points: &[Vec3],
+        rng: &mut R,
+        workspace: &mut SpdWorkspace,
+    ) -> Result<BmcWeights, NotPositiveDefinite> {
+        let z = self.kernel_means(points, rng);
+        bmc_weights(
+            points,
+            &z,
+            self.prior_variance,
+            &self.kernel,
+            self.noise,
+            workspace,
+        )
+    }
+}

@@ -1,0 +1,205 @@
+//! Command-line interface: options → validated plan → run → export.
+
+use crate::bmc::{BmcModel, DEFAULT_NOISE, validate_noise};
+use crate::io::{InputError, write_atomic};
+use crate::kernel::{Kernel, Sobolev, SquaredExponential};
+use crate::kernel_mean::KernelMeanMode;
+use crate::sampling::Design;
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "workbench",
+    version,
+    about = "Monte Carlo vs Bayesian Monte Carlo over the hemisphere"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Compute a BMC quadrature rule (points and weights) for use in other code.
+    Rule(RuleArgs),
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+enum KernelName {
+    Sobolev,
+    Se,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+enum KernelMeanName {
+    Exact,
+    Mc,
+}
+
+/// Kernel, noise and kernel-mean options shared by the commands that build BMC weights.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ModelArgs {
+    /// Covariance kernel.
+    #[arg(long, value_enum, default_value = "sobolev")]
+    kernel: KernelName,
+    /// Sobolev smoothness s, in (1, 2).
+    #[arg(long, default_value_t = Sobolev::DEFAULT_S)]
+    s: f64,
+    /// Squared-exponential σ_f.
+    #[arg(long, default_value_t = 1.0)]
+    sigma: f64,
+    /// Squared-exponential length scale l.
+    #[arg(long, default_value_t = 0.5)]
+    length: f64,
+    /// Observation noise σ_n² added to the diagonal of K.
+    #[arg(long, default_value_t = DEFAULT_NOISE)]
+    noise: f64,
+    /// Kernel mean: exact (tabulated) or the thesis's plain MC estimate per point.
+    #[arg(long, value_enum, default_value = "exact")]
+    kernel_mean: KernelMeanName,
+    /// Uniform samples per kernel mean in `--kernel-mean mc`.
+    #[arg(long, default_value_t = KernelMeanMode::THESIS_SAMPLES)]
+    kernel_mean_samples: usize,
+}
+
+impl ModelArgs {
+    fn kernel(&self) -> Result<Kernel, InputError> {
+        let k = match self.kernel {
+            KernelName::Sobolev => Sobolev::new(self.s).map(Kernel::Sobolev),
+            KernelName::Se => {
+                SquaredExponential::new(self.sigma, self.length).map(Kernel::SquaredExponential)
+            }
+        };
+        k.map_err(|e| InputError::new(format!("--kernel {}: {e}", k_name(self.kernel))))
+    }
+
+    fn mode(&self) -> Result<KernelMeanMode, InputError> {
+        match self.kernel_mean {
+            KernelMeanName::Exact => Ok(KernelMeanMode::Exact),
+            KernelMeanName::Mc if self.kernel_mean_samples == 0 => Err(InputError::new(
+                "--kernel-mean-samples: must be at least 1, got 0",
+            )),
+            KernelMeanName::Mc => Ok(KernelMeanMode::MonteCarlo {
+                samples: self.kernel_mean_samples,
+            }),
+        }
+    }
+
+    /// The validated model (builds the kernel-mean table).
+    pub fn model(&self) -> Result<BmcModel, InputError> {
+        let kernel = self.kernel()?;
+        let noise = validate_noise(self.noise).map_err(|m| InputError::new(format!("--noise: {m}")))?;
+        Ok(BmcModel::new(kernel, noise, self.mode()?))
+    }
+
+    fn mode_name(&self) -> &'static str {
+        match self.kernel_mean {
+            KernelMeanName::Exact => "exact",
+            KernelMeanName::Mc => "mc",
+        }
+    }
+}
+
+fn k_name(k: KernelName) -> &'static str {
+    match k {
+        KernelName::Sobolev => "sobolev",
+        KernelName::Se => "se",
+    }
+}
+
+#[derive(clap::Args, Debug)]
+struct RuleArgs {
+    /// Number of points to generate (ignored with --points).
+    #[arg(long, default_value_t = 64, conflicts_with = "points")]
+    n: usize,
+    /// Seed of the generated points (and of the MC kernel means).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Sampling design of the generated points.
+    #[arg(long, value_enum, default_value = "uniform", conflicts_with = "points")]
+    design: DesignName,
+    /// Read the points from a CSV with header `x,y,z` instead of generating them.
+    #[arg(long)]
+    points: Option<PathBuf>,
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Write the rule (CSV `x,y,z,weight`) here instead of to stdout.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the diagnostics as JSON here.
+    #[arg(long)]
+    summary: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+enum DesignName {
+    Uniform,
+    Cosine,
+}
+
+impl From<DesignName> for Design {
+    fn from(d: DesignName) -> Design {
+        match d {
+            DesignName::Uniform => Design::Uniform,
+            DesignName::Cosine => Design::Cosine,
+        }
+    }
+}
+
+/// Entry point of the binary.
+pub fn main() -> anyhow::Result<ExitCode> {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if e.use_stderr() => {
+            // Usage errors (exit 2) in clap's own words.
+            e.print()?;
+            return Ok(ExitCode::from(2));
+        }
+        Err(e) => {
+            e.print()?;
+            return Ok(ExitCode::SUCCESS);
+        }
+    };
+    match cli.command {
+        Command::Rule(args) => rule(args),
+    }
+}
+
+fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
+    let points = match &args.points {
+        Some(path) => crate::rule::read_points_csv(path)?,
+        None => {
+            crate::rule::check_point_count(args.n, "--n")?;
+            crate::rule::generate_points(args.n, args.seed, args.design.into())
+        }
+    };
+    crate::rule::check_point_count(points.len(), "--points")?;
+    let model = args.model.model()?;
+    let weights = crate::rule::compute_rule(&points, &model, args.seed)?;
+    for w in &weights.diagnostics.warnings {
+        eprintln!("warning: {}", w.message());
+    }
+    let csv = crate::rule::rule_csv(&points, &weights.weights);
+    let summary = crate::rule::rule_summary(&model, args.model.mode_name(), &weights);
+    match &args.out {
+        Some(path) => write_atomic(path, &csv)?,
+        None => std::io::Write::write_all(&mut std::io::stdout().lock(), &csv)?,
+    }
+    if let Some(path) = &args.summary {
+        write_atomic(path, &serde_json::to_vec_pretty(&summary)?)?;
+    }
+    if args.out.is_some() {
+        let d = &weights.diagnostics;
+        eprintln!(
+            "rule: n = {}, Σw = {:.6} (2π = {:.6}), posterior sd = {:.3e}, {} negative weights",
+            d.n,
+            d.weight_sum,
+            std::f64::consts::TAU,
+            d.posterior_variance.max(0.0).sqrt(),
+            d.negative_weights
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,95 @@
+//! Test integrands `f(ω) = cos^k θ` with their exact integrals (math.md §1).
+
+use crate::geometry::Vec3;
+use std::f64::consts::TAU;
+
+/// `f(ω) = cos^k θ = ω_z^k` over the hemisphere around `+z`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CosPower {
+    pub k: u32,
+}
+
+impl CosPower {
+    /// `cos^k θ`, any `k ≥ 0`.
+    pub fn new(k: u32) -> Self {
+        CosPower { k }
+    }
+
+    /// Parses `cos` (k = 1), `cos2`, `cos3`, … and `cos0` (the constant 1).
+    pub fn parse(name: &str) -> Option<Self> {
+        let rest = name.strip_prefix("cos")?;
+        if rest.is_empty() {
+            return Some(CosPower::new(1));
+        }
+        if rest.starts_with('+') || rest.len() > 1 && rest.starts_with('0') {
+            return None;
+        }
+        rest.parse::<u32>().ok().filter(|&k| k <= 64).map(CosPower::new)
+    }
+
+    /// `cos` for k = 1, `cos<k>` otherwise.
+    pub fn name(&self) -> String {
+        if self.k == 1 {
+            "cos".into()
+        } else {
+            format!("cos{}", self.k)
+        }
+    }
+
+    /// `f(ω) = ω_z^k`.
+    #[inline]
+    pub fn value(&self, w: &Vec3) -> f64 {
+        w.z.powi(self.k as i32)
+    }
+
+    /// `I_k = ∫_H cos^k θ dω = 2π / (k + 1)`.
+    pub fn integral(&self) -> f64 {
+        TAU / (self.k as f64 + 1.0)
+    }
+
+    /// The constant with the same integral, `c = I / (2π) = 1 / (k + 1)` (math.md §1;
+    /// the thesis's 1/2 for cos³θ is an erratum).
+    pub fn constant_prior(&self) -> f64 {
+        1.0 / (self.k as f64 + 1.0)
+    }
+
+    /// Variance of one uniform-sampling MC term: `σ² = 4π² (1/(2k+1) − 1/(k+1)²)` (math.md §3).
+    pub fn uniform_mc_variance(&self) -> f64 {
+        let k = self.k as f64;
+        TAU * TAU * (1.0 / (2.0 * k + 1.0) - 1.0 / ((k + 1.0) * (k + 1.0)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        assert_eq!(CosPower::parse("cos"), Some(CosPower::new(1)));
+        assert_eq!(CosPower::parse("cos3"), Some(CosPower::new(3)));
+        assert_eq!(CosPower::parse("cos0"), Some(CosPower::new(0)));
+        for bad in ["cos1x", "sin", "cos-1", "cos+2", "cos02", ""] {
+            assert_eq!(CosPower::parse(bad), None, "{bad}");
+        }
+        for k in 0..6 {
+            assert_eq!(CosPower::parse(&CosPower::new(k).name()), Some(CosPower::new(k)));
+        }
+    }
+
+    /// The closed form against a midpoint rule in μ = cos θ (∫_H f dω = 2π ∫_0^1 μ^k dμ).
+    #[test]
+    fn integral_matches_quadrature() {
+        for k in 0..5 {
+            let f = CosPower::new(k);
+            let m = 100_000;
+            let q: f64 = (0..m)
+                .map(|i| ((i as f64 + 0.5) / m as f64).powi(k as i32))
+                .sum::<f64>()
+                * TAU
+                / m as f64;
+            assert!((q - f.integral()).abs() < 1e-8, "k={k}");
+            assert!((f.constant_prior() * TAU - f.integral()).abs() < 1e-15);
+        }
+    }
+}

@@ -1,0 +1,32 @@
+//! The kernel mean `z(x) = ∫_H k(x, ω) dω` and `V̂ = ∫_H ∫_H k dω dω'` (math.md §4).
+//!
+//! Both kernels are isotropic, so `z` depends only on `μ = x·n = cos θ_x`.
+
+mod exact;
+mod table;
+
+pub use exact::{kernel_mean_exact, prior_variance_exact};
+pub use table::KernelMeanTable;
+
+use crate::geometry::Vec3;
+use crate::kernel::Kernel;
+
+/// How the kernel means `z_i` of a sample set are obtained.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum KernelMeanMode {
+    /// The exact `z(μ)`, tabulated once per kernel (the default).
+    Exact,
+    /// The thesis's estimate: each `z_i` by plain MC with `samples` uniform directions.
+    MonteCarlo { samples: usize },
+}
+
+impl KernelMeanMode {
+    /// The thesis's default number of MC samples per `z_i`.
+    pub const THESIS_SAMPLES: usize = 10_000;
+}
+
+/// `z(x) ≈ (2π/M) Σ_j k(x, ω_j)` over the given uniform directions (the thesis's mode).
+pub fn kernel_mean_mc(kernel: &Kernel, x: &Vec3, uniform_directions: &[Vec3]) -> f64 {
+    let sum: f64 = uniform_directions.iter().map(|w| kernel.eval(x, w)).sum();
+    std::f64::consts::TAU * sum / uniform_directions.len() as f64
+}

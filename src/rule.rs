@@ -1,0 +1,168 @@
+//! `workbench rule`: a BMC quadrature rule (points and weights) as a file a renderer can load.
+
+use crate::bmc::{BmcModel, BmcWeights};
+use crate::geometry::Vec3;
+use crate::io::InputError;
+use crate::linalg::SpdWorkspace;
+use crate::rng::stream;
+use crate::sampling::Design;
+use std::path::Path;
+
+/// Largest number of points a weight set may have: `Q` and its factor take `16 N²` bytes,
+/// and this keeps them under 4 GiB.
+pub const MAX_POINTS: usize = 16_384;
+
+/// Rejects `n = 0` and `n` whose matrices would not fit the memory budget.
+pub fn check_point_count(n: usize, what: &str) -> Result<(), InputError> {
+    if n == 0 {
+        return Err(InputError::new(format!("{what}: must be at least 1, got 0")));
+    }
+    if n > MAX_POINTS {
+        let gib = 16.0 * (n as f64).powi(2) / (1u64 << 30) as f64;
+        return Err(InputError::new(format!(
+            "{what}: {n} points would need {gib:.1} GiB for Q and its Cholesky factor; \
+             the limit is {MAX_POINTS} points (4 GiB)"
+        )));
+    }
+    Ok(())
+}
+
+/// Stream identifiers under the rule's seed.
+const POINTS_STREAM: u64 = 0;
+const KERNEL_MEAN_STREAM: u64 = 1;
+
+/// `n` points drawn with `design` from `seed`: the set `workbench rule --n N --seed S` uses.
+pub fn generate_points(n: usize, seed: u64, design: Design) -> Vec<Vec3> {
+    design.sample_set(n, &mut stream(seed, &[POINTS_STREAM]))
+}
+
+/// The weights of `points` under `model`; `seed` drives the MC kernel-mean mode only.
+pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> anyhow::Result<BmcWeights> {
+    let mut rng = stream(seed, &[KERNEL_MEAN_STREAM]);
+    Ok(model.weights(points, &mut rng, &mut SpdWorkspace::new())?)
+}
+
+/// Reads a CSV with header `x,y,z` of unit vectors (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`.
+pub fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, InputError> {
+    let name = path.display();
+    let text =
+        std::fs::read_to_string(path).map_err(|e| InputError::new(format!("{name}: cannot read: {e}")))?;
+    parse_points_csv(&text).map_err(|m| InputError::new(format!("{name}: {m}")))
+}
+
+/// Parses the text of a points CSV; errors name the line and the value.
+pub fn parse_points_csv(text: &str) -> Result<Vec<Vec3>, String> {
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header = reader.headers().map_err(|e| format!("line 1: {e}"))?.clone();
+    if header.iter().collect::<Vec<_>>() != ["x", "y", "z"] {
+        return Err(format!(
+            "line 1: header must be `x,y,z`, got `{}`",
+            header.iter().collect::<Vec<_>>().join(",")
+        ));
+    }
+    let mut points = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            format!("line {line}: {e}")
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        let mut p = [0.0; 3];
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            let field = &record[k];
+            p[k] = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("line {line}: {axis} = `{field}` is not a finite number"))?;
+        }
+        let v = Vec3::new(p[0], p[1], p[2]);
+        let norm = v.norm();
+        if (norm - 1.0).abs() > 1e-9 {
+            return Err(format!(
+                "line {line}: ({}, {}, {}) is not a unit vector (norm {norm})",
+                p[0], p[1], p[2]
+            ));
+        }
+        if v.z < 0.0 {
+            return Err(format!(
+                "line {line}: z = {} is below the horizon (need z >= 0)",
+                p[2]
+            ));
+        }
+        points.push(v);
+    }
+    if points.is_empty() {
+        return Err("no points (need at least one row after the header)".into());
+    }
+    Ok(points)
+}
+
+/// CSV `x,y,z,weight`, every number in Rust's shortest round-trip form (exact `f64`).
+pub fn rule_csv(points: &[Vec3], weights: &[f64]) -> Vec<u8> {
+    let mut out = String::from("x,y,z,weight\n");
+    for (p, w) in points.iter().zip(weights) {
+        out.push_str(&format!("{:?},{:?},{:?},{:?}\n", p.x, p.y, p.z, w));
+    }
+    out.into_bytes()
+}
+
+/// The summary JSON of a rule.
+pub fn rule_summary(model: &BmcModel, mode_name: &str, rule: &BmcWeights) -> serde_json::Value {
+    let d = &rule.diagnostics;
+    serde_json::json!({
+        "n": d.n,
+        "kernel": model.kernel.to_json(),
+        "noise": model.noise,
+        "kernel_mean": mode_name,
+        "weight_sum": d.weight_sum,
+        "weight_sum_target": std::f64::consts::TAU,
+        "prior_variance": d.prior_variance,
+        "posterior_variance": d.posterior_variance,
+        "negative_weights": d.negative_weights,
+        "min_weight": d.min_weight,
+        "max_weight": d.max_weight,
+        "jitter": d.jitter,
+        "condition_estimate": d.condition_estimate,
+        "warnings": d.warnings.iter().map(|w| w.message()).collect::<Vec<_>>(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_points_name_the_line_and_value() {
+        let cases = [
+            ("x,y,z\n1,0,0\n0,0,2\n", "line 3"),
+            ("x,y,z\n0,0,-1\n", "below the horizon"),
+            ("x,y\n1,0\n", "header"),
+            ("x,y,z\n0,zero,1\n", "`zero`"),
+            ("x,y,z\n", "no points"),
+        ];
+        for (text, needle) in cases {
+            let e = parse_points_csv(text).unwrap_err();
+            assert!(e.contains(needle), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn point_count_limits() {
+        assert!(
+            check_point_count(0, "--n")
+                .unwrap_err()
+                .to_string()
+                .contains("got 0")
+        );
+        assert!(
+            check_point_count(MAX_POINTS + 1, "--n")
+                .unwrap_err()
+                .to_string()
+                .contains("GiB")
+        );
+        assert!(check_point_count(64, "--n").is_ok());
+    }
+}
