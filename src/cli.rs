@@ -24,6 +24,34 @@ struct Cli {
 enum Command {
     /// Compute a BMC quadrature rule (points and weights) for use in other code.
     Rule(RuleArgs),
+    /// Run an experiment file: parallel trials, CSV, SVG plots, summary and checks.
+    Run(RunArgs),
+    /// Check an experiment file and print the resolved plan, without running it.
+    Validate(ValidateArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct RunArgs {
+    /// The experiment file (JSON).
+    file: PathBuf,
+    /// Output folder (default: results/<name>/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Override the number of trials.
+    #[arg(long)]
+    trials: Option<u64>,
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(clap::Args, Debug)]
+struct ValidateArgs {
+    /// The experiment file (JSON).
+    file: PathBuf,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
@@ -164,6 +192,12 @@ pub fn main() -> anyhow::Result<ExitCode> {
     };
     match cli.command {
         Command::Rule(args) => rule(args),
+        Command::Run(args) => run(args),
+        Command::Validate(args) => {
+            let plan = crate::experiment::load_plan(&args.file, &Default::default())?;
+            print!("{}", crate::experiment::describe(&plan));
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 
@@ -202,4 +236,32 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    use crate::experiment as ex;
+    let overrides = ex::Overrides {
+        out: args.out,
+        trials: args.trials,
+        threads: args.threads,
+        quiet: args.quiet,
+    };
+    let plan = ex::load_plan(&args.file, &overrides)?;
+    let report = ex::run_plan(&plan, &overrides)?;
+    print!("{}", ex::format_report(&plan, &report));
+    for (message, count) in &report.warnings {
+        eprintln!("warning: {count} weight set(s): {message}");
+    }
+    println!(
+        "wrote {} ({:.2} s on {} threads)",
+        report.out_dir.display(),
+        report.wall_seconds,
+        report.threads
+    );
+    let failed = report.checks.iter().any(|c| !c.passed());
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }

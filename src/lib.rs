@@ -6,6 +6,7 @@
 pub mod bmc;
 pub mod cli;
 pub mod estimator;
+pub mod experiment;
 pub mod geometry;
 pub mod integrand;
 pub mod io;

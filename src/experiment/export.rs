@@ -1,0 +1,132 @@
+//! Pure exporters: each turns results into bytes; only the caller touches the disk.
+//!
+//! Floats are written in Rust's shortest round-trip form (`{:?}`), so the CSVs hold the exact
+//! `f64` values and are byte-identical for identical results.
+
+use super::plan::Plan;
+use super::runner::Results;
+use super::summary::{CellSummary, CheckOutcome};
+use std::fmt::Write;
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |x| format!("{x:?}"))
+}
+
+/// Empty for NaN (an undefined statistic, e.g. a CI from one trial).
+fn num(v: f64) -> String {
+    if v.is_nan() {
+        String::new()
+    } else {
+        format!("{v:?}")
+    }
+}
+
+/// `trials.csv`: one row per (integrand, estimator, N, trial).
+pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
+    let mut s = String::from(
+        "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,warnings\n",
+    );
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        let truth = f.integral();
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            for (ni, &n) in plan.samples.iter().enumerate() {
+                for t in 0..plan.trials {
+                    let u = results.unit(plan, ni, t);
+                    let est = u.estimates[fi][ei];
+                    writeln!(
+                        s,
+                        "{},{},{},{},{n},{t},{est:?},{truth:?},{:?},{},{}",
+                        f.name(),
+                        csv_field(&e.label),
+                        e.method.name(),
+                        e.design.name(),
+                        (est - truth).abs(),
+                        opt(u.posterior_sd[ei]),
+                        u.warnings[ei]
+                    )
+                    .expect("writing to a String");
+                }
+            }
+        }
+    }
+    s.into_bytes()
+}
+
+/// `summary.csv`: one row per (integrand, estimator, N).
+pub fn summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
+    let mut s = String::from(
+        "integrand,estimator,n,trials,mean_abs_error,ci95_low,ci95_high,median_abs_error,\
+         q10_abs_error,q90_abs_error,mean_posterior_sd,coverage95,warnings\n",
+    );
+    for c in cells {
+        writeln!(
+            s,
+            "{},{},{},{},{:?},{},{},{:?},{:?},{:?},{},{},{}",
+            plan.integrands[c.integrand].name(),
+            csv_field(&plan.estimators[c.estimator].label),
+            c.n,
+            c.trials,
+            c.mean_abs_error,
+            num(c.ci95.0),
+            num(c.ci95.1),
+            c.median_abs_error,
+            c.q10_abs_error,
+            c.q90_abs_error,
+            opt(c.mean_posterior_sd),
+            opt(c.coverage95),
+            c.warnings
+        )
+        .expect("writing to a String");
+    }
+    s.into_bytes()
+}
+
+/// Quotes a field if CSV needs it (labels are free text).
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The resolved plan as JSON (what `validate` prints and the manifest records).
+pub fn plan_json(plan: &Plan) -> serde_json::Value {
+    serde_json::json!({
+        "name": plan.name,
+        "title": plan.title,
+        "integrands": plan.integrands.iter().map(|f| serde_json::json!({
+            "name": f.name(), "truth": f.integral(), "analytic_prior": f.constant_prior()
+        })).collect::<Vec<_>>(),
+        "estimators": plan.estimators.iter().map(|e| {
+            let mut v = serde_json::to_value(&e.settings).expect("settings serialize");
+            v["label"] = serde_json::json!(e.label);
+            v
+        }).collect::<Vec<_>>(),
+        "samples": plan.samples,
+        "trials": plan.trials,
+        "seed": plan.seed,
+        "checks": plan.checks,
+    })
+}
+
+/// `manifest.json`: the plan and how the run went.
+pub fn manifest_json(plan: &Plan, threads: usize, wall_seconds: f64, checks: &[CheckOutcome]) -> Vec<u8> {
+    let v = serde_json::json!({
+        "plan": plan_json(plan),
+        "seed": plan.seed,
+        "workbench_version": env!("CARGO_PKG_VERSION"),
+        "threads": threads,
+        "wall_seconds": wall_seconds,
+        "checks": checks.iter().map(|c| serde_json::json!({
+            "better": c.check.better, "than": c.check.than, "passed": c.passed()
+        })).collect::<Vec<_>>(),
+        "files": {
+            "trials.csv": "one row per (integrand, estimator, n, trial)",
+            "summary.csv": "one row per (integrand, estimator, n)",
+        },
+    });
+    let mut bytes = serde_json::to_vec_pretty(&v).expect("manifest serializes");
+    bytes.push(b'\n');
+    bytes
+}

@@ -1,0 +1,163 @@
+//! Runs a plan: trials in parallel (rayon map, indexed collect), results in a fixed order.
+//!
+//! The unit of parallel work is one (N, trial) pair. Within it every design draws one sample
+//! set, every BMC model computes its weights once, and every integrand and estimator reuses
+//! them — so estimators with the same design are compared on the same points (paired), and BMC
+//! and BMCP with the same model cost one Cholesky between them.
+
+use super::plan::Plan;
+use crate::bmc::BmcWeights;
+use crate::linalg::SpdWorkspace;
+use crate::rng::stream;
+use crate::sampling::Design;
+use rayon::prelude::*;
+
+/// Stream identifiers under the experiment's seed.
+const SAMPLES_STREAM: u64 = 1;
+const KERNEL_MEAN_STREAM: u64 = 2;
+
+/// What one (N, trial) unit produced.
+#[derive(Debug, Clone)]
+pub struct UnitResult {
+    /// `estimates[integrand][estimator]`.
+    pub estimates: Vec<Vec<f64>>,
+    /// Posterior standard deviation per estimator (None for MC).
+    pub posterior_sd: Vec<Option<f64>>,
+    /// Numerical warnings per estimator (from its weight set).
+    pub warnings: Vec<u32>,
+    /// The warnings' messages, once per weight set.
+    pub messages: Vec<String>,
+}
+
+/// All results: `units[n_index * trials + trial]`.
+#[derive(Debug, Clone)]
+pub struct Results {
+    pub units: Vec<UnitResult>,
+}
+
+impl Results {
+    pub fn unit(&self, plan: &Plan, n_index: usize, trial: usize) -> &UnitResult {
+        &self.units[n_index * plan.trials + trial]
+    }
+}
+
+fn design_id(d: Design) -> u64 {
+    match d {
+        Design::Uniform => 0,
+        Design::Cosine => 1,
+    }
+}
+
+/// Runs every unit; `tick` is called once per finished unit (for a progress bar).
+pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> anyhow::Result<Results> {
+    let units = plan.samples.len() * plan.trials;
+    let results: Vec<anyhow::Result<UnitResult>> = (0..units)
+        .into_par_iter()
+        .map_init(SpdWorkspace::new, |workspace, u| {
+            let r = run_unit(plan, u / plan.trials, u % plan.trials, workspace);
+            tick();
+            r
+        })
+        .collect();
+    Ok(Results {
+        units: results.into_iter().collect::<anyhow::Result<_>>()?,
+    })
+}
+
+/// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`.
+pub fn run_unit(
+    plan: &Plan,
+    n_index: usize,
+    trial: usize,
+    workspace: &mut SpdWorkspace,
+) -> anyhow::Result<UnitResult> {
+    let n = plan.samples[n_index];
+    let sets: Vec<Vec<crate::geometry::Vec3>> = plan
+        .designs
+        .iter()
+        .map(|&d| {
+            d.sample_set(
+                n,
+                &mut stream(plan.seed, &[SAMPLES_STREAM, design_id(d), n as u64, trial as u64]),
+            )
+        })
+        .collect();
+    let set_of = |d: Design| {
+        &sets[plan
+            .designs
+            .iter()
+            .position(|&x| x == d)
+            .expect("design is planned")]
+    };
+
+    // Weights per (model, design) pair in use, computed once.
+    let mut weights: Vec<((usize, Design), BmcWeights)> = Vec::new();
+    for e in &plan.estimators {
+        let Some(m) = e.model else { continue };
+        if weights.iter().any(|(k, _)| *k == (m, e.design)) {
+            continue;
+        }
+        let mut rng = stream(
+            plan.seed,
+            &[
+                KERNEL_MEAN_STREAM,
+                m as u64,
+                design_id(e.design),
+                n as u64,
+                trial as u64,
+            ],
+        );
+        let w = plan.models[m]
+            .weights(set_of(e.design), &mut rng, workspace)
+            .map_err(|err| anyhow::anyhow!("estimator {:?}, N = {n}, trial {trial}: {err}", e.label))?;
+        weights.push(((m, e.design), w));
+    }
+    let weights_of = |e: &super::plan::PlannedEstimator| {
+        e.model.map(|m| {
+            &weights
+                .iter()
+                .find(|(k, _)| *k == (m, e.design))
+                .expect("computed above")
+                .1
+        })
+    };
+
+    let mut estimates = Vec::with_capacity(plan.integrands.len());
+    for f in &plan.integrands {
+        let values: Vec<Vec<f64>> = sets
+            .iter()
+            .map(|s| s.iter().map(|w| f.value(w)).collect())
+            .collect();
+        let row = plan
+            .estimators
+            .iter()
+            .map(|e| {
+                let d = plan
+                    .designs
+                    .iter()
+                    .position(|&x| x == e.design)
+                    .expect("design is planned");
+                e.method
+                    .estimate(e.design, &sets[d], &values[d], weights_of(e), f.constant_prior())
+            })
+            .collect();
+        estimates.push(row);
+    }
+    Ok(UnitResult {
+        estimates,
+        posterior_sd: plan
+            .estimators
+            .iter()
+            .map(|e| weights_of(e).map(|w| w.posterior_sd()))
+            .collect(),
+        warnings: plan
+            .estimators
+            .iter()
+            .map(|e| weights_of(e).map_or(0, |w| w.diagnostics.warnings.len() as u32))
+            .collect(),
+        messages: weights
+            .iter()
+            .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
+            .collect(),
+    })
+}

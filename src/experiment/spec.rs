@@ -1,0 +1,119 @@
+//! The experiment file, exactly as written in JSON (`deny_unknown_fields`).
+//!
+//! Nothing here is validated beyond types; [`super::plan`] turns a spec into a plan.
+
+use serde::{Deserialize, Serialize};
+
+/// An experiment file. See the README ("Experiment files") for every field.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentSpec {
+    /// Folder name under `results/`: letters, digits, `-`, `_`, `.`; not starting with `.`.
+    pub name: String,
+    /// Plot title; defaults to the name.
+    #[serde(default)]
+    pub title: Option<String>,
+    /// Integrand names: `cos`, `cos2`, `cos3`, … (`cos<k>` for any k ≥ 0).
+    pub integrands: Vec<String>,
+    pub estimators: Vec<EstimatorSpec>,
+    /// Sample counts N.
+    pub samples: Vec<u64>,
+    pub trials: u64,
+    pub seed: u64,
+    #[serde(default)]
+    pub checks: Vec<CheckSpec>,
+}
+
+/// One estimator of the comparison.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimatorSpec {
+    /// Unique name in outputs and checks.
+    pub label: String,
+    pub method: MethodName,
+    /// Sampling design; default `uniform`.
+    #[serde(default)]
+    pub design: Option<DesignName>,
+    /// BMC/BMCP only; default Sobolev with s = 1.4.
+    #[serde(default)]
+    pub kernel: Option<KernelSpec>,
+    /// BMC/BMCP only: σ_n²; default 0.01.
+    #[serde(default)]
+    pub noise: Option<f64>,
+    /// BMC/BMCP only: `exact` (default) or `mc` (the thesis's per-point MC estimate).
+    #[serde(default)]
+    pub kernel_mean: Option<KernelMeanName>,
+    /// With `kernel_mean: "mc"`: uniform samples per kernel mean; default 10 000.
+    #[serde(default)]
+    pub kernel_mean_samples: Option<u64>,
+    /// BMCP only: `"analytic"` (default) or a number.
+    #[serde(default)]
+    pub prior: Option<PriorSpec>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MethodName {
+    Mc,
+    Bmc,
+    Bmcp,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DesignName {
+    Uniform,
+    Cosine,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum KernelMeanName {
+    Exact,
+    Mc,
+}
+
+/// `{"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(tag = "type", deny_unknown_fields)]
+pub enum KernelSpec {
+    #[serde(rename = "sobolev")]
+    Sobolev {
+        #[serde(default)]
+        s: Option<f64>,
+    },
+    #[serde(rename = "se")]
+    SquaredExponential {
+        #[serde(default)]
+        sigma: Option<f64>,
+        #[serde(default)]
+        length: Option<f64>,
+    },
+}
+
+/// `"analytic"` or a number.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum PriorSpec {
+    Named(PriorName),
+    Value(f64),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PriorName {
+    Analytic,
+}
+
+/// `better` has lower error than `than` for every integrand and every N ≥ `from_n`.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckSpec {
+    pub better: String,
+    pub than: String,
+    #[serde(default)]
+    pub from_n: Option<u64>,
+    /// Level of the one-sided paired t-test; default 0.01.
+    #[serde(default)]
+    pub alpha: Option<f64>,
+}
