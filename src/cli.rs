@@ -73,16 +73,16 @@ pub struct ModelArgs {
     #[arg(long, value_enum, default_value = "sobolev")]
     kernel: KernelName,
     /// Sobolev smoothness s, in (1, 2).
-    #[arg(long, default_value_t = Sobolev::DEFAULT_S)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = Sobolev::DEFAULT_S)]
     s: f64,
     /// Squared-exponential σ_f.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
     sigma: f64,
     /// Squared-exponential length scale l.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     length: f64,
     /// Observation noise σ_n² added to the diagonal of K.
-    #[arg(long, default_value_t = DEFAULT_NOISE)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_NOISE)]
     noise: f64,
     /// Kernel mean: exact (tabulated) or the thesis's plain MC estimate per point.
     #[arg(long, value_enum, default_value = "exact")]

@@ -16,6 +16,11 @@ pub const JITTER_STEPS: usize = 9;
 /// A condition estimate above this is reported as a warning.
 pub const ILL_CONDITIONED: f64 = 1e12;
 
+/// A factor whose condition estimate exceeds this is treated as failed: `Q` is numerically
+/// singular (e.g. duplicate points without noise) and the solve would amplify rounding by
+/// more than 1e14, so the jitter ladder is climbed instead.
+pub const NUMERICALLY_SINGULAR: f64 = 1e14;
+
 /// Cholesky failed even with the largest jitter.
 #[derive(Debug, Clone, thiserror::Error)]
 #[error(
@@ -80,7 +85,8 @@ impl SpdWorkspace {
         }
     }
 
-    /// Factors `Q = L Lᵀ`, climbing the jitter ladder if needed.
+    /// Factors `Q = L Lᵀ`, climbing the jitter ladder when Cholesky fails or its factor is
+    /// numerically singular (condition estimate above [`NUMERICALLY_SINGULAR`]).
     pub fn factor(&mut self) -> Result<FactorInfo, NotPositiveDefinite> {
         let n = self.q.nrows();
         if self.scratch.is_none() || self.scratch_n != n {
@@ -112,10 +118,12 @@ impl SpdWorkspace {
                     hi = hi.max(d);
                 }
                 let condition_estimate = if n == 0 { 1.0 } else { (hi / lo).powi(2) };
-                return Ok(FactorInfo {
-                    jitter,
-                    condition_estimate,
-                });
+                if condition_estimate <= NUMERICALLY_SINGULAR || step == JITTER_STEPS {
+                    return Ok(FactorInfo {
+                        jitter,
+                        condition_estimate,
+                    });
+                }
             }
         }
         Err(NotPositiveDefinite { n, jitter })

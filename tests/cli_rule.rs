@@ -1,0 +1,99 @@
+//! `workbench rule` through the binary.
+
+mod common;
+use common::*;
+
+#[test]
+fn points_file_of_a_generated_set_reproduces_its_weights() {
+    let dir = tempfile::tempdir().unwrap();
+    for extra in [
+        &[][..],
+        &[
+            "--kernel", "se", "--sigma", "1.5", "--length", "0.4", "--design", "cosine",
+        ][..],
+    ] {
+        let mut args = vec![
+            "rule",
+            "--n",
+            "48",
+            "--seed",
+            "7",
+            "--out",
+            "a.csv",
+            "--summary",
+            "a.json",
+        ];
+        args.extend_from_slice(extra);
+        let o = workbench(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (header, rows) = read_csv(&dir.path().join("a.csv"));
+        assert_eq!(header, ["x", "y", "z", "weight"]);
+        assert_eq!(rows.len(), 48);
+        let points: String = std::iter::once("x,y,z\n".to_string())
+            .chain(rows.iter().map(|r| r[..3].join(",") + "\n"))
+            .collect();
+        std::fs::write(dir.path().join("points.csv"), points).unwrap();
+
+        let mut args = vec!["rule", "--points", "points.csv", "--seed", "7", "--out", "b.csv"];
+        args.extend(extra.iter().filter(|a| !["--design", "cosine"].contains(a)));
+        let o = workbench(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let a = std::fs::read(dir.path().join("a.csv")).unwrap();
+        let b = std::fs::read(dir.path().join("b.csv")).unwrap();
+        assert_eq!(a, b, "weights differ after the round trip");
+
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("a.json")).unwrap()).unwrap();
+        for key in [
+            "n",
+            "kernel",
+            "noise",
+            "weight_sum",
+            "prior_variance",
+            "posterior_variance",
+            "negative_weights",
+            "jitter",
+        ] {
+            assert!(summary.get(key).is_some(), "summary lacks {key}");
+        }
+        let sum: f64 = rows.iter().map(|r| r[3].parse::<f64>().unwrap()).sum();
+        assert!((sum - summary["weight_sum"].as_f64().unwrap()).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn rule_to_stdout_has_the_header_and_n_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = workbench(dir.path(), &["rule", "--n", "5", "--seed", "1"]);
+    assert!(o.status.success());
+    let out = stdout(&o);
+    assert!(out.starts_with("x,y,z,weight\n"));
+    assert_eq!(out.lines().count(), 6);
+}
+
+#[test]
+fn bad_rule_input_is_exit_2_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.csv"), "x,y,z\n0,0,1\n0.5,0.5,0.5\n").unwrap();
+    std::fs::write(dir.path().join("below.csv"), "x,y,z\n0,0,-1\n").unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["rule", "--points", "bad.csv"], "line 3"),
+        (&["rule", "--points", "below.csv"], "below the horizon"),
+        (&["rule", "--points", "missing.csv"], "missing.csv"),
+        (&["rule", "--n", "0"], "--n"),
+        (&["rule", "--n", "100000"], "GiB"),
+        (&["rule", "--s", "2.5"], "s must be in (1, 2)"),
+        (&["rule", "--kernel", "se", "--length", "0"], "length"),
+        (&["rule", "--noise", "-1"], "--noise"),
+        (
+            &["rule", "--kernel-mean", "mc", "--kernel-mean-samples", "0"],
+            "--kernel-mean-samples",
+        ),
+        (&["rule", "--kernel", "matern"], "matern"),
+    ];
+    for (args, needle) in cases {
+        let o = workbench(dir.path(), args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+    }
+}

@@ -1,0 +1,354 @@
+//! `workbench run` and `workbench validate` end to end through the binary.
+
+mod common;
+use common::*;
+use std::path::Path;
+
+const SMALL: &str = r#"{
+  "name": "small",
+  "title": "small test",
+  "integrands": ["cos", "cos3"],
+  "estimators": [
+    { "label": "MC", "method": "mc" },
+    { "label": "MC-cos", "method": "mc", "design": "cosine" },
+    { "label": "BMC", "method": "bmc" },
+    { "label": "BMCP", "method": "bmcp", "prior": 0.2 },
+    { "label": "BMC-se", "method": "bmc", "kernel": { "type": "se", "sigma": 1, "length": 0.5 } }
+  ],
+  "samples": [4, 16, 32],
+  "trials": 24,
+  "seed": 5,
+  "checks": [ { "better": "BMC", "than": "MC", "from_n": 16, "alpha": 0.05 } ]
+}"#;
+
+fn write(dir: &Path, name: &str, text: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+fn f(s: &str) -> f64 {
+    s.parse().unwrap()
+}
+
+#[test]
+fn run_writes_every_output_and_summary_agrees_with_trials() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "small.json", SMALL);
+    let o = workbench(dir.path(), &["run", "small.json", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("results/small");
+    for file in [
+        "trials.csv",
+        "summary.csv",
+        "cos.svg",
+        "cos3.svg",
+        "manifest.json",
+    ] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    for svg in ["cos.svg", "cos3.svg"] {
+        let text = std::fs::read_to_string(out.join(svg)).unwrap();
+        assert!(
+            text.starts_with("<svg") && text.trim_end().ends_with("</svg>"),
+            "{svg} is not an SVG"
+        );
+        assert!(text.contains("number of samples N") && text.contains("BMC-se"));
+    }
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["seed"], 5);
+    assert_eq!(manifest["plan"]["estimators"].as_array().unwrap().len(), 5);
+
+    let (th, trials) = read_csv(&out.join("trials.csv"));
+    assert_eq!(
+        th,
+        [
+            "integrand",
+            "estimator",
+            "method",
+            "design",
+            "n",
+            "trial",
+            "estimate",
+            "truth",
+            "abs_error",
+            "posterior_sd",
+            "warnings"
+        ]
+    );
+    assert_eq!(trials.len(), 2 * 5 * 3 * 24);
+    let (sh, summary) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| {
+        sh.iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no column {name}"))
+    };
+    for name in [
+        "trials",
+        "mean_abs_error",
+        "ci95_low",
+        "ci95_high",
+        "median_abs_error",
+        "q10_abs_error",
+        "q90_abs_error",
+        "mean_posterior_sd",
+        "coverage95",
+        "warnings",
+    ] {
+        col(name);
+    }
+    assert_eq!(summary.len(), 2 * 5 * 3);
+    for s in &summary {
+        let rows: Vec<&Vec<String>> = trials
+            .iter()
+            .filter(|t| t[0] == s[0] && t[1] == s[1] && t[4] == s[2])
+            .collect();
+        assert_eq!(rows.len(), 24);
+        let mut errors: Vec<f64> = rows.iter().map(|r| f(&r[8])).collect();
+        for r in &rows {
+            assert!((f(&r[8]) - (f(&r[6]) - f(&r[7])).abs()).abs() < 1e-15);
+        }
+        let mean = errors.iter().sum::<f64>() / 24.0;
+        assert!((mean - f(&s[col("mean_abs_error")])).abs() < 1e-14 * mean.max(1e-300));
+        assert!(f(&s[col("ci95_low")]) <= mean && mean <= f(&s[col("ci95_high")]));
+        errors.sort_by(f64::total_cmp);
+        let median = 0.5 * (errors[11] + errors[12]);
+        assert!((median - f(&s[col("median_abs_error")])).abs() <= 1e-15 * median.max(1e-300));
+        assert!(f(&s[col("q10_abs_error")]) <= median && median <= f(&s[col("q90_abs_error")]));
+        if s[1].starts_with("MC") {
+            assert!(rows.iter().all(|r| r[9].is_empty()));
+            assert!(s[col("coverage95")].is_empty() && s[col("mean_posterior_sd")].is_empty());
+        } else {
+            let sds: Vec<f64> = rows.iter().map(|r| f(&r[9])).collect();
+            let covered = rows
+                .iter()
+                .zip(&sds)
+                .filter(|(r, sd)| f(&r[8]) <= 1.959963984540054 * **sd)
+                .count();
+            assert!((covered as f64 / 24.0 - f(&s[col("coverage95")])).abs() < 1e-12);
+            let msd = sds.iter().sum::<f64>() / 24.0;
+            assert!((msd - f(&s[col("mean_posterior_sd")])).abs() < 1e-14);
+        }
+    }
+    // Cosine-weighted MC on cos θ is exact in every trial.
+    assert!(
+        trials
+            .iter()
+            .filter(|t| t[0] == "cos" && t[1] == "MC-cos")
+            .all(|t| f(&t[8]) < 1e-12)
+    );
+    let text = stdout(&o);
+    assert!(text.contains("PASS check BMC < MC"), "{text}");
+}
+
+#[test]
+fn csv_is_byte_identical_across_thread_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "small.json", SMALL);
+    for t in ["1", "2"] {
+        let o = workbench(
+            dir.path(),
+            &[
+                "run",
+                "small.json",
+                "-q",
+                "--threads",
+                t,
+                "--out",
+                &format!("t{t}"),
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    for file in ["trials.csv", "summary.csv"] {
+        let a = std::fs::read(dir.path().join("t1").join(file)).unwrap();
+        let b = std::fs::read(dir.path().join("t2").join(file)).unwrap();
+        assert!(a == b, "{file} differs between 1 and 2 threads");
+    }
+}
+
+#[test]
+fn a_failing_check_exits_1_and_names_the_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "rev.json",
+        &SMALL.replace(
+            r#""better": "BMC", "than": "MC""#,
+            r#""better": "MC", "than": "BMC""#,
+        ),
+    );
+    let o = workbench(dir.path(), &["run", "rev.json", "-q"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("FAIL check MC < BMC") && text.contains("cos3 N=32"),
+        "{text}"
+    );
+    assert!(
+        dir.path().join("results/small/summary.csv").is_file(),
+        "outputs are written even when a check fails"
+    );
+}
+
+#[test]
+fn trials_override_and_validate() {
+    let dir = tempfile::tempdir().unwrap();
+    // Three trials are too few for the check's test, so this run has no check.
+    let unchecked = SMALL.replace(
+        r#"[ { "better": "BMC", "than": "MC", "from_n": 16, "alpha": 0.05 } ]"#,
+        "[]",
+    );
+    write(dir.path(), "small.json", &unchecked);
+    let o = workbench(
+        dir.path(),
+        &["run", "small.json", "-q", "--trials", "3", "--out", "o"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(read_csv(&dir.path().join("o/trials.csv")).1.len(), 2 * 5 * 3 * 3);
+    let o = workbench(dir.path(), &["validate", "small.json"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    assert!(
+        text.contains("2 integrand(s) × 5 estimator(s) × 3 sample count(s) × 24 trials"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\"noise\": 0.01") && text.contains("\"kernel_mean\": \"exact\""),
+        "{text}"
+    );
+    assert!(
+        !dir.path().join("results").exists(),
+        "validate must not write results"
+    );
+}
+
+/// Every bad input: exit 2, one line naming the file, the JSON path and the value, no output,
+/// earlier results untouched.
+#[test]
+fn bad_experiment_files_are_exit_2_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let earlier = dir.path().join("results/small");
+    std::fs::create_dir_all(&earlier).unwrap();
+    write(&earlier, "summary.csv", "earlier results\n");
+    let cases: Vec<(String, &str)> = vec![
+        ("{ \"name\": ".into(), "malformed JSON"),
+        (
+            SMALL.replace("\"seed\": 5", "\"seed\": 5, \"colour\": 1"),
+            "unknown field `colour`",
+        ),
+        (
+            SMALL.replace("\"trials\": 24", "\"trials\": \"many\""),
+            "trials: invalid type: string \"many\"",
+        ),
+        (
+            SMALL.replace("[4, 16, 32]", "[4, 0, 32]"),
+            "samples[1]: N must be at least 1, got 0",
+        ),
+        (
+            SMALL.replace("\"trials\": 24", "\"trials\": 0"),
+            "trials: must be at least 1, got 0",
+        ),
+        (
+            SMALL.replace(
+                "{ \"type\": \"se\", \"sigma\": 1, \"length\": 0.5 }",
+                "{ \"type\": \"sobolev\", \"s\": 2.5 }",
+            ),
+            "estimators[4].kernel: sobolev kernel: s must be in (1, 2), got 2.5",
+        ),
+        (
+            SMALL.replace("\"length\": 0.5", "\"length\": -1"),
+            "estimators[4].kernel: se kernel: length must be finite and > 0, got -1",
+        ),
+        (
+            SMALL.replace("\"label\": \"BMCP\"", "\"label\": \"BMC\""),
+            "estimators[3].label: \"BMC\" is already the label of estimators[2]",
+        ),
+        (
+            SMALL.replace("\"than\": \"MC\"", "\"than\": \"QMC\""),
+            "checks[0].than: no estimator is labelled \"QMC\"",
+        ),
+        (
+            SMALL.replace("\"name\": \"small\"", "\"name\": \"../escape\""),
+            "name: \"../escape\" is not a safe folder name",
+        ),
+        (
+            SMALL.replace("\"name\": \"small\"", "\"name\": \"a/b\""),
+            "name: \"a/b\" is not a safe folder name",
+        ),
+        (
+            SMALL.replace("[4, 16, 32]", "[4, 16, 100000]"),
+            "samples[2]: N = 100000 would need 149.0 GiB",
+        ),
+        (
+            SMALL.replace("\"cos3\"]", "\"sin\"]"),
+            "integrands[1]: unknown integrand \"sin\"",
+        ),
+        (
+            SMALL.replace(
+                "{ \"label\": \"MC\", \"method\": \"mc\" }",
+                "{ \"label\": \"MC\", \"method\": \"mc\", \"noise\": 0.1 }",
+            ),
+            "estimators[0].noise: is not used by method mc",
+        ),
+        (
+            SMALL.replace("\"alpha\": 0.05", "\"alpha\": 1.5"),
+            "checks[0].alpha: must be in (0, 1), got 1.5",
+        ),
+        (
+            SMALL.replace("\"method\": \"bmcp\"", "\"method\": \"qmc\""),
+            "estimators[3].method: unknown variant `qmc`",
+        ),
+    ];
+    for (i, (text, needle)) in cases.iter().enumerate() {
+        let file = format!("bad{i}.json");
+        write(dir.path(), &file, text);
+        for cmd in ["run", "validate"] {
+            let o = workbench(
+                dir.path(),
+                &[cmd, &file, "-q"][..if cmd == "run" { 3 } else { 2 }],
+            );
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "case {i} ({needle}) {cmd}: {err}");
+            assert!(
+                err.contains(&file) && err.contains(needle),
+                "case {i} {cmd}: expected {needle:?} in {err}"
+            );
+            assert_eq!(err.trim_end().lines().count(), 1, "case {i}: not one line: {err}");
+        }
+    }
+    let o = workbench(dir.path(), &["run", "missing.json"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("missing.json"));
+    write(dir.path(), "ok.json", SMALL);
+    let o = workbench(dir.path(), &["run", "ok.json", "--threads", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--threads"));
+
+    assert_eq!(
+        std::fs::read_to_string(earlier.join("summary.csv")).unwrap(),
+        "earlier results\n"
+    );
+    assert_eq!(
+        std::fs::read_dir(&earlier).unwrap().count(),
+        1,
+        "bad input wrote into results/"
+    );
+    assert!(!dir.path().join("results/escape").exists() && !dir.path().join("escape").exists());
+}
+
+/// The CI check that BMC beats MC: the shipped experiment passes its own check.
+#[test]
+fn shipped_cos3_experiment_passes_its_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments/cos3.json");
+    let o = workbench(
+        dir.path(),
+        &["run", spec.to_str().unwrap(), "-q", "--out", "cos3"],
+    );
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    assert!(
+        stdout(&o).contains("PASS check BMC < MC for N ≥ 16"),
+        "{}",
+        stdout(&o)
+    );
+}

@@ -1,0 +1,259 @@
+//! Statistical and exactness tests of the estimators (math.md §3–4). Fixed seeds; every
+//! tolerance is a multiple of a known standard error or a floating-point bound.
+
+use std::f64::consts::{PI, TAU};
+use workbench::bmc::{BmcModel, bmc_weights};
+use workbench::estimator::{Method, Prior, mc};
+use workbench::geometry::{Vec3, rotate_about_z};
+use workbench::integrand::CosPower;
+use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
+use workbench::kernel_mean::{KernelMeanMode, KernelMeanTable};
+use workbench::linalg::SpdWorkspace;
+use workbench::rng::stream;
+use workbench::sampling::Design;
+
+fn sobolev() -> Kernel {
+    Kernel::Sobolev(Sobolev::new(1.4).unwrap())
+}
+
+fn kernels() -> Vec<Kernel> {
+    vec![
+        sobolev(),
+        Kernel::SquaredExponential(SquaredExponential::new(1.0, 0.5).unwrap()),
+    ]
+}
+
+/// Uniform MC is unbiased, and its mean absolute error follows `sqrt(2/π) σ/√N` (math.md §3).
+#[test]
+fn mc_is_unbiased_and_follows_the_error_law() {
+    let (n, trials) = (64, 3000);
+    for k in 1..=3 {
+        let f = CosPower::new(k);
+        let sigma = f.uniform_mc_variance().sqrt();
+        let mut rng = stream(11, &[k as u64]);
+        let estimates: Vec<f64> = (0..trials)
+            .map(|_| {
+                let pts = Design::Uniform.sample_set(n, &mut rng);
+                let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
+                mc::estimate(Design::Uniform, &pts, &vals)
+            })
+            .collect();
+        let mean = estimates.iter().sum::<f64>() / trials as f64;
+        let se_mean = sigma / ((n * trials) as f64).sqrt();
+        assert!(
+            (mean - f.integral()).abs() < 4.0 * se_mean,
+            "k={k}: mean {mean} vs {}",
+            f.integral()
+        );
+
+        let mae = estimates.iter().map(|e| (e - f.integral()).abs()).sum::<f64>() / trials as f64;
+        let law = (2.0 / PI).sqrt() * sigma / (n as f64).sqrt();
+        // |e| of a normal error has variance (1 − 2/π) σ²/N.
+        let se_mae = ((1.0 - 2.0 / PI) * sigma * sigma / n as f64 / trials as f64).sqrt();
+        assert!(
+            (mae - law).abs() < 4.0 * se_mae,
+            "k={k}: mean |e| {mae} vs law {law} (se {se_mae})"
+        );
+    }
+}
+
+/// Cosine-weighted sampling is perfect importance sampling for cos θ: every estimate is π.
+#[test]
+fn cosine_weighted_mc_on_cos_has_zero_variance() {
+    let f = CosPower::new(1);
+    let mut rng = stream(12, &[]);
+    for n in [1, 7, 64] {
+        let pts = Design::Cosine.sample_set(n, &mut rng);
+        let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
+        let e = mc::estimate(Design::Cosine, &pts, &vals);
+        assert!((e - PI).abs() < 1e-13, "n={n}: {e}");
+    }
+}
+
+fn weights(kernel: Kernel, noise: f64, pts: &[Vec3]) -> workbench::bmc::BmcWeights {
+    let model = BmcModel::new(kernel, noise, KernelMeanMode::Exact);
+    model
+        .weights(pts, &mut stream(0, &[]), &mut SpdWorkspace::new())
+        .unwrap()
+}
+
+/// On a constant integrand BMCP with that constant as prior is exact, and BMC's `Σw` tends to 2π.
+#[test]
+fn bmc_on_a_constant_integrand() {
+    for kernel in kernels() {
+        let mut last_gap = f64::INFINITY;
+        for n in [16, 64, 256] {
+            let pts = Design::Uniform.sample_set(n, &mut stream(13, &[n as u64]));
+            let w = weights(kernel, 0.01, &pts);
+            let values = vec![0.7; n];
+            assert!((w.bmcp(&values, 0.7) - TAU * 0.7).abs() < 1e-12);
+            assert!((w.bmc(&values) - 0.7 * w.diagnostics.weight_sum).abs() < 1e-12);
+            let gap = (w.diagnostics.weight_sum - TAU).abs();
+            assert!(
+                gap < last_gap,
+                "{kernel} n={n}: |Σw − 2π| = {gap} did not shrink from {last_gap}"
+            );
+            last_gap = gap;
+        }
+        assert!(
+            last_gap < 0.02 * TAU,
+            "{kernel}: Σw still {last_gap} from 2π at N = 256"
+        );
+    }
+}
+
+/// Without noise BMC integrates every kernel section `k(·, x_j)` exactly:
+/// `wᵀ k_j = zᵀ Q⁻¹ Q e_j = z_j`.
+#[test]
+fn bmc_is_exact_for_kernel_sections() {
+    for kernel in kernels() {
+        let pts = Design::Uniform.sample_set(24, &mut stream(14, &[]));
+        let w = weights(kernel, 0.0, &pts);
+        let table = KernelMeanTable::new(&kernel);
+        for x in pts.iter().step_by(5) {
+            let values: Vec<f64> = pts.iter().map(|p| kernel.eval(p, x)).collect();
+            let exact = table.z(x.z);
+            assert!((w.bmc(&values) - exact).abs() < 1e-9 * exact, "{kernel}");
+        }
+    }
+}
+
+/// The posterior variance is ≥ 0 and falls as a nested design grows.
+#[test]
+fn posterior_variance_is_non_negative_and_shrinks_on_nested_sets() {
+    for kernel in kernels() {
+        let all = Design::Uniform.sample_set(256, &mut stream(15, &[]));
+        let mut last = f64::INFINITY;
+        for n in [1, 2, 4, 8, 16, 32, 64, 128, 256] {
+            let v = weights(kernel, 0.01, &all[..n]).diagnostics.posterior_variance;
+            assert!(v >= 0.0, "{kernel} n={n}: {v}");
+            assert!(v < last, "{kernel} n={n}: {v} ≥ {last}");
+            last = v;
+        }
+    }
+}
+
+/// Rotating a set about `+z` leaves every weight unchanged: the basis of re-use in rendering.
+#[test]
+fn weights_are_invariant_under_rotation_about_the_normal() {
+    for kernel in kernels() {
+        let pts = Design::Uniform.sample_set(64, &mut stream(16, &[]));
+        let w0 = weights(kernel, 0.01, &pts);
+        for phi in [0.3, 2.0, 5.5] {
+            let rotated: Vec<Vec3> = pts.iter().map(|p| rotate_about_z(p, phi)).collect();
+            let w1 = weights(kernel, 0.01, &rotated);
+            for (a, b) in w0.weights.iter().zip(&w1.weights) {
+                assert!((a - b).abs() < 1e-12, "{kernel} φ={phi}: {a} vs {b}");
+            }
+        }
+    }
+}
+
+/// The diagnostics describe the weights they come with.
+#[test]
+fn diagnostics_match_the_weights() {
+    let pts = Design::Uniform.sample_set(40, &mut stream(17, &[]));
+    let table = KernelMeanTable::new(&sobolev());
+    let z: Vec<f64> = pts.iter().map(|p| table.z(p.z)).collect();
+    let w = bmc_weights(
+        &pts,
+        &z,
+        table.prior_variance(),
+        &sobolev(),
+        0.01,
+        &mut SpdWorkspace::new(),
+    )
+    .unwrap();
+    let d = &w.diagnostics;
+    assert_eq!(d.n, 40);
+    assert!((d.weight_sum - w.weights.iter().sum::<f64>()).abs() < 1e-15);
+    assert_eq!(d.negative_weights, w.weights.iter().filter(|&&x| x < 0.0).count());
+    assert_eq!(
+        d.min_weight,
+        w.weights.iter().copied().fold(f64::INFINITY, f64::min)
+    );
+    let zw: f64 = z.iter().zip(&w.weights).map(|(a, b)| a * b).sum();
+    assert!((d.posterior_variance - (d.prior_variance - zw)).abs() < 1e-12);
+    assert_eq!(d.jitter, 0.0);
+    assert!(d.condition_estimate >= 1.0 && d.warnings.is_empty());
+}
+
+/// Duplicate points without noise make Q singular: jitter is added and reported, never a panic.
+#[test]
+fn singular_q_gets_counted_jitter() {
+    let mut pts = Design::Uniform.sample_set(10, &mut stream(18, &[]));
+    pts.push(pts[3]);
+    let w = weights(sobolev(), 0.0, &pts);
+    assert!(w.diagnostics.jitter > 0.0);
+    assert!(
+        w.diagnostics
+            .warnings
+            .iter()
+            .any(|x| matches!(x, workbench::bmc::NumericalWarning::Jitter { .. }))
+    );
+    assert!(w.weights.iter().all(|x| x.is_finite()));
+}
+
+/// Conformance: every method gives a finite, reproducible estimate; BMCP with c = 0 is BMC.
+#[test]
+fn every_method_conforms() {
+    let methods = [
+        Method::Mc,
+        Method::Bmc,
+        Method::Bmcp(Prior::Analytic),
+        Method::Bmcp(Prior::Value(0.0)),
+    ];
+    let f = CosPower::new(3);
+    for design in [Design::Uniform, Design::Cosine] {
+        let pts = design.sample_set(32, &mut stream(19, &[]));
+        let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
+        let w = weights(sobolev(), 0.01, &pts);
+        let est: Vec<f64> = methods
+            .iter()
+            .map(|m| {
+                m.estimate(
+                    design,
+                    &pts,
+                    &vals,
+                    m.needs_weights().then_some(&w),
+                    f.constant_prior(),
+                )
+            })
+            .collect();
+        for (m, e) in methods.iter().zip(&est) {
+            assert!(
+                e.is_finite() && (e - f.integral()).abs() < 1.0,
+                "{m:?} {design}: {e}"
+            );
+            let again = m.estimate(
+                design,
+                &pts,
+                &vals,
+                m.needs_weights().then_some(&w),
+                f.constant_prior(),
+            );
+            assert_eq!(*e, again);
+        }
+        assert_eq!(est[1], est[3], "BMCP with c = 0 must equal BMC");
+        assert_ne!(est[1], est[2], "the analytic prior must reach BMCP");
+    }
+}
+
+/// The thesis's MC kernel means approach the exact ones: weights from them differ by a
+/// shrinking amount as M grows.
+#[test]
+fn mc_kernel_mean_mode_converges_to_exact() {
+    let pts = Design::Uniform.sample_set(16, &mut stream(20, &[]));
+    let exact = weights(sobolev(), 0.01, &pts);
+    let mut last = f64::INFINITY;
+    for m in [100, 10_000, 1_000_000] {
+        let model = BmcModel::new(sobolev(), 0.01, KernelMeanMode::MonteCarlo { samples: m });
+        let w = model
+            .weights(&pts, &mut stream(21, &[m as u64]), &mut SpdWorkspace::new())
+            .unwrap();
+        let gap = (w.diagnostics.weight_sum - exact.diagnostics.weight_sum).abs();
+        assert!(gap < last, "M={m}: {gap} ≥ {last}");
+        last = gap;
+    }
+    assert!(last < 1e-2);
+}
