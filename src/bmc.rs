@@ -111,12 +111,11 @@ pub fn bmc_weights(
     let n = points.len();
     assert_eq!(z.len(), n, "one kernel mean per point");
     let diag = kernel.diagonal() + noise;
-    workspace.assemble_lower(n, |i, j| {
-        if i == j {
-            diag
-        } else {
-            kernel.eval(&points[i], &points[j])
-        }
+    // Column by column over structure-of-arrays points, so the kernel loop vectorises.
+    let soa = crate::kernel::PointsSoa::new(points);
+    workspace.assemble_lower_by_columns(n, |j, col| {
+        kernel.fill_column(&soa, j, j, col);
+        col[0] = diag;
     });
     let FactorInfo {
         jitter,

@@ -68,6 +68,15 @@ impl SpdWorkspace {
 
     /// Fills the lower triangle of the `n × n` matrix `Q` with `entry(i, j)` for `j ≤ i`.
     pub fn assemble_lower(&mut self, n: usize, mut entry: impl FnMut(usize, usize) -> f64) {
+        self.assemble_lower_by_columns(n, |j, col| {
+            for (k, v) in col.iter_mut().enumerate() {
+                *v = entry(j + k, j);
+            }
+        });
+    }
+
+    /// Fills the lower triangle column by column: `fill(j, col)` writes `Q[j.., j]` into `col`.
+    pub fn assemble_lower_by_columns(&mut self, n: usize, mut fill: impl FnMut(usize, &mut [f64])) {
         if self.q.nrows() != n {
             self.q = Mat::zeros(n, n);
             self.factor = Mat::zeros(n, n);
@@ -78,10 +87,7 @@ impl SpdWorkspace {
                 .col_mut(j)
                 .try_as_col_major_mut()
                 .expect("faer Mat columns are contiguous");
-            let col = col.as_slice_mut();
-            for (i, v) in col.iter_mut().enumerate().skip(j) {
-                *v = entry(i, j);
-            }
+            fill(j, &mut col.as_slice_mut()[j..]);
         }
     }
 

@@ -36,10 +36,10 @@ impl Sobolev {
     }
 
     /// `2^(2s−1)/s − (d²)^(s−1)`.
-    #[inline]
+    #[inline(always)]
     pub fn of_squared_distance(&self, d2: f64) -> f64 {
-        // d² = 0 must give the constant exactly (powf(0, positive) = 0).
-        self.constant - d2.powf(self.half_exponent)
+        // d² = 0 gives the constant exactly (pow(0, p) = 0).
+        self.constant - super::fast_pow::pow(d2, self.half_exponent)
     }
 
     /// `∫_a^b [c − (2 − 2t)^(s−1)] dt = c (b − a) − [(2 − 2a)^s − (2 − 2b)^s] / (2s)`.

@@ -39,7 +39,7 @@ impl SquaredExponential {
     }
 
     /// `σ_f² exp(−d² / (2 l²))`.
-    #[inline]
+    #[inline(always)]
     pub fn of_squared_distance(&self, d2: f64) -> f64 {
         self.variance * (-d2 * self.inv_two_l2).exp()
     }
