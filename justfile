@@ -4,6 +4,12 @@
 run:
     cargo run --release -- run experiments/cos3.json
 
+# Every shipped experiment (figures and tables under results/).
+figures:
+    cargo run --release -- run experiments/cos.json -q
+    cargo run --release -- run experiments/cos2.json -q
+    cargo run --release -- run experiments/cos3.json -q
+
 # The default test suite (what CI runs).
 test:
     cargo test --release

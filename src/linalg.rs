@@ -33,9 +33,14 @@ pub struct NotPositiveDefinite {
 }
 
 /// Reusable storage for `Q` (lower triangle) and its Cholesky factor.
+///
+/// The two matrices grow to the largest `n` seen and are then reused as `n × n` views, so a
+/// worker that alternates between sample counts never reallocates: memory stays at two
+/// `n_max²` matrices per worker, nothing else O(n²).
 pub struct SpdWorkspace {
     q: Mat<f64>,
     factor: Mat<f64>,
+    n: usize,
     scratch: Option<MemBuffer>,
     scratch_n: usize,
 }
@@ -61,6 +66,7 @@ impl SpdWorkspace {
         SpdWorkspace {
             q: Mat::zeros(0, 0),
             factor: Mat::zeros(0, 0),
+            n: 0,
             scratch: None,
             scratch_n: 0,
         }
@@ -77,24 +83,25 @@ impl SpdWorkspace {
 
     /// Fills the lower triangle column by column: `fill(j, col)` writes `Q[j.., j]` into `col`.
     pub fn assemble_lower_by_columns(&mut self, n: usize, mut fill: impl FnMut(usize, &mut [f64])) {
-        if self.q.nrows() != n {
+        if self.q.nrows() < n {
             self.q = Mat::zeros(n, n);
             self.factor = Mat::zeros(n, n);
         }
+        self.n = n;
         for j in 0..n {
             let col = self
                 .q
                 .col_mut(j)
                 .try_as_col_major_mut()
                 .expect("faer Mat columns are contiguous");
-            fill(j, &mut col.as_slice_mut()[j..]);
+            fill(j, &mut col.as_slice_mut()[j..n]);
         }
     }
 
     /// Factors `Q = L Lᵀ`, climbing the jitter ladder when Cholesky fails or its factor is
     /// numerically singular (condition estimate above [`NUMERICALLY_SINGULAR`]).
     pub fn factor(&mut self) -> Result<FactorInfo, NotPositiveDefinite> {
-        let n = self.q.nrows();
+        let n = self.n;
         if self.scratch.is_none() || self.scratch_n != n {
             let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default());
             self.scratch = Some(MemBuffer::new(req));
@@ -109,7 +116,7 @@ impl SpdWorkspace {
             self.copy_lower_with_jitter(jitter);
             let stack = MemStack::new(self.scratch.as_mut().expect("scratch allocated above"));
             let ok = llt::factor::cholesky_in_place(
-                self.factor.as_mut(),
+                self.factor.as_mut().submatrix_mut(0, 0, n, n),
                 Default::default(),
                 Par::Seq,
                 stack,
@@ -136,7 +143,7 @@ impl SpdWorkspace {
     }
 
     fn copy_lower_with_jitter(&mut self, jitter: f64) {
-        let n = self.q.nrows();
+        let n = self.n;
         for j in 0..n {
             for i in j..n {
                 self.factor[(i, j)] = self.q[(i, j)];
@@ -147,7 +154,7 @@ impl SpdWorkspace {
 
     /// Solves `Q x = b` with the last factorisation (in place in `b`).
     pub fn solve_in_place(&self, b: &mut [f64]) {
-        let n = self.factor.nrows();
+        let n = self.n;
         assert_eq!(b.len(), n, "right-hand side length");
         let mut rhs = faer::MatMut::from_column_major_slice_mut(b, n, 1);
         let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq));

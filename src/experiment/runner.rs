@@ -51,10 +51,15 @@ fn design_id(d: Design) -> u64 {
 /// Runs every unit; `tick` is called once per finished unit (for a progress bar).
 pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> anyhow::Result<Results> {
     let units = plan.samples.len() * plan.trials;
+    thread_local! {
+        // One workspace per worker thread for the whole run (map_init would make one per
+        // work split, churning allocations of n_max² matrices).
+        static WORKSPACE: std::cell::RefCell<SpdWorkspace> = std::cell::RefCell::new(SpdWorkspace::new());
+    }
     let results: Vec<anyhow::Result<UnitResult>> = (0..units)
         .into_par_iter()
-        .map_init(SpdWorkspace::new, |workspace, u| {
-            let r = run_unit(plan, u / plan.trials, u % plan.trials, workspace);
+        .map(|u| {
+            let r = WORKSPACE.with_borrow_mut(|ws| run_unit(plan, u / plan.trials, u % plan.trials, ws));
             tick();
             r
         })
