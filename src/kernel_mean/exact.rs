@@ -117,7 +117,8 @@ pub fn kernel_mean_exact(kernel: &Kernel, mu: f64) -> f64 {
 /// `κ ∝ exp(−u |μ| / l²)`. Below the horizon (`μ < 0`) that near edge carries the whole of the
 /// (then tiny) `z`, and a first panel much wider than `l²/|μ|` would resolve it to only ~1e-8
 /// relative (seen for `l = 0.05`, `μ = −0.6`). The `u²/2` term needs no bound of its own: when
-/// `δ > l` this width is already `< 8 l`, and when `δ ≤ l` the first panel is `δ`.
+/// `δ > l` this width is already `< 4π l` (as `sin δ > 2δ/π`), and when `δ ≤ l` the first panel
+/// is `δ`.
 fn decay_width(kernel: &Kernel, m: f64) -> f64 {
     match kernel {
         Kernel::Sobolev(_) => f64::INFINITY,
