@@ -1,4 +1,4 @@
-//! Gauss–Legendre quadrature rules.
+//! Gauss–Legendre quadrature rules and Chebyshev interpolation on `[-1, 1]`.
 
 /// Nodes and weights of the `n`-point Gauss–Legendre rule on `[-1, 1]`.
 ///
@@ -71,6 +71,70 @@ impl GaussLegendre {
             .sum::<f64>()
             * h
     }
+
+    /// The nodes on `[-1, 1]`, ascending.
+    pub fn nodes(&self) -> &[f64] {
+        &self.nodes
+    }
+
+    /// The weights belonging to [`GaussLegendre::nodes`].
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+}
+
+/// The `n` Chebyshev points of the first kind, `x_j = cos(π (j + ½) / n)`, `j = 0..n` (descending).
+///
+/// They exclude the end points, so an interpolant never needs a function value exactly at a
+/// panel boundary; evaluating it there is still accurate (Lebesgue constant `O(log n)`).
+pub fn chebyshev_points(n: usize) -> Vec<f64> {
+    let nf = n as f64;
+    (0..n)
+        .map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / nf).cos())
+        .collect()
+}
+
+/// Coefficients `c_k` of the interpolant `p(x) = Σ_k c_k T_k(x)` through `values[j] = f(x_j)` at
+/// the points of [`chebyshev_points`] (a DCT-II, done directly: `n` is small here).
+pub fn chebyshev_coefficients(values: &[f64]) -> Vec<f64> {
+    let n = values.len();
+    let nf = n as f64;
+    (0..n)
+        .map(|k| {
+            let sum: f64 = values
+                .iter()
+                .enumerate()
+                .map(|(j, &v)| v * (std::f64::consts::PI * k as f64 * (j as f64 + 0.5) / nf).cos())
+                .sum();
+            if k == 0 { sum / nf } else { 2.0 * sum / nf }
+        })
+        .collect()
+}
+
+/// `Σ_k c_k T_k(x)` by Clenshaw's recurrence (backward-stable for `x ∈ [-1, 1]`).
+#[inline]
+pub fn chebyshev_eval(coefficients: &[f64], x: f64) -> f64 {
+    let (mut b1, mut b2) = (0.0, 0.0);
+    let x2 = 2.0 * x;
+    for &c in coefficients.iter().skip(1).rev() {
+        let b0 = c + x2 * b1 - b2;
+        b2 = b1;
+        b1 = b0;
+    }
+    coefficients.first().copied().unwrap_or(0.0) + x * b1 - b2
+}
+
+/// `∫_{-1}^{1} Σ_k c_k T_k(x) dx = Σ_{k even} 2 c_k / (1 − k²)`.
+pub fn chebyshev_integral(coefficients: &[f64]) -> f64 {
+    coefficients
+        .iter()
+        .enumerate()
+        .step_by(2)
+        .map(|(k, &c)| {
+            let k = k as f64;
+            2.0 * c / (1.0 - k * k)
+        })
+        .sum()
 }
 
 #[cfg(test)]
@@ -87,5 +151,63 @@ mod tests {
                 assert!((got - want).abs() < 1e-14, "n={n} p={p}: {got} vs {want}");
             }
         }
+    }
+
+    /// Nodes ascending in `(-1, 1)`, symmetric, weights positive and summing to 2.
+    #[test]
+    fn nodes_are_ordered_and_symmetric() {
+        for n in [1, 2, 7, 20, 30, 64] {
+            let q = GaussLegendre::new(n);
+            let (x, w) = (q.nodes(), q.weights());
+            assert!(x.windows(2).all(|p| p[0] < p[1]), "n={n}");
+            assert!(x.iter().all(|&x| x > -1.0 && x < 1.0));
+            for i in 0..n {
+                assert_eq!(x[i], -x[n - 1 - i]);
+                assert!(w[i] > 0.0);
+            }
+            assert!((w.iter().sum::<f64>() - 2.0).abs() < 1e-14, "n={n}");
+        }
+    }
+
+    /// A smooth non-polynomial integrand converges to machine precision: `∫_{-1}^{1} e^x dx`.
+    #[test]
+    fn integrates_exponential() {
+        let want = 1f64.exp() - (-1f64).exp();
+        for n in [12, 20, 30] {
+            let got = GaussLegendre::new(n).integrate(-1.0, 1.0, f64::exp);
+            assert!((got - want).abs() < 4e-16 * want, "n={n}: {got} vs {want}");
+        }
+    }
+
+    /// The interpolant reproduces polynomials of degree `< n` (coefficients exactly `T_k`'s),
+    /// converges for smooth functions, and its integral is exact.
+    #[test]
+    fn chebyshev_interpolation() {
+        let n = 12;
+        let x = chebyshev_points(n);
+        for k in 0..n {
+            // T_k(x_j) = cos(k θ_j): the coefficients must be the unit vector e_k.
+            let v: Vec<f64> = x.iter().map(|&x| (k as f64 * x.acos()).cos()).collect();
+            let c = chebyshev_coefficients(&v);
+            for (i, &ci) in c.iter().enumerate() {
+                let want = if i == k { 1.0 } else { 0.0 };
+                assert!((ci - want).abs() < 1e-14, "k={k} i={i}: {ci}");
+            }
+        }
+        let n = 24;
+        let v: Vec<f64> = chebyshev_points(n).iter().map(|&x| (2.0 * x).exp()).collect();
+        let c = chebyshev_coefficients(&v);
+        for i in 0..=200 {
+            let t = -1.0 + 2.0 * i as f64 / 200.0;
+            let got = chebyshev_eval(&c, t);
+            assert!(
+                (got - (2.0 * t).exp()).abs() < 1e-14 * (2.0 * t).exp().max(1.0),
+                "x={t}"
+            );
+        }
+        let want = ((2.0f64).exp() - (-2.0f64).exp()) / 2.0;
+        assert!((chebyshev_integral(&c) - want).abs() < 1e-14 * want);
+        assert_eq!(chebyshev_eval(&[], 0.3), 0.0);
+        assert_eq!(chebyshev_eval(&[1.5], 0.3), 1.5);
     }
 }
