@@ -9,6 +9,7 @@ figures:
     cargo run --release -- run experiments/cos.json -q
     cargo run --release -- run experiments/cos2.json -q
     cargo run --release -- run experiments/cos3.json -q
+    cargo run --release -- run experiments/cos3-thesis-kernel-mean.json -q
 
 # The default test suite (what CI runs).
 test:

@@ -191,10 +191,11 @@ impl BmcModel {
             KernelMeans::Exact(table) => points.iter().map(|p| table.z(p.z)).collect(),
             KernelMeans::MonteCarlo { samples } => {
                 let dirs = crate::sampling::Design::Uniform.sample_set(*samples, rng);
-                points
-                    .iter()
-                    .map(|p| crate::kernel_mean::kernel_mean_mc(&self.kernel, p, &dirs))
-                    .collect()
+                crate::kernel_mean::kernel_means_mc(
+                    &self.kernel,
+                    points,
+                    &crate::kernel::PointsSoa::new(&dirs),
+                )
             }
         }
     }

@@ -216,26 +216,31 @@ impl Kernel {
     /// On x86-64 with AVX2 the loop runs vectorised; it performs the same IEEE operations in
     /// the same order as the scalar loop, so the results are bit-identical on every machine.
     pub fn fill_column(&self, pts: &PointsSoa, j: usize, start: usize, out: &mut [f64]) {
+        self.fill_against(pts, start, &Vec3::new(pts.x[j], pts.y[j], pts.z[j]), out);
+    }
+
+    /// `out[k] = k(p_{start + k}, q)` for `k < out.len()`; vectorised like [`Kernel::fill_column`].
+    pub fn fill_against(&self, pts: &PointsSoa, start: usize, q: &Vec3, out: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { self.fill_column_avx2(pts, j, start, out) };
+                unsafe { self.fill_against_avx2(pts, start, q, out) };
                 return;
             }
         }
-        self.fill_column_generic(pts, j, start, out);
+        self.fill_against_generic(pts, start, q, out);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn fill_column_avx2(&self, pts: &PointsSoa, j: usize, start: usize, out: &mut [f64]) {
-        self.fill_column_generic(pts, j, start, out);
+    unsafe fn fill_against_avx2(&self, pts: &PointsSoa, start: usize, q: &Vec3, out: &mut [f64]) {
+        self.fill_against_generic(pts, start, q, out);
     }
 
     #[inline(always)]
-    fn fill_column_generic(&self, pts: &PointsSoa, j: usize, start: usize, out: &mut [f64]) {
-        let (qx, qy, qz) = (pts.x[j], pts.y[j], pts.z[j]);
+    fn fill_against_generic(&self, pts: &PointsSoa, start: usize, q: &Vec3, out: &mut [f64]) {
+        let (qx, qy, qz) = (q.x, q.y, q.z);
         let end = start + out.len();
         let (xs, ys, zs) = (&pts.x[start..end], &pts.y[start..end], &pts.z[start..end]);
         match self {

@@ -26,7 +26,28 @@ impl KernelMeanMode {
 }
 
 /// `z(x) ≈ (2π/M) Σ_j k(x, ω_j)` over the given uniform directions (the thesis's mode).
+///
+/// # Panics
+/// If there are no directions (the estimate is undefined; callers validate M ≥ 1).
 pub fn kernel_mean_mc(kernel: &Kernel, x: &Vec3, uniform_directions: &[Vec3]) -> f64 {
-    let sum: f64 = uniform_directions.iter().map(|w| kernel.eval(x, w)).sum();
-    std::f64::consts::TAU * sum / uniform_directions.len() as f64
+    kernel_means_mc(
+        kernel,
+        std::slice::from_ref(x),
+        &crate::kernel::PointsSoa::new(uniform_directions),
+    )[0]
+}
+
+/// [`kernel_mean_mc`] for every point, sharing one set of directions (stored as arrays so the
+/// kernel sums vectorise); the sums run in direction order, so results are reproducible.
+pub fn kernel_means_mc(kernel: &Kernel, points: &[Vec3], directions: &crate::kernel::PointsSoa) -> Vec<f64> {
+    let m = directions.len();
+    assert!(m > 0, "an MC kernel mean needs at least one direction");
+    let mut row = vec![0.0; m];
+    points
+        .iter()
+        .map(|x| {
+            kernel.fill_against(directions, 0, x, &mut row);
+            std::f64::consts::TAU * row.iter().sum::<f64>() / m as f64
+        })
+        .collect()
 }
