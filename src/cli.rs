@@ -24,6 +24,8 @@ struct Cli {
 enum Command {
     /// Compute a BMC quadrature rule (points and weights) for use in other code.
     Rule(RuleArgs),
+    /// Render the sphere-on-a-plane scene with MC, BMC or BMCP, or an RMSE-vs-spp table.
+    Render(crate::render::cli::RenderArgs),
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
@@ -164,6 +166,7 @@ pub fn main() -> anyhow::Result<ExitCode> {
     };
     match cli.command {
         Command::Rule(args) => rule(args),
+        Command::Render(args) => crate::render::cli::run(args),
     }
 }
 
