@@ -147,7 +147,11 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         .into());
     }
     let env = Environment::from_arg(&args.env)?;
-    let model = args.model.model()?;
+    let model = if args.integrator.uses_sets() {
+        Some(args.model.model()?)
+    } else {
+        None
+    };
     let reference = match &args.reference {
         Some(path) => Some(Image::read(path, "--reference")?),
         None => None,
@@ -168,7 +172,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         args.spp,
         args.gps,
         !args.no_rotate,
-        &model,
+        model.as_ref(),
         args.seed,
     )?;
     warn_numerics(&integrator);

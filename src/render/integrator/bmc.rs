@@ -152,20 +152,16 @@ mod tests {
         let set = &sets.sets[0];
         for c in [0.0, 0.05, 0.4] {
             let got = sets.estimate(&p, &scene, &env, &mut stream(1, &[]), [c; 3]);
-            for ch in 0..3 {
+            for (ch, got) in got.iter().enumerate() {
                 let y: Vec<f64> = set
                     .points
                     .iter()
                     .map(|v| p.incident(&scene, &env, v)[ch] * p.albedo[ch] / PI * v.z)
                     .collect();
                 let want = set.weights.bmcp(&y, c);
-                assert!(
-                    (got[ch] - want).abs() < 1e-12,
-                    "c={c} ch={ch}: {} vs {want}",
-                    got[ch]
-                );
+                assert!((*got - want).abs() < 1e-12, "c={c} ch={ch}: {} vs {want}", *got);
                 if c == 0.0 {
-                    assert!((got[ch] - set.weights.bmc(&y)).abs() < 1e-12);
+                    assert!((*got - set.weights.bmc(&y)).abs() < 1e-12);
                 }
             }
         }

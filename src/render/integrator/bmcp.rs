@@ -12,7 +12,7 @@ use std::f64::consts::TAU;
 /// Whether pixel `(i, j)` belongs to the first (plain BMC) pass.
 #[inline]
 pub fn first_pass(i: usize, j: usize) -> bool {
-    (i + j) % 2 == 0
+    (i + j).is_multiple_of(2)
 }
 
 /// `c` for pixel `(i, j)` from the first-pass `estimates` (row-major, `None` where the primary

@@ -132,23 +132,27 @@ impl Integrator {
     }
 
     /// Builds the integrator `kind` with `spp` samples; for `bmc`/`bmcp`, `gps` uniform sample
-    /// sets drawn from `seed` and weighted under `model`.
+    /// sets drawn from `seed` and weighted under `model` (needed only by those kinds, so that
+    /// MC never pays for the kernel-mean table).
     pub fn build(
         kind: IntegratorKind,
         spp: usize,
         gps: usize,
         rotate: bool,
-        model: &BmcModel,
+        model: Option<&BmcModel>,
         seed: u64,
     ) -> anyhow::Result<Self> {
         Ok(match kind {
             IntegratorKind::Mc => Self::mc(Design::Uniform, spp),
             IntegratorKind::McCos => Self::mc(Design::Cosine, spp),
-            IntegratorKind::Bmc | IntegratorKind::Bmcp => Integrator {
-                kind,
-                spp,
-                estimator: Estimator::Bmc(BmcSets::generate(spp, gps, rotate, model, seed)?),
-            },
+            IntegratorKind::Bmc | IntegratorKind::Bmcp => {
+                let model = model.ok_or_else(|| anyhow::anyhow!("{kind} needs a BMC model"))?;
+                Integrator {
+                    kind,
+                    spp,
+                    estimator: Estimator::Bmc(BmcSets::generate(spp, gps, rotate, model, seed)?),
+                }
+            }
         })
     }
 
