@@ -125,3 +125,50 @@ fn renders_exr_png_and_error_image() {
         std::fs::read(d.join("bmc.exr")).unwrap()
     );
 }
+
+/// An equirectangular `.hdr` of constant radiance 1 lights the scene exactly like `--env white`.
+#[test]
+fn constant_hdr_map_matches_the_white_environment() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    image::Rgb32FImage::from_pixel(16, 8, image::Rgb([1.0, 1.0, 1.0]))
+        .save(d.join("one.hdr"))
+        .unwrap();
+    let mut white = vec![
+        "render",
+        "-q",
+        "--integrator",
+        "bmc",
+        "--env",
+        "white",
+        "--out",
+        "white.exr",
+    ];
+    white.extend(SMALL);
+    assert!(workbench(&white, d).status.success());
+    let mut map = vec![
+        "render",
+        "-q",
+        "--integrator",
+        "bmc",
+        "--env",
+        "one.hdr",
+        "--out",
+        "map.exr",
+    ];
+    map.extend(SMALL);
+    map.extend([
+        "--reference",
+        "white.exr",
+        "--error-scale",
+        "absolute",
+        "--error-colours",
+        "grey",
+    ]);
+    let o = workbench(&map, d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    let rmse: f64 = stdout.trim().strip_prefix("rmse = ").unwrap().parse().unwrap();
+    assert!(rmse < 1e-6, "{stdout}");
+    assert!(d.join("map-error.png").exists());
+}

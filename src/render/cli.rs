@@ -147,6 +147,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         .into());
     }
     let env = Environment::from_arg(&args.env)?;
+    let model_start = Instant::now();
     let model = if args.integrator.uses_sets() {
         Some(args.model.model()?)
     } else {
@@ -166,6 +167,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         probe.check_same_size(r, "--reference")?;
     }
 
+    let model_seconds = model_start.elapsed().as_secs_f64();
     let start = Instant::now();
     let integrator = Integrator::build(
         args.integrator,
@@ -185,7 +187,8 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     let png = sibling_png(out, "");
     write_atomic(&png, &image.to_png()?)?;
     eprintln!(
-        "render: {} {} spp, {}×{} in {seconds:.3} s → {}, {}",
+        "render: {} {} spp, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
+         environment, kernel-mean table) → {}, {}",
         args.integrator,
         args.spp,
         args.width,
