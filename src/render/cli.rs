@@ -39,13 +39,16 @@ pub struct RenderArgs {
     /// Do not rotate the BMC sample set by a random azimuth per pixel.
     #[arg(long)]
     pub no_rotate: bool,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 256)]
     pub width: usize,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 256)]
     pub height: usize,
     /// Lighting: `sky`, `white`, or an equirectangular Radiance .hdr / OpenEXR file.
     #[arg(long, default_value = "sky")]
     pub env: String,
+    /// Master seed: sample sets and per-pixel streams derive from it.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// The linear image (OpenEXR, .exr); a tone-mapped PNG is written beside it.

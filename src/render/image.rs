@@ -28,6 +28,7 @@ pub enum ErrorScale {
 /// How an error image shows the scaled error.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ColourMap {
+    /// Black (0) to white (1).
     Grey,
     /// matplotlib's perceptually uniform `viridis`.
     Viridis,

@@ -65,7 +65,9 @@ pub struct TablePlan {
 
 /// Default spp list (thesis Table 4.1, Fig. 4.1b).
 pub const DEFAULT_SPP: [usize; 4] = [20, 40, 60, 80];
+/// Default repetitions per spp.
 pub const DEFAULT_REPETITIONS: usize = 10;
+/// Default spp of the MC reference (thesis §3.2.7).
 pub const DEFAULT_REFERENCE_SPP: usize = 3000;
 /// The reference's default seed is `mix(seed, [REFERENCE_SEED])`.
 const REFERENCE_SEED: u64 = 0x2ef;

@@ -124,10 +124,17 @@ fn reference(plan: &TablePlan, renderer: &Renderer, results: &Path, quiet: bool)
     let (key, description) = reference_key(plan);
     let path = results.join("cache").join(format!("reference-{key}.exr"));
     if path.exists() {
-        let image = Image::read(&path, "reference cache")?;
-        if (image.width, image.height) == (plan.width, plan.height) {
-            eprintln!("render: reference from cache {}", path.display());
-            return Ok(image);
+        match Image::read(&path, "reference cache") {
+            Ok(image) if (image.width, image.height) == (plan.width, plan.height) => {
+                eprintln!("render: reference from cache {}", path.display());
+                return Ok(image);
+            }
+            // A damaged cache entry is replaced, not fatal.
+            Ok(_) => eprintln!(
+                "warning: {} has the wrong size; rendering it again",
+                path.display()
+            ),
+            Err(e) => eprintln!("warning: {e}; rendering it again"),
         }
     }
     let start = Instant::now();

@@ -79,6 +79,7 @@ impl ShadingPoint {
     /// Offset of shadow-ray origins along the normal.
     pub const EPSILON: f64 = 1e-4;
 
+    /// The shading point of a primary hit.
     pub fn new(hit: &Hit) -> Self {
         ShadingPoint {
             origin: hit.point + hit.normal * Self::EPSILON,
