@@ -28,6 +28,8 @@ enum Command {
     Run(RunArgs),
     /// Check an experiment file and print the resolved plan, without running it.
     Validate(ValidateArgs),
+    /// Render the sphere-on-a-plane scene with MC, BMC or BMCP, or an RMSE-vs-spp table.
+    Render(crate::render::cli::RenderArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -198,6 +200,7 @@ pub fn main() -> anyhow::Result<ExitCode> {
             print!("{}", crate::experiment::describe(&plan));
             Ok(ExitCode::SUCCESS)
         }
+        Command::Render(args) => crate::render::cli::run(args),
     }
 }
 

@@ -14,6 +14,7 @@ pub mod kernel;
 pub mod kernel_mean;
 pub mod linalg;
 pub mod quadrature;
+pub mod render;
 pub mod rng;
 pub mod rule;
 pub mod sampling;

@@ -1,0 +1,228 @@
+//! `workbench render`: one image (`--out x.exr`) or a table (`workbench render SPEC.json`).
+
+use super::env::Environment;
+use super::image::{ColourMap, ErrorScale, Image};
+use super::integrator::{Integrator, IntegratorKind};
+use super::renderer::{Renderer, check_size};
+use crate::cli::ModelArgs;
+use crate::io::{InputError, write_atomic};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Options of `workbench render`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Examples:\n  workbench render --integrator bmc --spp 40 --out bmc.exr\n  \
+                        workbench render experiments/render-table.json"
+)]
+pub struct RenderArgs {
+    /// Table spec (JSON): renders every variant × spp × repetition against a cached reference
+    /// and writes results/<name>/. Without it, one image is rendered to --out.
+    #[arg(
+        value_name = "SPEC.json",
+        conflicts_with_all = ["out", "integrator", "spp", "gps", "no_rotate", "width", "height", "env",
+                              "seed", "reference"]
+    )]
+    pub spec: Option<PathBuf>,
+    /// The estimator of each pixel's illumination integral.
+    #[arg(long, value_enum, default_value = "bmc")]
+    pub integrator: IntegratorKind,
+    /// Samples per pixel (hemisphere directions per estimate).
+    #[arg(long, default_value_t = 40)]
+    pub spp: usize,
+    /// Number of BMC sample sets ("GPs"); one is picked at random per pixel.
+    #[arg(long, default_value_t = 4)]
+    pub gps: usize,
+    /// Do not rotate the BMC sample set by a random azimuth per pixel.
+    #[arg(long)]
+    pub no_rotate: bool,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub width: usize,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub height: usize,
+    /// Lighting: `sky`, `white`, or an equirectangular Radiance .hdr / OpenEXR file.
+    #[arg(long, default_value = "sky")]
+    pub env: String,
+    /// Master seed: sample sets and per-pixel streams derive from it.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The linear image (OpenEXR, .exr); a tone-mapped PNG is written beside it.
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
+    /// Reference image (OpenEXR): print the RMSE and write the error image <out>-error.png.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Error image scale: by the largest error, or absolute (by --error-max).
+    #[arg(long, value_enum, default_value = "normalised")]
+    pub error_scale: ErrorScale,
+    /// Error norm shown at full intensity with `--error-scale absolute`.
+    #[arg(long, default_value_t = 0.1)]
+    pub error_max: f64,
+    /// Error image colours.
+    #[arg(long, value_enum, default_value = "viridis")]
+    pub error_colours: ColourMap,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Folder of the table outputs (results/<name>/) and of the reference cache (cache/).
+    #[arg(long, default_value = "results")]
+    pub results_dir: PathBuf,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Runs `workbench render`.
+pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
+    match &args.spec {
+        Some(spec) => {
+            let plan = super::spec::load(spec)?;
+            super::table::run(&plan, &args.results_dir, args.quiet)?;
+        }
+        None => single(&args)?,
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A progress bar on stderr, hidden with `--quiet` or when stderr is not a terminal.
+pub fn progress_bar(quiet: bool, unit: &str) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let style = ProgressStyle::with_template(&format!(
+        "{{bar:40}} {{pos}}/{{len}} {unit} {{msg}} [{{elapsed}}]"
+    ))
+    .expect("valid template");
+    ProgressBar::new(0).with_style(style)
+}
+
+/// Validates the sample count of `kind` (`what` names the option).
+pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), InputError> {
+    if kind.uses_sets() {
+        crate::rule::check_point_count(spp, what)
+    } else if spp == 0 {
+        Err(InputError::new(format!("{what}: must be at least 1, got 0")))
+    } else {
+        Ok(())
+    }
+}
+
+/// Validates the number of sample sets.
+pub fn check_gps(gps: usize, what: &str) -> Result<(), InputError> {
+    if (1..=1024).contains(&gps) {
+        Ok(())
+    } else {
+        Err(InputError::new(format!("{what}: must be in 1..=1024, got {gps}")))
+    }
+}
+
+/// `x.exr` → `x<suffix>.png`.
+pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}{suffix}.png"))
+}
+
+fn single(args: &RenderArgs) -> anyhow::Result<()> {
+    // Validate everything before any work.
+    let out = args.out.as_ref().expect("clap requires --out without a spec");
+    if out.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(InputError::new(format!(
+            "--out {}: the linear image is OpenEXR; use a name ending in .exr",
+            out.display()
+        ))
+        .into());
+    }
+    check_size(args.width, args.height)?;
+    check_spp(args.integrator, args.spp, "--spp")?;
+    check_gps(args.gps, "--gps")?;
+    if !(args.error_max.is_finite() && args.error_max > 0.0) {
+        return Err(InputError::new(format!(
+            "--error-max: must be finite and > 0, got {}",
+            args.error_max
+        ))
+        .into());
+    }
+    let env = Environment::from_arg(&args.env)?;
+    let model_start = Instant::now();
+    let model = if args.integrator.uses_sets() {
+        Some(args.model.model()?)
+    } else {
+        None
+    };
+    let reference = match &args.reference {
+        Some(path) => Some(Image::read(path, "--reference")?),
+        None => None,
+    };
+    let renderer = Renderer::new(args.width, args.height, env);
+    if let Some(r) = &reference {
+        let probe = Image {
+            width: args.width,
+            height: args.height,
+            data: Vec::new(),
+        };
+        probe.check_same_size(r, "--reference")?;
+    }
+
+    let model_seconds = model_start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let integrator = Integrator::build(
+        args.integrator,
+        args.spp,
+        args.gps,
+        !args.no_rotate,
+        model.as_ref(),
+        args.seed,
+    )?;
+    warn_numerics(&integrator);
+    let bar = progress_bar(args.quiet, "rows");
+    let image = renderer.render(&integrator, args.seed, &bar);
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+
+    write_atomic(out, &image.to_exr()?)?;
+    let png = sibling_png(out, "");
+    write_atomic(&png, &image.to_png()?)?;
+    eprintln!(
+        "render: {} {} spp, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
+         environment, kernel-mean table) → {}, {}",
+        args.integrator,
+        args.spp,
+        args.width,
+        args.height,
+        out.display(),
+        png.display()
+    );
+    if let Some(r) = &reference {
+        let err = sibling_png(out, "-error");
+        write_atomic(
+            &err,
+            &image.error_png(r, args.error_scale, args.error_max, args.error_colours)?,
+        )?;
+        println!("rmse = {:.6e}", image.rmse(r));
+        eprintln!("render: error image → {}", err.display());
+    }
+    Ok(())
+}
+
+/// Prints each distinct numerical warning of the sample sets once, with its remedy.
+pub fn warn_numerics(integrator: &Integrator) {
+    if let super::integrator::Estimator::Bmc(sets) = &integrator.estimator {
+        let mut seen = Vec::new();
+        for (s, set) in sets.sets.iter().enumerate() {
+            for w in &set.weights.diagnostics.warnings {
+                let m = w.message();
+                if !seen.contains(&m) {
+                    eprintln!("warning: sample set {s}: {m}");
+                    seen.push(m);
+                }
+            }
+        }
+    }
+}

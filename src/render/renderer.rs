@@ -1,0 +1,135 @@
+//! The render loop: primary rays, then one integral estimate per hit pixel, in parallel over
+//! rows. Every pixel draws from its own stream `stream(seed, [PIXELS, pixel index])`, so the
+//! image does not depend on the number of threads or the order of work.
+
+use super::camera::Camera;
+use super::env::Environment;
+use super::image::Image;
+use super::integrator::bmcp::{first_pass, neighbour_prior};
+use super::integrator::{Integrator, IntegratorKind, ShadingPoint};
+use super::scene::{Rgb, Scene};
+use crate::io::InputError;
+use crate::rng::stream;
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+/// Stream family of the per-pixel streams.
+const PIXELS: u64 = 0x91c;
+
+/// Largest image: the linear image and BMCP's first pass take `2 · 24` bytes per pixel, so
+/// `2^24` pixels (4096 × 4096) stay under 1 GiB.
+pub const MAX_PIXELS: usize = 1 << 24;
+
+/// Rejects empty images and images too large for memory, naming the options.
+pub fn check_size(width: usize, height: usize) -> Result<(), InputError> {
+    if width == 0 || height == 0 {
+        return Err(InputError::new(format!(
+            "--width/--height: the image must be at least 1×1, got {width}×{height}"
+        )));
+    }
+    match width.checked_mul(height) {
+        Some(n) if n <= MAX_PIXELS => Ok(()),
+        _ => {
+            let gib = 48.0 * width as f64 * height as f64 / (1u64 << 30) as f64;
+            Err(InputError::new(format!(
+                "--width/--height: {width}×{height} would need {gib:.1} GiB; the limit is {MAX_PIXELS} \
+                 pixels (4096×4096)"
+            )))
+        }
+    }
+}
+
+/// A scene seen through a camera under an environment.
+#[derive(Clone, Debug)]
+pub struct Renderer {
+    pub scene: Scene,
+    pub camera: Camera,
+    pub env: Environment,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl Renderer {
+    /// The default scene and camera (render-scene.md) at `width × height`.
+    pub fn new(width: usize, height: usize, env: Environment) -> Self {
+        Renderer {
+            scene: Scene::default_scene(),
+            camera: Camera::default_for(width, height),
+            env,
+            width,
+            height,
+        }
+    }
+
+    /// Renders one image; `progress` advances by one per row and pass.
+    ///
+    /// Pixels whose primary ray hits nothing show `env(dir)`. For `bmcp` the first pass renders
+    /// the `(i + j)`-even pixels with BMC, the second the others with the neighbour prior.
+    pub fn render(&self, integrator: &Integrator, seed: u64, progress: &ProgressBar) -> Image {
+        let passes = if integrator.kind == IntegratorKind::Bmcp {
+            2
+        } else {
+            1
+        };
+        progress.inc_length((passes * self.height) as u64);
+        let first: Vec<Option<Rgb>> = self.rows(progress, |i, j| {
+            if integrator.kind == IntegratorKind::Bmcp && !first_pass(i, j) {
+                return None;
+            }
+            self.pixel(i, j, integrator, seed, None)
+        });
+        let pixel_or_background = |i: usize, j: usize, value: Option<Rgb>| {
+            value.unwrap_or_else(|| self.env.radiance(&self.camera.ray(i, j)))
+        };
+        let data = if integrator.kind == IntegratorKind::Bmcp {
+            self.rows(progress, |i, j| {
+                let k = j * self.width + i;
+                let value = if first_pass(i, j) {
+                    first[k]
+                } else {
+                    let c = neighbour_prior(&first, self.width, self.height, i, j);
+                    self.pixel(i, j, integrator, seed, Some(c))
+                };
+                Some(pixel_or_background(i, j, value))
+            })
+        } else {
+            self.rows(progress, |i, j| {
+                Some(pixel_or_background(i, j, first[j * self.width + i]))
+            })
+        };
+        Image {
+            width: self.width,
+            height: self.height,
+            data: data.into_iter().map(|p| p.expect("every pixel is set")).collect(),
+        }
+    }
+
+    /// The integral estimate at pixel `(i, j)`, or `None` if the primary ray hits nothing.
+    pub fn pixel(
+        &self,
+        i: usize,
+        j: usize,
+        integrator: &Integrator,
+        seed: u64,
+        prior: Option<Rgb>,
+    ) -> Option<Rgb> {
+        let dir = self.camera.ray(i, j);
+        let hit = self.scene.intersect(&self.camera.origin, &dir)?;
+        let mut rng = stream(seed, &[PIXELS, (j * self.width + i) as u64]);
+        let p = ShadingPoint::new(&hit);
+        Some(integrator.estimate(&p, &self.scene, &self.env, &mut rng, prior))
+    }
+
+    /// `f(i, j)` for every pixel, rows in parallel, collected in row-major order.
+    fn rows<T: Send>(&self, progress: &ProgressBar, f: impl Fn(usize, usize) -> T + Sync) -> Vec<T> {
+        let rows: Vec<Vec<T>> = (0..self.height)
+            .into_par_iter()
+            .map(|j| {
+                let row = (0..self.width).map(|i| f(i, j)).collect();
+                progress.inc(1);
+                row
+            })
+            .collect();
+        rows.into_iter().flatten().collect()
+    }
+}

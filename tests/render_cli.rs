@@ -1,0 +1,174 @@
+//! `workbench render` through the binary: outputs, and bad input rejected with exit code 2
+//! and a message naming the option or file.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn workbench(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_workbench"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("runs the binary")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit 2 with every `needle` in stderr.
+fn assert_input_error(args: &[&str], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("bad.hdr"),
+        b"#?RADIANCE\nFORMAT=nonsense\n\n-Y 2 +X 2\nxx",
+    )
+    .unwrap();
+    let o = workbench(args, dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: `{n}` not in: {err}");
+    }
+    assert!(
+        std::fs::read_dir(dir.path()).unwrap().count() == 1,
+        "{args:?} wrote files"
+    );
+}
+
+const SMALL: [&str; 6] = ["--width", "12", "--height", "10", "--spp", "4"];
+
+#[test]
+fn bad_input_is_exit_2_with_a_clear_message() {
+    assert_input_error(
+        &["render", "--integrator", "bmx", "--out", "a.exr"],
+        &["--integrator", "bmx"],
+    );
+    assert_input_error(
+        &["render", "--spp", "0", "--out", "a.exr"],
+        &["--spp", "at least 1"],
+    );
+    assert_input_error(
+        &["render", "--integrator", "mc", "--spp", "0", "--out", "a.exr"],
+        &["--spp"],
+    );
+    assert_input_error(&["render", "--spp", "20000", "--out", "a.exr"], &["--spp", "GiB"]);
+    assert_input_error(&["render", "--gps", "0", "--out", "a.exr"], &["--gps"]);
+    assert_input_error(
+        &["render", "--env", "missing.hdr", "--out", "a.exr"],
+        &["--env missing.hdr", "cannot read"],
+    );
+    assert_input_error(
+        &["render", "--env", "bad.hdr", "--out", "a.exr"],
+        &["--env bad.hdr", "not a valid"],
+    );
+    assert_input_error(
+        &[
+            "render", "--width", "100000", "--height", "100000", "--out", "a.exr",
+        ],
+        &["--width/--height", "GiB"],
+    );
+    assert_input_error(
+        &["render", "--width", "0", "--out", "a.exr"],
+        &["--width/--height"],
+    );
+    assert_input_error(&["render", "--out", "a.png"], &["--out a.png", ".exr"]);
+    assert_input_error(&["render", "--integrator", "mc"], &["--out"]);
+    assert_input_error(
+        &["render", "--out", "a.exr", "--reference", "missing.exr"],
+        &["--reference missing.exr", "cannot read"],
+    );
+    assert_input_error(&["render", "--noise=-1", "--out", "a.exr"], &["--noise"]);
+    assert_input_error(&["render", "spec.json", "--out", "a.exr"], &["--out"]);
+}
+
+#[test]
+fn renders_exr_png_and_error_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for integrator in ["mc", "mc-cos", "bmc", "bmcp"] {
+        let out = format!("{integrator}.exr");
+        let mut args = vec!["render", "-q", "--integrator", integrator, "--out", &out];
+        args.extend(SMALL);
+        let o = workbench(&args, d);
+        assert!(o.status.success(), "{integrator}: {}", stderr(&o));
+        assert!(d.join(&out).exists() && d.join(format!("{integrator}.png")).exists());
+    }
+    // A reference of the wrong size is refused before rendering.
+    let o = workbench(
+        &["render", "--out", "x.exr", "--reference", "mc.exr", "--spp", "1"],
+        d,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("12×10"), "{}", stderr(&o));
+    // The same render against itself: RMSE 0, and the error image is written.
+    let mut args = vec![
+        "render",
+        "-q",
+        "--integrator",
+        "bmc",
+        "--out",
+        "again.exr",
+        "--reference",
+        "bmc.exr",
+    ];
+    args.extend(SMALL);
+    let o = workbench(&args, d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The reference went through f32: only rounding is left.
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    let rmse: f64 = stdout.trim().strip_prefix("rmse = ").unwrap().parse().unwrap();
+    assert!(rmse < 1e-6, "{stdout}");
+    assert!(d.join("again-error.png").exists());
+    assert_eq!(
+        std::fs::read(d.join("again.exr")).unwrap(),
+        std::fs::read(d.join("bmc.exr")).unwrap()
+    );
+}
+
+/// An equirectangular `.hdr` of constant radiance 1 lights the scene exactly like `--env white`.
+#[test]
+fn constant_hdr_map_matches_the_white_environment() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    image::Rgb32FImage::from_pixel(16, 8, image::Rgb([1.0, 1.0, 1.0]))
+        .save(d.join("one.hdr"))
+        .unwrap();
+    let mut white = vec![
+        "render",
+        "-q",
+        "--integrator",
+        "bmc",
+        "--env",
+        "white",
+        "--out",
+        "white.exr",
+    ];
+    white.extend(SMALL);
+    assert!(workbench(&white, d).status.success());
+    let mut map = vec![
+        "render",
+        "-q",
+        "--integrator",
+        "bmc",
+        "--env",
+        "one.hdr",
+        "--out",
+        "map.exr",
+    ];
+    map.extend(SMALL);
+    map.extend([
+        "--reference",
+        "white.exr",
+        "--error-scale",
+        "absolute",
+        "--error-colours",
+        "grey",
+    ]);
+    let o = workbench(&map, d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    let rmse: f64 = stdout.trim().strip_prefix("rmse = ").unwrap().parse().unwrap();
+    assert!(rmse < 1e-6, "{stdout}");
+    assert!(d.join("map-error.png").exists());
+}

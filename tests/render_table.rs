@@ -1,0 +1,135 @@
+//! `workbench render SPEC.json` through the binary: the output layout, the reference cache,
+//! reproducible numbers, and spec errors rejected before any work.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn workbench(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_workbench"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("runs the binary")
+}
+
+const SPEC: &str = r#"{
+  "name": "tiny", "seed": 7, "width": 32, "height": 24, "spp": [4, 8], "repetitions": [3, 2],
+  "reference": {"spp": 64},
+  "variants": [
+    {"label": "MC", "integrator": "mc"},
+    {"label": "BMC 2 GP", "integrator": "bmc", "gps": 2},
+    {"label": "BMCP", "integrator": "bmcp", "gps": 1, "rotate": false}
+  ]
+}"#;
+
+/// The RMSE column of `rmse.csv` (seconds differ between runs).
+fn without_seconds(csv: &str) -> Vec<String> {
+    csv.lines()
+        .map(|l| l.rsplit_once(',').unwrap().0.to_owned())
+        .collect()
+}
+
+#[test]
+fn table_writes_its_outputs_and_reuses_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("tiny.json"), SPEC).unwrap();
+    let o = workbench(&["render", "tiny.json", "--results-dir", "out"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("reference (mc, 64 spp)"), "{err}");
+
+    let out = d.join("out/tiny");
+    let rmse = std::fs::read_to_string(out.join("rmse.csv")).unwrap();
+    let lines: Vec<&str> = rmse.lines().collect();
+    assert_eq!(
+        lines[0],
+        "variant,integrator,gps,rotate,spp,repetition,seed,rmse,seconds"
+    );
+    assert_eq!(lines.len(), 1 + 3 * (3 + 2));
+    assert!(lines[1].starts_with("MC,mc,,,4,0,"), "{}", lines[1]);
+    assert!(lines[3].starts_with("BMCP,bmcp,1,false,4,0,"), "{}", lines[3]);
+
+    let table = std::fs::read_to_string(out.join("table.csv")).unwrap();
+    assert_eq!(table.lines().count(), 1 + 3 * 2);
+    assert!(table.lines().nth(1).unwrap().starts_with("MC,mc,,,4,3,"));
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        md.contains("| Method | 4 spp | 8 spp |") && md.contains("| BMC 2 GP |"),
+        "{md}"
+    );
+    let svg = std::fs::read_to_string(out.join("rmse_vs_spp.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains("samples per pixel (spp)") && svg.contains("BMC 2 GP"));
+    for png in [
+        "mc-4spp.png",
+        "bmc-2-gp-8spp.png",
+        "bmcp-4spp.png",
+        "reference.png",
+    ] {
+        assert!(out.join(png).exists(), "{png}");
+    }
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["seed"], 7);
+
+    // A second table (another name, same reference inputs) reads the cached reference and
+    // reproduces every number.
+    std::fs::write(d.join("again.json"), SPEC.replace("\"tiny\"", "\"again\"")).unwrap();
+    let o = workbench(&["render", "again.json", "--results-dir", "out", "--quiet"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("reference from cache"), "{err}");
+    let again = std::fs::read_to_string(d.join("out/again/rmse.csv")).unwrap();
+    assert_eq!(without_seconds(&rmse), without_seconds(&again));
+    assert_eq!(
+        std::fs::read_dir(d.join("out/cache")).unwrap().count(),
+        2,
+        "one .exr and its .json"
+    );
+}
+
+#[test]
+fn spec_errors_are_exit_2_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        (
+            SPEC.replace("\"seed\": 7", "\"sede\": 7"),
+            "bad.json: $.sede = 7: unknown field",
+        ),
+        (
+            SPEC.replace("\"gps\": 2", "\"gps\": 0"),
+            "bad.json: $.variants[1].gps = 0: expected an integer >= 1",
+        ),
+        (
+            SPEC.replace("[4, 8]", "[4, 0]"),
+            "bad.json: $.spp[1] = 0: must be at least 1",
+        ),
+        (
+            SPEC.replace("\"mc\"}", "\"mcc\"}"),
+            "bad.json: $.variants[0].integrator = \"mcc\": unknown integrator",
+        ),
+        (
+            SPEC.replace("\"width\": 32", "\"width\": \"wide\""),
+            "bad.json: $.width = \"wide\": expected",
+        ),
+        (
+            SPEC.replace("\"seed\": 7", "\"env\": \"nowhere.hdr\""),
+            "bad.json: $.env: --env nowhere.hdr: cannot read",
+        ),
+        ("{\"name\": ".into(), "bad.json: invalid JSON"),
+    ];
+    for (text, want) in cases {
+        std::fs::write(d.join("bad.json"), &text).unwrap();
+        let o = workbench(&["render", "bad.json", "--results-dir", "out"], d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{want}: {err}");
+        assert!(err.contains(want), "expected `{want}` in: {err}");
+        assert_eq!(err.lines().count(), 1, "one line: {err}");
+        assert!(!d.join("out").exists(), "{want}: wrote output");
+    }
+    let o = workbench(&["render", "missing.json"], d);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("missing.json: cannot read"));
+}
