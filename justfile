@@ -10,6 +10,7 @@ figures:
     cargo run --release -- run experiments/cos2.json -q
     cargo run --release -- run experiments/cos3.json -q
     cargo run --release -- run experiments/cos3-thesis-kernel-mean.json -q
+    cargo run --release -- render experiments/render-table.json -q
 
 # The default test suite (what CI runs).
 test:
@@ -26,3 +27,4 @@ ci:
 # Benchmarks (figures go in the README).
 bench:
     cargo bench --bench core
+    cargo bench --bench render

@@ -352,3 +352,30 @@ fn shipped_cos3_experiment_passes_its_check() {
         stdout(&o)
     );
 }
+
+/// Every shipped experiment passes its own checks (long: the thesis kernel-mean experiment
+/// alone takes ~20 s). Run with `cargo test --release -- --ignored` or `just test-long`.
+#[test]
+#[ignore]
+fn every_shipped_experiment_passes_its_checks() {
+    let dir = tempfile::tempdir().unwrap();
+    let experiments = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
+    let mut ran = 0;
+    for entry in std::fs::read_dir(&experiments).unwrap() {
+        let path = entry.unwrap().path();
+        let spec: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        if spec.get("estimators").is_none() {
+            continue; // a render table, not a `run` experiment
+        }
+        let o = workbench(dir.path(), &["run", path.to_str().unwrap(), "-q", "--out", "o"]);
+        assert!(
+            o.status.success(),
+            "{}: {}\n{}",
+            path.display(),
+            stdout(&o),
+            stderr(&o)
+        );
+        ran += 1;
+    }
+    assert!(ran >= 4, "only {ran} experiments found");
+}
