@@ -18,3 +18,4 @@ pub mod render;
 pub mod rng;
 pub mod rule;
 pub mod sampling;
+pub mod stats;

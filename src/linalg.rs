@@ -102,7 +102,7 @@ impl SpdWorkspace {
     /// numerically singular (condition estimate above [`NUMERICALLY_SINGULAR`]).
     pub fn factor(&mut self) -> Result<FactorInfo, NotPositiveDefinite> {
         let n = self.n;
-        if self.scratch.is_none() || self.scratch_n != n {
+        if self.scratch.is_none() || self.scratch_n < n {
             let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default());
             self.scratch = Some(MemBuffer::new(req));
             self.scratch_n = n;
@@ -157,13 +157,12 @@ impl SpdWorkspace {
         let n = self.n;
         assert_eq!(b.len(), n, "right-hand side length");
         let mut rhs = faer::MatMut::from_column_major_slice_mut(b, n, 1);
+        // The LLᵀ solve needs no scratch (faer's requirement is empty), so none is allocated.
         let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq));
-        llt::solve::solve_in_place(
-            self.factor.as_ref(),
-            rhs.as_mut(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-        );
+        // Only the leading n × n block holds the current factor: the buffers keep the size of the
+        // largest n this workspace has seen.
+        let factor = self.factor.as_ref().submatrix(0, 0, n, n);
+        llt::solve::solve_in_place(factor, rhs.as_mut(), Par::Seq, MemStack::new(&mut mem));
     }
 }
 
@@ -196,6 +195,37 @@ mod tests {
         let info = ws.factor().unwrap();
         assert!(info.jitter > 0.0);
         assert!(info.condition_estimate > 1e3);
+    }
+
+    /// A workspace that has held a larger system solves a smaller one (regression: the solve
+    /// once used the whole buffer and panicked on faer's size check).
+    #[test]
+    fn workspace_reused_at_a_smaller_n() {
+        let mut ws = SpdWorkspace::new();
+        for n in [8, 4, 6, 1] {
+            let a = |i: usize, j: usize| {
+                if i == j {
+                    2.0 + i as f64
+                } else {
+                    1.0 / (1.0 + i as f64 + j as f64)
+                }
+            };
+            ws.assemble_lower(n, a);
+            ws.factor().unwrap();
+            let x_true: Vec<f64> = (0..n).map(|i| 1.0 - 0.3 * i as f64).collect();
+            let mut b: Vec<f64> = (0..n)
+                .map(|i| (0..n).map(|j| a(i, j) * x_true[j]).sum())
+                .collect();
+            ws.solve_in_place(&mut b);
+            for i in 0..n {
+                assert!(
+                    (b[i] - x_true[i]).abs() < 1e-13,
+                    "n={n}: x[{i}] = {} vs {}",
+                    b[i],
+                    x_true[i]
+                );
+            }
+        }
     }
 
     #[test]

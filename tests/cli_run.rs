@@ -166,6 +166,29 @@ fn csv_is_byte_identical_across_thread_counts() {
     }
 }
 
+/// Regression: a worker that ran a large N and then a smaller one crashed (its workspace kept
+/// the larger size). Sample counts in descending order on one thread hit that every time; the
+/// numbers must not depend on the order either, as each cell's randomness is keyed by N.
+#[test]
+fn descending_sample_counts_on_one_thread() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "up.json", SMALL);
+    write(
+        dir.path(),
+        "down.json",
+        &SMALL.replace("[4, 16, 32]", "[32, 16, 4]"),
+    );
+    for (file, out) in [("up.json", "up"), ("down.json", "down")] {
+        let o = workbench(dir.path(), &["run", file, "-q", "--threads", "1", "--out", out]);
+        assert!(o.status.success(), "{file}: {}", stderr(&o));
+    }
+    let mut up = read_csv(&dir.path().join("up/summary.csv")).1;
+    let mut down = read_csv(&dir.path().join("down/summary.csv")).1;
+    up.sort();
+    down.sort();
+    assert_eq!(up, down);
+}
+
 #[test]
 fn a_failing_check_exits_1_and_names_the_cell() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,20 +1,8 @@
 //! `workbench render` through the binary: outputs, and bad input rejected with exit code 2
 //! and a message naming the option or file.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn workbench(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_workbench"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("runs the binary")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::*;
 
 /// Exit 2 with every `needle` in stderr.
 fn assert_input_error(args: &[&str], needles: &[&str]) {
@@ -24,7 +12,7 @@ fn assert_input_error(args: &[&str], needles: &[&str]) {
         b"#?RADIANCE\nFORMAT=nonsense\n\n-Y 2 +X 2\nxx",
     )
     .unwrap();
-    let o = workbench(args, dir.path());
+    let o = workbench(dir.path(), args);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
     for n in needles {
@@ -90,14 +78,14 @@ fn renders_exr_png_and_error_image() {
         let out = format!("{integrator}.exr");
         let mut args = vec!["render", "-q", "--integrator", integrator, "--out", &out];
         args.extend(SMALL);
-        let o = workbench(&args, d);
+        let o = workbench(d, &args);
         assert!(o.status.success(), "{integrator}: {}", stderr(&o));
         assert!(d.join(&out).exists() && d.join(format!("{integrator}.png")).exists());
     }
     // A reference of the wrong size is refused before rendering.
     let o = workbench(
-        &["render", "--out", "x.exr", "--reference", "mc.exr", "--spp", "1"],
         d,
+        &["render", "--out", "x.exr", "--reference", "mc.exr", "--spp", "1"],
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("12×10"), "{}", stderr(&o));
@@ -113,7 +101,7 @@ fn renders_exr_png_and_error_image() {
         "bmc.exr",
     ];
     args.extend(SMALL);
-    let o = workbench(&args, d);
+    let o = workbench(d, &args);
     assert!(o.status.success(), "{}", stderr(&o));
     // The reference went through f32: only rounding is left.
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
@@ -145,7 +133,7 @@ fn constant_hdr_map_matches_the_white_environment() {
         "white.exr",
     ];
     white.extend(SMALL);
-    assert!(workbench(&white, d).status.success());
+    assert!(workbench(d, &white).status.success());
     let mut map = vec![
         "render",
         "-q",
@@ -165,7 +153,7 @@ fn constant_hdr_map_matches_the_white_environment() {
         "--error-colours",
         "grey",
     ]);
-    let o = workbench(&map, d);
+    let o = workbench(d, &map);
     assert!(o.status.success(), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
     let rmse: f64 = stdout.trim().strip_prefix("rmse = ").unwrap().parse().unwrap();

@@ -1,16 +1,8 @@
 //! `workbench render SPEC.json` through the binary: the output layout, the reference cache,
 //! reproducible numbers, and spec errors rejected before any work.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn workbench(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_workbench"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("runs the binary")
-}
+mod common;
+use common::*;
 
 const SPEC: &str = r#"{
   "name": "tiny", "seed": 7, "width": 32, "height": 24, "spp": [4, 8], "repetitions": [3, 2],
@@ -34,7 +26,7 @@ fn table_writes_its_outputs_and_reuses_the_reference() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("tiny.json"), SPEC).unwrap();
-    let o = workbench(&["render", "tiny.json", "--results-dir", "out"], d);
+    let o = workbench(d, &["render", "tiny.json", "--results-dir", "out"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("reference (mc, 64 spp)"), "{err}");
@@ -76,7 +68,7 @@ fn table_writes_its_outputs_and_reuses_the_reference() {
     // A second table (another name, same reference inputs) reads the cached reference and
     // reproduces every number.
     std::fs::write(d.join("again.json"), SPEC.replace("\"tiny\"", "\"again\"")).unwrap();
-    let o = workbench(&["render", "again.json", "--results-dir", "out", "--quiet"], d);
+    let o = workbench(d, &["render", "again.json", "--results-dir", "out", "--quiet"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("reference from cache"), "{err}");
@@ -122,14 +114,14 @@ fn spec_errors_are_exit_2_before_any_work() {
     ];
     for (text, want) in cases {
         std::fs::write(d.join("bad.json"), &text).unwrap();
-        let o = workbench(&["render", "bad.json", "--results-dir", "out"], d);
+        let o = workbench(d, &["render", "bad.json", "--results-dir", "out"]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{want}: {err}");
         assert!(err.contains(want), "expected `{want}` in: {err}");
         assert_eq!(err.lines().count(), 1, "one line: {err}");
         assert!(!d.join("out").exists(), "{want}: wrote output");
     }
-    let o = workbench(&["render", "missing.json"], d);
+    let o = workbench(d, &["render", "missing.json"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.json: cannot read"));
 }

@@ -8,7 +8,6 @@ pub mod plan;
 pub mod plot;
 pub mod runner;
 pub mod spec;
-pub mod stats;
 pub mod summary;
 
 use crate::io::{InputError, write_atomic};

@@ -1,8 +1,8 @@
 //! One SVG per integrand: absolute error against N on log–log axes (plotters).
 
 use super::plan::Plan;
-use super::stats::log_log_slope;
 use super::summary::CellSummary;
+use crate::stats::log_log_slope;
 use plotters::prelude::*;
 
 /// Okabe–Ito colours (distinguishable with colour-vision deficiencies).

@@ -2,7 +2,7 @@
 
 use super::plan::{Check, Plan};
 use super::runner::Results;
-use super::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
+use crate::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
 
 /// The 95% credible interval is `Î ± 1.96 σ_post`.
 pub const Z95: f64 = 1.959_963_984_540_054;

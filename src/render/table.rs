@@ -269,34 +269,26 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> anyhow::Result<Vec<u8>> {
 /// Mean, standard deviation and 95% Student-t half-width of the RMSE per (variant, spp), in
 /// the order of the spec; a plain loop in row order.
 pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
-    use statrs::distribution::{ContinuousCDF, StudentsT};
+    use crate::stats::{mean, mean_ci95, sample_sd};
     let mut cells = Vec::new();
     for v in 0..plan.variants.len() {
         for &spp in &plan.spp {
-            let sel: Vec<&Row> = rows.iter().filter(|r| r.variant == v && r.spp == spp).collect();
-            let n = sel.len();
-            if n == 0 {
+            let cell: Vec<&Row> = rows.iter().filter(|r| r.variant == v && r.spp == spp).collect();
+            if cell.is_empty() {
                 continue;
             }
-            let mean = sel.iter().map(|r| r.rmse).sum::<f64>() / n as f64;
-            let seconds = sel.iter().map(|r| r.seconds).sum::<f64>() / n as f64;
-            let (sd, half_width) = if n > 1 {
-                let var = sel.iter().map(|r| (r.rmse - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-                let t = StudentsT::new(0.0, 1.0, (n - 1) as f64)
-                    .expect("n > 1")
-                    .inverse_cdf(0.975);
-                (var.sqrt(), t * var.sqrt() / (n as f64).sqrt())
-            } else {
-                (f64::NAN, f64::NAN)
-            };
+            let rmse: Vec<f64> = cell.iter().map(|r| r.rmse).collect();
+            let seconds: Vec<f64> = cell.iter().map(|r| r.seconds).collect();
+            // Both NaN for a single repetition, where neither is defined.
+            let (lo, hi) = mean_ci95(&rmse);
             cells.push(Cell {
                 variant: v,
                 spp,
-                n,
-                mean,
-                sd,
-                half_width,
-                seconds,
+                n: rmse.len(),
+                mean: mean(&rmse),
+                sd: sample_sd(&rmse),
+                half_width: 0.5 * (hi - lo),
+                seconds: mean(&seconds),
             });
         }
     }

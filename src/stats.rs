@@ -1,4 +1,5 @@
-//! Summary statistics and the paired test of the checks (math.md §6).
+//! Summary statistics (math.md §6): means with Student-t intervals, quantiles, the paired test
+//! of the checks, log–log slopes. Shared by `run` and `render`.
 
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
