@@ -88,6 +88,28 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// The worst-case error of a quadrature rule in the kernel's RKHS (K without noise):
+///
+/// `e(w) = sqrt(V̂ − 2 wᵀz + wᵀ K w)`, the norm of the error functional `f ↦ ∫_H f − Σ w_i f(x_i)`,
+/// so `|∫_H f dω − Σ w_i f(x_i)| ≤ ‖f‖_H · e(w)` for every `f` in the RKHS (Cauchy–Schwarz; see
+/// Briol et al., "Probabilistic integration", Statist. Sci. 2019, §2). Costs N² kernel evaluations.
+pub fn worst_case_error(
+    points: &[Vec3],
+    weights: &[f64],
+    z: &[f64],
+    prior_variance: f64,
+    kernel: &Kernel,
+) -> f64 {
+    let soa = crate::kernel::PointsSoa::new(points);
+    let mut column = vec![0.0; points.len()];
+    let mut wkw = 0.0;
+    for (j, wj) in weights.iter().enumerate() {
+        kernel.fill_column(&soa, j, 0, &mut column);
+        wkw += wj * dot(weights, &column);
+    }
+    (prior_variance - 2.0 * dot(weights, z) + wkw).max(0.0).sqrt()
+}
+
 /// The noise σ_n² must be finite and ≥ 0.
 pub fn validate_noise(noise: f64) -> Result<f64, String> {
     if noise.is_finite() && noise >= 0.0 {

@@ -108,12 +108,8 @@ impl ModelArgs {
     fn mode(&self) -> Result<KernelMeanMode, InputError> {
         match self.kernel_mean {
             KernelMeanName::Exact => Ok(KernelMeanMode::Exact),
-            KernelMeanName::Mc if self.kernel_mean_samples == 0 => Err(InputError::new(
-                "--kernel-mean-samples: must be at least 1, got 0",
-            )),
-            KernelMeanName::Mc => Ok(KernelMeanMode::MonteCarlo {
-                samples: self.kernel_mean_samples,
-            }),
+            KernelMeanName::Mc => KernelMeanMode::monte_carlo(self.kernel_mean_samples as u64)
+                .map_err(|m| InputError::new(format!("--kernel-mean-samples: {m}"))),
         }
     }
 
@@ -219,7 +215,7 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         eprintln!("warning: {}", w.message());
     }
     let csv = crate::rule::rule_csv(&points, &weights.weights);
-    let summary = crate::rule::rule_summary(&model, args.model.mode_name(), &weights);
+    let summary = crate::rule::rule_summary(&model, args.model.mode_name(), &points, &weights);
     match &args.out {
         Some(path) => write_atomic(path, &csv)?,
         None => std::io::Write::write_all(&mut std::io::stdout().lock(), &csv)?,

@@ -36,8 +36,15 @@ impl Frame {
 /// Rotation of `v` by the angle `phi` about `+z`.
 #[inline]
 pub fn rotate_about_z(v: &Vec3, phi: f64) -> Vec3 {
-    let (s, c) = phi.sin_cos();
-    Vec3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+    let (sin, cos) = phi.sin_cos();
+    rotate_about_z_by(v, sin, cos)
+}
+
+/// Rotation of `v` about `+z` by the angle whose sine and cosine are given (computed once
+/// when a whole sample set is rotated).
+#[inline]
+pub fn rotate_about_z_by(v: &Vec3, sin: f64, cos: f64) -> Vec3 {
+    Vec3::new(cos * v.x - sin * v.y, sin * v.x + cos * v.y, v.z)
 }
 
 #[cfg(test)]

@@ -109,9 +109,18 @@ pub fn rule_csv(points: &[Vec3], weights: &[f64]) -> Vec<u8> {
     out.into_bytes()
 }
 
-/// The summary JSON of a rule.
-pub fn rule_summary(model: &BmcModel, mode_name: &str, rule: &BmcWeights) -> serde_json::Value {
+/// The summary JSON of a rule (`points` are the rule's points, for the worst-case error).
+pub fn rule_summary(
+    model: &BmcModel,
+    mode_name: &str,
+    points: &[Vec3],
+    rule: &BmcWeights,
+) -> serde_json::Value {
     let d = &rule.diagnostics;
+    // Against the exact kernel means whatever the mode, so it measures the rule itself.
+    let table = crate::kernel_mean::KernelMeanTable::new(&model.kernel);
+    let z: Vec<f64> = points.iter().map(|p| table.z(p.z)).collect();
+    let wce = crate::bmc::worst_case_error(points, &rule.weights, &z, table.prior_variance(), &model.kernel);
     serde_json::json!({
         "n": d.n,
         "kernel": model.kernel.to_json(),
@@ -126,6 +135,7 @@ pub fn rule_summary(model: &BmcModel, mode_name: &str, rule: &BmcWeights) -> ser
         "max_weight": d.max_weight,
         "jitter": d.jitter,
         "condition_estimate": d.condition_estimate,
+        "worst_case_error": wce,
         "warnings": d.warnings.iter().map(|w| w.message()).collect::<Vec<_>>(),
     })
 }

@@ -90,6 +90,16 @@ fn bad_rule_input_is_exit_2_with_a_clear_message() {
             "--kernel-mean-samples",
         ),
         (&["rule", "--kernel", "matern"], "matern"),
+        (
+            &[
+                "rule",
+                "--kernel-mean",
+                "mc",
+                "--kernel-mean-samples",
+                "100000000000",
+            ],
+            "must be in 1..=10000000",
+        ),
     ];
     for (args, needle) in cases {
         let o = workbench(dir.path(), args);

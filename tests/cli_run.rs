@@ -318,6 +318,17 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
             "checks[0].alpha: must be in (0, 1), got 1.5",
         ),
         (
+            SMALL.replace("\"trials\": 24", "\"trials\": 4611686018427387904"),
+            "trials: 4611686018427387904 trials would give",
+        ),
+        (
+            SMALL.replace(
+                "{ \"label\": \"BMC\", \"method\": \"bmc\" }",
+                "{ \"label\": \"BMC\", \"method\": \"bmc\", \"kernel_mean\": \"mc\", \"kernel_mean_samples\": 0 }",
+            ),
+            "estimators[2].kernel_mean_samples: must be in 1..=10000000",
+        ),
+        (
             SMALL.replace("\"method\": \"bmcp\"", "\"method\": \"qmc\""),
             "estimators[3].method: unknown variant `qmc`",
         ),

@@ -4,6 +4,7 @@
 // Channels are indexed in step across pixels, albedos and sky values.
 #![allow(clippy::needless_range_loop)]
 
+mod common;
 use indicatif::ProgressBar;
 use workbench::bmc::{BmcModel, DEFAULT_NOISE};
 use workbench::geometry::Vec3;
@@ -60,8 +61,9 @@ fn sets(i: &Integrator) -> &BmcSets {
 /// Test 1 adapted: under `env = 1` an unoccluded Lambertian pixel is
 /// `∫ (albedo/π) cos θ dω = albedo`. MC-cos is exact per sample; MC is unbiased (mean over the
 /// pixels within 5 standard errors, per-pixel variance `albedo²/(3N)`); BMC gives
-/// `albedo · Σ w_i cos θ_i / π`, off by its set's quadrature error for `cos θ`; BMCP adds
-/// `c (2π − Σ w_i)`, the weight-sum error times the prior.
+/// `albedo · Σ w_i cos θ_i / π`, off by its set's quadrature error for `cos θ` (itself within
+/// the RKHS bound `‖cos θ‖_H e(w)`); BMCP adds `c (2π − Σ w_i)`, the weight-sum error times the
+/// prior.
 #[test]
 fn white_environment_gives_the_albedo_for_every_integrator() {
     let r = sphere_only(48, Environment::White);
@@ -113,13 +115,35 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
             .iter()
             .map(|set| (set.weights.diagnostics.weight_sum - std::f64::consts::TAU).abs())
             .fold(0.0, f64::max);
-        assert!(cos_error < 0.03, "{kind}: quadrature error of cos θ {cos_error}");
+        // The error on cos θ is within the RKHS worst-case bound ‖cos θ‖_H e(w) of each set.
+        let (_, norm_cos) = common::rkhs_norms_of_one_and_cos(&m.kernel);
+        let table = workbench::kernel_mean::KernelMeanTable::new(&m.kernel);
+        for set in &s.sets {
+            let z: Vec<f64> = set.points.iter().map(|p| table.z(p.z)).collect();
+            let e = workbench::bmc::worst_case_error(
+                &set.points,
+                &set.weights.weights,
+                &z,
+                table.prior_variance(),
+                &m.kernel,
+            );
+            let g: f64 = set
+                .points
+                .iter()
+                .zip(&set.weights.weights)
+                .map(|(p, w)| w * p.z)
+                .sum();
+            assert!(
+                (g - std::f64::consts::PI).abs() <= norm_cos * e * (1.0 + 1e-9),
+                "{kind}: cos θ error above its bound"
+            );
+        }
         let img = r.render(&integ, 4, &hidden());
         for (k, a, _) in &hit {
             for c in 0..3 {
-                // BMCP's prior is at most max(albedo)·(1 + cos_error)/(2π).
+                // BMCP's prior is a mean of neighbour estimates, each at most albedo·(1 + cos_error).
                 let prior = if kind == IntegratorKind::Bmcp {
-                    1.1 * a[c] / std::f64::consts::TAU
+                    (1.0 + cos_error) * a[c] / std::f64::consts::TAU
                 } else {
                     0.0
                 };

@@ -111,6 +111,25 @@ fn spec_errors_are_exit_2_before_any_work() {
             "bad.json: $.env: --env nowhere.hdr: cannot read",
         ),
         ("{\"name\": ".into(), "bad.json: invalid JSON"),
+        (
+            SPEC.replace("\"label\": \"BMCP\"", "\"label\": \"bmc-2-gp\""),
+            "$.variants[2].label = \"bmc-2-gp\": needs a letter or digit, and a file name",
+        ),
+        (
+            SPEC.replace("[3, 2]", "[3, 4611686018427387904]"),
+            "bad.json: $.repetitions[1] = 4611686018427387904: at most 10000 renders per spp",
+        ),
+        (
+            SPEC.replace("\"spp\": 64", "\"spp\": 5000000"),
+            "$.reference.spp: at most 1000000 samples per pixel, got 5000000",
+        ),
+        (
+            SPEC.replace(
+                "\"seed\": 7",
+                "\"seed\": 7, \"model\": {\"kernel_mean\": \"mc\", \"kernel_mean_samples\": 100000000000}",
+            ),
+            "$.model.kernel_mean_samples = 100000000000: must be in 1..=10000000",
+        ),
     ];
     for (text, want) in cases {
         std::fs::write(d.join("bad.json"), &text).unwrap();

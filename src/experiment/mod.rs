@@ -50,7 +50,6 @@ pub fn describe(plan: &plan::Plan) -> String {
             .iter()
             .filter_map(|e| e.model.map(|m| (m, e.design)))
             .collect();
-        keys.dedup();
         keys.sort_by_key(|k| (k.0, k.1.name()));
         keys.dedup();
         keys.len()

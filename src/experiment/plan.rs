@@ -5,13 +5,11 @@ use super::spec::*;
 use crate::bmc::{BmcModel, DEFAULT_NOISE};
 use crate::estimator::{Method, Prior};
 use crate::integrand::CosPower;
-use crate::io::InputError;
 use crate::kernel::{Kernel, Sobolev, SquaredExponential};
 use crate::kernel_mean::KernelMeanMode;
 use crate::rule::MAX_POINTS;
 use crate::sampling::Design;
 use serde::Serialize;
-use std::path::Path;
 use std::sync::Arc;
 
 /// Largest N for estimators without weights (MC): the sample set and values of one trial
@@ -77,15 +75,6 @@ pub struct Check {
     pub better_index: usize,
     #[serde(skip)]
     pub than_index: usize,
-}
-
-/// Reads and validates an experiment file. Every error names the file.
-pub fn load(path: &Path) -> Result<Plan, InputError> {
-    let file = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).map_err(|e| InputError::new(format!("{file}: cannot read: {e}")))?;
-    let spec = parse(&text).map_err(|m| InputError::new(format!("{file}: {m}")))?;
-    resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))
 }
 
 /// Parses the JSON text; errors say where (`path: message`).
@@ -219,8 +208,9 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ),
         ));
     }
-    let rows = (integrands.len() * estimators.len() * spec.samples.len()) as u64 * spec.trials;
-    if rows > MAX_ROWS {
+    let cells = (integrands.len() * estimators.len() * spec.samples.len()) as u128;
+    let rows = cells * spec.trials as u128;
+    if rows > MAX_ROWS as u128 {
         return Err(err(
             "trials",
             format!(
@@ -386,13 +376,8 @@ fn resolve_estimator(
             let m = e
                 .kernel_mean_samples
                 .unwrap_or(KernelMeanMode::THESIS_SAMPLES as u64);
-            if m == 0 || m > 100_000_000 {
-                return Err(err(
-                    at("kernel_mean_samples"),
-                    format!("must be in 1..=100000000, got {m}"),
-                ));
-            }
-            (KernelMeanMode::MonteCarlo { samples: m as usize }, Some(m))
+            let mode = KernelMeanMode::monte_carlo(m).map_err(|msg| err(at("kernel_mean_samples"), msg))?;
+            (mode, Some(m))
         }
     };
     let (method, prior) = match e.method {

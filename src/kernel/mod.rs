@@ -51,8 +51,9 @@ impl Kernel {
         self.of_squared_distance(0.0)
     }
 
-    /// `∫_a^b κ(2 − 2t) dt`, in closed form (used by the exact kernel mean for the part of the
-    /// `t`-range where the whole circle `x·y = t` lies in the hemisphere).
+    /// `∫_a^b κ(2 − 2t) dt`, in closed form; gives [`Kernel::sphere_mean`]. (It forms `1 − a`
+    /// directly, so it loses relative precision for short intervals next to `t = ±1`; the exact
+    /// kernel mean uses its own cancellation-free cap integral.)
     pub fn integral_over_t(&self, a: f64, b: f64) -> f64 {
         match self {
             Kernel::Sobolev(k) => k.integral_over_t(a, b),
@@ -214,7 +215,7 @@ impl Kernel {
     /// `out[k] = k(p_{start + k}, p_j)` for `k < out.len()`: part of column `j` of the Gram matrix.
     ///
     /// On x86-64 with AVX2 the loop runs vectorised; it performs the same IEEE operations in
-    /// the same order as the scalar loop, so the results are bit-identical on every machine.
+    /// the same order as the scalar loop, so the results do not depend on the vector width.
     pub fn fill_column(&self, pts: &PointsSoa, j: usize, start: usize, out: &mut [f64]) {
         self.fill_against(pts, start, &Vec3::new(pts.x[j], pts.y[j], pts.z[j]), out);
     }

@@ -23,6 +23,21 @@ pub enum KernelMeanMode {
 impl KernelMeanMode {
     /// The thesis's default number of MC samples per `z_i`.
     pub const THESIS_SAMPLES: usize = 10_000;
+    /// Largest M: the directions of one weight set take 24 bytes each, per worker thread.
+    pub const MAX_SAMPLES: usize = 10_000_000;
+
+    /// The MC mode with `samples` directions, checked to lie in `1..=MAX_SAMPLES`.
+    pub fn monte_carlo(samples: u64) -> Result<Self, String> {
+        if samples == 0 || samples > Self::MAX_SAMPLES as u64 {
+            return Err(format!(
+                "must be in 1..={} (M uniform directions take 24 bytes each per worker thread), got {samples}",
+                Self::MAX_SAMPLES
+            ));
+        }
+        Ok(KernelMeanMode::MonteCarlo {
+            samples: samples as usize,
+        })
+    }
 }
 
 /// `z(x) ≈ (2π/M) Σ_j k(x, ω_j)` over the given uniform directions (the thesis's mode).

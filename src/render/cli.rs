@@ -100,12 +100,20 @@ pub fn progress_bar(quiet: bool, unit: &str) -> ProgressBar {
     ProgressBar::new(0).with_style(style)
 }
 
+/// Most samples per pixel for MC (ten times the thesis's 3000-spp reference would already take
+/// minutes per image).
+pub const MAX_MC_SPP: usize = 1_000_000;
+
 /// Validates the sample count of `kind` (`what` names the option).
 pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), InputError> {
     if kind.uses_sets() {
         crate::rule::check_point_count(spp, what)
     } else if spp == 0 {
         Err(InputError::new(format!("{what}: must be at least 1, got 0")))
+    } else if spp > MAX_MC_SPP {
+        Err(InputError::new(format!(
+            "{what}: at most {MAX_MC_SPP} samples per pixel, got {spp}"
+        )))
     } else {
         Ok(())
     }
@@ -150,6 +158,13 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         .into());
     }
     let env = Environment::from_arg(&args.env)?;
+    // Fail on an unwritable output folder now, not after the render.
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+    tempfile::tempfile_in(&dir).map_err(|e| anyhow::anyhow!("{} is not writable: {e}", dir.display()))?;
     let model_start = Instant::now();
     let model = if args.integrator.uses_sets() {
         Some(args.model.model()?)

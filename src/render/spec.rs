@@ -65,6 +65,9 @@ pub struct TablePlan {
 
 /// Default spp list (thesis Table 4.1, Fig. 4.1b).
 pub const DEFAULT_SPP: [usize; 4] = [20, 40, 60, 80];
+/// Most repetitions per spp (a table of more would run for days).
+pub const MAX_REPETITIONS: usize = 10_000;
+
 /// Default repetitions per spp.
 pub const DEFAULT_REPETITIONS: usize = 10;
 /// Default spp of the MC reference (thesis §3.2.7).
@@ -179,6 +182,17 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
         }
         Some(v) => vec![cx.positive(v, "$.repetitions")?; spp.len()],
     };
+    if let Some(k) = repetitions.iter().position(|&r| r > MAX_REPETITIONS) {
+        let path = match top.get("repetitions") {
+            Some(Value::Array(_)) => format!("$.repetitions[{k}]"),
+            _ => "$.repetitions".to_string(),
+        };
+        return Err(cx.err(
+            &path,
+            &(repetitions[k] as u64).into(),
+            &format!("at most {MAX_REPETITIONS} renders per spp"),
+        ));
+    }
 
     let reference = match top.get("reference") {
         None => ReferencePlan {
@@ -190,7 +204,11 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
             cx.known(obj, "$.reference", &["spp", "seed"])?;
             ReferencePlan {
                 spp: cx
-                    .opt(obj, "spp", |v| cx.positive(v, "$.reference.spp"))?
+                    .opt(obj, "spp", |v| {
+                        let n = cx.positive(v, "$.reference.spp")?;
+                        super::cli::check_spp(IntegratorKind::Mc, n, "$.reference.spp")?;
+                        Ok(n)
+                    })?
                     .unwrap_or(DEFAULT_REFERENCE_SPP),
                 seed: cx
                     .opt(obj, "seed", |v| cx.uint(v, "$.reference.seed"))?
@@ -223,6 +241,19 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
             Some(v) => cx.string(v, &format!("{p}.label"))?,
             None => kind_name.clone(),
         };
+        // Labels name the PNG files: two that give the same file name would overwrite each other.
+        let slug = super::table::png_name(&label, 0);
+        if slug == "-0spp.png"
+            || variants
+                .iter()
+                .any(|v| super::table::png_name(&v.label, 0) == slug)
+        {
+            return Err(cx.err(
+                &format!("{p}.label"),
+                &Value::String(label),
+                "needs a letter or digit, and a file name (letters and digits, lower-cased) no other label has",
+            ));
+        }
         if label.is_empty() || variants.iter().any(|v| v.label == label) {
             return Err(cx.err(
                 &format!("{p}.label"),
@@ -356,9 +387,11 @@ fn model(cx: &Cx, value: Option<&Value>, needed: bool) -> Result<(Option<BmcMode
             }
             KernelMeanMode::Exact
         }
-        "mc" => KernelMeanMode::MonteCarlo {
-            samples: samples.unwrap_or(KernelMeanMode::THESIS_SAMPLES),
-        },
+        "mc" => {
+            let m = samples.unwrap_or(KernelMeanMode::THESIS_SAMPLES);
+            KernelMeanMode::monte_carlo(m as u64)
+                .map_err(|msg| cx.err("$.model.kernel_mean_samples", &(m as u64).into(), &msg))?
+        }
         _ => return Err(cx.err("$.model.kernel_mean", &obj["kernel_mean"], "expected exact or mc")),
     };
     let mut json = serde_json::json!({"kernel": kernel.to_json(), "noise": noise, "kernel_mean": mode_name});

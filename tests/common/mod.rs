@@ -31,3 +31,37 @@ pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
         .collect();
     (header, rows)
 }
+
+use std::f64::consts::{PI, TAU};
+use workbench::kernel::Kernel;
+
+/// The Funk–Hecke eigenvalues `λ_l = 2π ∫_{−1}^{1} κ(t) P_l(t) dt` of degrees 0 and 1, in closed
+/// form: `k(x, y) = Σ_l λ_l Σ_m Y_lm(x) Y_lm(y)`, so the RKHS norms are
+/// `‖1‖² = 4π/λ_0` (1 = √(4π) Y_00) and `‖cos θ‖² = (4π/3)/λ_1` (cos θ = √(4π/3) Y_10).
+pub fn funk_hecke_0_1(kernel: &Kernel) -> (f64, f64) {
+    match kernel {
+        Kernel::Sobolev(k) => {
+            // κ = c − (2 − 2t)^p; ∫(2−2t)^p dt = 4^(p+1)/(2(p+1)); ∫t(2−2t)^p dt = −4^(p+1) p/(2(p+1)(p+2)).
+            let (s, p) = (k.s(), k.s() - 1.0);
+            let c = 2f64.powf(2.0 * s - 1.0) / s;
+            let l0 = TAU * (2.0 * c - 4f64.powf(p + 1.0) / (2.0 * (p + 1.0)));
+            let l1 = TAU * 4f64.powf(p + 1.0) * p / (2.0 * (p + 1.0) * (p + 2.0));
+            (l0, l1)
+        }
+        Kernel::SquaredExponential(k) => {
+            // κ = σ² exp((t − 1)/l²); ∫t e^((t−1)/l²) dt = l² e^((t−1)/l²) (t − l²).
+            let (v, l2) = (k.sigma() * k.sigma(), k.length() * k.length());
+            let e = (-2.0 / l2).exp();
+            (
+                TAU * v * l2 * (1.0 - e),
+                TAU * v * l2 * ((1.0 - l2) + e * (1.0 + l2)),
+            )
+        }
+    }
+}
+
+/// `(‖1‖_H, ‖cos θ‖_H)` in the kernel's RKHS on the sphere.
+pub fn rkhs_norms_of_one_and_cos(kernel: &Kernel) -> (f64, f64) {
+    let (l0, l1) = funk_hecke_0_1(kernel);
+    ((4.0 * PI / l0).sqrt(), (4.0 * PI / 3.0 / l1).sqrt())
+}

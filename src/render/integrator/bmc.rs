@@ -107,7 +107,7 @@ impl BmcSets {
         let (sin, cos) = phi.sin_cos();
         let mut sum = [0.0; 3];
         for (v, w) in set.points.iter().zip(&set.weights.weights) {
-            let r = Vec3::new(cos * v.x - sin * v.y, sin * v.x + cos * v.y, v.z);
+            let r = crate::geometry::rotate_about_z_by(v, sin, cos);
             let li = p.incident(scene, env, &r);
             let g = w * v.z / PI;
             for c in 0..3 {
