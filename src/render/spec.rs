@@ -241,6 +241,13 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
             Some(v) => cx.string(v, &format!("{p}.label"))?,
             None => kind_name.clone(),
         };
+        if label.is_empty() || variants.iter().any(|v| v.label == label) {
+            return Err(cx.err(
+                &format!("{p}.label"),
+                &Value::String(label),
+                "labels must be non-empty and unique",
+            ));
+        }
         // Labels name the PNG files: two that give the same file name would overwrite each other.
         let slug = super::table::png_name(&label, 0);
         if slug == "-0spp.png"
@@ -252,13 +259,6 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
                 &format!("{p}.label"),
                 &Value::String(label),
                 "needs a letter or digit, and a file name (letters and digits, lower-cased) no other label has",
-            ));
-        }
-        if label.is_empty() || variants.iter().any(|v| v.label == label) {
-            return Err(cx.err(
-                &format!("{p}.label"),
-                &Value::String(label),
-                "labels must be non-empty and unique",
             ));
         }
         for key in ["gps", "rotate"] {
