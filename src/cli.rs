@@ -69,59 +69,98 @@ enum KernelMeanName {
 }
 
 /// Kernel, noise and kernel-mean options shared by the commands that build BMC weights.
+///
+/// Every option is optional so that one that does not apply (`--s` with `--kernel se`,
+/// `--kernel-mean-samples` with the exact mean, any of them with an MC integrator) is an error
+/// rather than silently ignored; defaults are filled in by [`ModelArgs::model`].
 #[derive(clap::Args, Debug, Clone)]
 pub struct ModelArgs {
-    /// Covariance kernel.
-    #[arg(long, value_enum, default_value = "sobolev")]
-    kernel: KernelName,
-    /// Sobolev smoothness s, in (1, 2).
-    #[arg(long, allow_negative_numbers = true, default_value_t = Sobolev::DEFAULT_S)]
-    s: f64,
-    /// Squared-exponential σ_f.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
-    sigma: f64,
-    /// Squared-exponential length scale l.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
-    length: f64,
-    /// Observation noise σ_n² added to the diagonal of K.
-    #[arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_NOISE)]
-    noise: f64,
-    /// Kernel mean: exact (tabulated) or the thesis's plain MC estimate per point.
-    #[arg(long, value_enum, default_value = "exact")]
-    kernel_mean: KernelMeanName,
-    /// Uniform samples per kernel mean in `--kernel-mean mc`.
-    #[arg(long, default_value_t = KernelMeanMode::THESIS_SAMPLES)]
-    kernel_mean_samples: usize,
+    /// Covariance kernel [default: sobolev].
+    #[arg(long, value_enum)]
+    kernel: Option<KernelName>,
+    /// Sobolev smoothness s, in (1, 2) [default: 1.4].
+    #[arg(long, allow_negative_numbers = true)]
+    s: Option<f64>,
+    /// Squared-exponential σ_f [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    sigma: Option<f64>,
+    /// Squared-exponential length scale l [default: 0.5].
+    #[arg(long, allow_negative_numbers = true)]
+    length: Option<f64>,
+    /// Observation noise σ_n² added to the diagonal of K [default: 0.01].
+    #[arg(long, allow_negative_numbers = true)]
+    noise: Option<f64>,
+    /// Kernel mean: exact (tabulated) or the thesis's plain MC estimate per point [default: exact].
+    #[arg(long, value_enum)]
+    kernel_mean: Option<KernelMeanName>,
+    /// Uniform samples per kernel mean with `--kernel-mean mc` [default: 10000].
+    #[arg(long)]
+    kernel_mean_samples: Option<usize>,
 }
 
 impl ModelArgs {
     fn kernel(&self) -> Result<Kernel, InputError> {
-        let k = match self.kernel {
-            KernelName::Sobolev => Sobolev::new(self.s).map(Kernel::Sobolev),
+        let name = self.kernel.unwrap_or(KernelName::Sobolev);
+        let k = match name {
+            KernelName::Sobolev => {
+                if let Some(flag) = self.sigma.map(|_| "--sigma").or(self.length.map(|_| "--length")) {
+                    return Err(InputError::new(format!(
+                        "{flag}: applies to --kernel se, not sobolev"
+                    )));
+                }
+                Sobolev::new(self.s.unwrap_or(Sobolev::DEFAULT_S)).map(Kernel::Sobolev)
+            }
             KernelName::Se => {
-                SquaredExponential::new(self.sigma, self.length).map(Kernel::SquaredExponential)
+                if self.s.is_some() {
+                    return Err(InputError::new("--s: applies to --kernel sobolev, not se"));
+                }
+                SquaredExponential::new(self.sigma.unwrap_or(1.0), self.length.unwrap_or(0.5))
+                    .map(Kernel::SquaredExponential)
             }
         };
-        k.map_err(|e| InputError::new(format!("--kernel {}: {e}", k_name(self.kernel))))
+        k.map_err(|e| InputError::new(format!("--kernel {}: {e}", k_name(name))))
     }
 
     fn mode(&self) -> Result<KernelMeanMode, InputError> {
-        match self.kernel_mean {
+        match self.kernel_mean.unwrap_or(KernelMeanName::Exact) {
+            KernelMeanName::Exact if self.kernel_mean_samples.is_some() => Err(InputError::new(
+                "--kernel-mean-samples: applies to --kernel-mean mc, not exact",
+            )),
             KernelMeanName::Exact => Ok(KernelMeanMode::Exact),
-            KernelMeanName::Mc => KernelMeanMode::monte_carlo(self.kernel_mean_samples as u64)
-                .map_err(|m| InputError::new(format!("--kernel-mean-samples: {m}"))),
+            KernelMeanName::Mc => {
+                let m = self.kernel_mean_samples.unwrap_or(KernelMeanMode::THESIS_SAMPLES);
+                KernelMeanMode::monte_carlo(m as u64)
+                    .map_err(|msg| InputError::new(format!("--kernel-mean-samples: {msg}")))
+            }
         }
     }
 
     /// The validated model (builds the kernel-mean table).
     pub fn model(&self) -> Result<BmcModel, InputError> {
         let kernel = self.kernel()?;
-        let noise = validate_noise(self.noise).map_err(|m| InputError::new(format!("--noise: {m}")))?;
+        let noise = validate_noise(self.noise.unwrap_or(DEFAULT_NOISE))
+            .map_err(|m| InputError::new(format!("--noise: {m}")))?;
         Ok(BmcModel::new(kernel, noise, self.mode()?))
     }
 
+    /// The first model option given on the command line, if any (for commands and integrators
+    /// that do not use a model).
+    pub fn given(&self) -> Option<&'static str> {
+        [
+            ("--kernel", self.kernel.is_some()),
+            ("--s", self.s.is_some()),
+            ("--sigma", self.sigma.is_some()),
+            ("--length", self.length.is_some()),
+            ("--noise", self.noise.is_some()),
+            ("--kernel-mean", self.kernel_mean.is_some()),
+            ("--kernel-mean-samples", self.kernel_mean_samples.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(flag, given)| given.then_some(flag))
+    }
+
     fn mode_name(&self) -> &'static str {
-        match self.kernel_mean {
+        match self.kernel_mean.unwrap_or(KernelMeanName::Exact) {
             KernelMeanName::Exact => "exact",
             KernelMeanName::Mc => "mc",
         }
@@ -193,7 +232,7 @@ pub fn main() -> anyhow::Result<ExitCode> {
         Command::Run(args) => run(args),
         Command::Validate(args) => {
             let plan = crate::experiment::load_plan(&args.file, &Default::default())?;
-            print!("{}", crate::experiment::describe(&plan));
+            crate::io::stdout(&crate::experiment::describe(&plan))?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Render(args) => crate::render::cli::run(args),
@@ -212,7 +251,7 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     let model = args.model.model()?;
     let weights = crate::rule::compute_rule(&points, &model, args.seed)?;
     for w in &weights.diagnostics.warnings {
-        eprintln!("warning: {}", w.message());
+        crate::status!("warning: {}", w.message());
     }
     let csv = crate::rule::rule_csv(&points, &weights.weights);
     let summary = crate::rule::rule_summary(&model, args.model.mode_name(), &points, &weights);
@@ -225,7 +264,7 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     }
     if args.out.is_some() {
         let d = &weights.diagnostics;
-        eprintln!(
+        crate::status!(
             "rule: n = {}, Σw = {:.6} (2π = {:.6}), posterior sd = {:.3e}, {} negative weights",
             d.n,
             d.weight_sum,
@@ -247,16 +286,17 @@ fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     };
     let plan = ex::load_plan(&args.file, &overrides)?;
     let report = ex::run_plan(&plan, &overrides)?;
-    print!("{}", ex::format_report(&plan, &report));
+    crate::io::stdout(&ex::format_report(&plan, &report))?;
     for (message, count) in &report.warnings {
-        eprintln!("warning: {count} weight set(s): {message}");
+        crate::status!("warning: {count} weight set(s): {message}");
     }
-    println!(
-        "wrote {} ({:.2} s on {} threads)",
+    crate::io::stdout(&format!(
+        "wrote {} ({:.2} s on {} thread{})\n",
         report.out_dir.display(),
         report.wall_seconds,
-        report.threads
-    );
+        report.threads,
+        if report.threads == 1 { "" } else { "s" }
+    ))?;
     let failed = report.checks.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)

@@ -24,7 +24,11 @@ impl CosPower {
         if rest.starts_with('+') || rest.len() > 1 && rest.starts_with('0') {
             return None;
         }
-        rest.parse::<u32>().ok().filter(|&k| k <= 64).map(CosPower::new)
+        // Any k that `powi` takes (k ≤ 2³¹ − 1).
+        rest.parse::<u32>()
+            .ok()
+            .filter(|&k| k <= i32::MAX as u32)
+            .map(CosPower::new)
     }
 
     /// `cos` for k = 1, `cos<k>` otherwise.
@@ -69,7 +73,12 @@ mod tests {
         assert_eq!(CosPower::parse("cos"), Some(CosPower::new(1)));
         assert_eq!(CosPower::parse("cos3"), Some(CosPower::new(3)));
         assert_eq!(CosPower::parse("cos0"), Some(CosPower::new(0)));
-        for bad in ["cos1x", "sin", "cos-1", "cos+2", "cos02", ""] {
+        assert_eq!(CosPower::parse("cos100"), Some(CosPower::new(100)));
+        assert_eq!(
+            CosPower::parse("cos2147483647"),
+            Some(CosPower::new(i32::MAX as u32))
+        );
+        for bad in ["cos1x", "sin", "cos-1", "cos+2", "cos02", "", "cos2147483648"] {
             assert_eq!(CosPower::parse(bad), None, "{bad}");
         }
         for k in 0..6 {

@@ -44,3 +44,29 @@ impl InputError {
         InputError(message.into())
     }
 }
+
+/// Writes `s` to standard output. A reader that has gone away (`| head`) gives an
+/// `io::ErrorKind::BrokenPipe` error, which the binary turns into a quiet exit.
+pub fn stdout(s: &str) -> std::io::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(s.as_bytes())?;
+    out.flush()
+}
+
+/// Whether an error was caused by writing to a closed pipe.
+pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// A status line on standard error (progress notes, warnings). Unlike `eprintln!` it never
+/// panics: if standard error is closed there is nowhere left to report to.
+#[macro_export]
+macro_rules! status {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}

@@ -91,6 +91,18 @@ fn bad_rule_input_is_exit_2_with_a_clear_message() {
         ),
         (&["rule", "--kernel", "matern"], "matern"),
         (
+            &["rule", "--kernel", "se", "--s", "1.3"],
+            "--s: applies to --kernel sobolev, not se",
+        ),
+        (
+            &["rule", "--length", "0.3"],
+            "--length: applies to --kernel se, not sobolev",
+        ),
+        (
+            &["rule", "--kernel-mean-samples", "10"],
+            "--kernel-mean-samples: applies to --kernel-mean mc",
+        ),
+        (
             &[
                 "rule",
                 "--kernel-mean",
@@ -106,4 +118,23 @@ fn bad_rule_input_is_exit_2_with_a_clear_message() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
     }
+}
+
+/// `workbench rule … | head -1`: a reader that goes away ends the command quietly (exit 0, no
+/// panic), as for any Unix filter.
+#[test]
+fn a_closed_stdout_is_a_quiet_exit() {
+    use std::process::{Command, Stdio};
+    // ~250 KB of CSV: more than a pipe holds, so the writer meets the closed pipe.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_workbench"))
+        .args(["rule", "--n", "3000"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked") && !err.contains("Error"), "{err}");
 }

@@ -311,7 +311,7 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
                 "{ \"label\": \"MC\", \"method\": \"mc\" }",
                 "{ \"label\": \"MC\", \"method\": \"mc\", \"noise\": 0.1 }",
             ),
-            "estimators[0].noise: is not used by method mc",
+            "estimators[0].noise: 0.1 is not used by method mc",
         ),
         (
             SMALL.replace("\"alpha\": 0.05", "\"alpha\": 1.5"),
@@ -327,6 +327,16 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
                 "{ \"label\": \"BMC\", \"method\": \"bmc\", \"kernel_mean\": \"mc\", \"kernel_mean_samples\": 0 }",
             ),
             "estimators[2].kernel_mean_samples: must be in 1..=10000000",
+        ),
+        (
+            SMALL.replace("\"prior\": 0.2", "\"prior\": \"flat\""),
+            "estimators[3].prior: invalid value: string \"flat\", expected \"analytic\" or a number",
+        ),
+        (SMALL.replace("\"from_n\": 16", "\"from_n\": 0"), "checks[0].from_n: must be at least 1, got 0"),
+        ("[]".into(), "the file must hold one JSON object (the experiment), got an array"),
+        (
+            SMALL.replace("{ \"label\": \"MC\", \"method\": \"mc\" }", "{ \"label\": \"MC\", \"method\": \"mc\", \"prior\": 0.5 }"),
+            "estimators[0].prior: 0.5 is not used by method mc",
         ),
         (
             SMALL.replace("\"method\": \"bmcp\"", "\"method\": \"qmc\""),
@@ -354,6 +364,13 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("missing.json"));
     write(dir.path(), "ok.json", SMALL);
+    let o = workbench(dir.path(), &["run", "ok.json", "--trials", "1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--trials 1: the file's checks need at least 2 trials"),
+        "{}",
+        stderr(&o)
+    );
     let o = workbench(dir.path(), &["run", "ok.json", "--threads", "0"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--threads"));
@@ -412,4 +429,25 @@ fn every_shipped_experiment_passes_its_checks() {
         ran += 1;
     }
     assert!(ran >= 4, "only {ran} experiments found");
+}
+
+/// `cos<k>` takes any k ≥ 0 (the truth is 2π/(k+1)).
+#[test]
+fn high_powers_of_cos_are_integrands() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SMALL
+        .replace(r#"["cos", "cos3"]"#, r#"["cos100"]"#)
+        .replace("\"trials\": 24", "\"trials\": 4");
+    let spec = spec.replace(
+        r#"[ { "better": "BMC", "than": "MC", "from_n": 16, "alpha": 0.05 } ]"#,
+        "[]",
+    );
+    write(dir.path(), "high.json", &spec);
+    let o = workbench(dir.path(), &["run", "high.json", "-q", "--out", "o"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (_, rows) = read_csv(&dir.path().join("o/trials.csv"));
+    assert!(
+        rows.iter()
+            .all(|r| r[0] == "cos100" && f(&r[7]) == std::f64::consts::TAU / 101.0)
+    );
 }

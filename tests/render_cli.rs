@@ -42,6 +42,31 @@ fn bad_input_is_exit_2_with_a_clear_message() {
     );
     assert_input_error(&["render", "--spp", "20000", "--out", "a.exr"], &["--spp", "GiB"]);
     assert_input_error(&["render", "--gps", "0", "--out", "a.exr"], &["--gps"]);
+    // Options that do not apply are errors, not silently ignored.
+    assert_input_error(
+        &["render", "--integrator", "mc", "--gps", "3", "--out", "a.exr"],
+        &["--gps: applies to --integrator bmc and bmcp, not mc"],
+    );
+    assert_input_error(
+        &["render", "--integrator", "mc-cos", "--s", "1.5", "--out", "a.exr"],
+        &["--s: applies to --integrator bmc and bmcp"],
+    );
+    assert_input_error(
+        &["render", "--error-colours", "grey", "--out", "a.exr"],
+        &["--reference"],
+    );
+    assert_input_error(
+        &[
+            "render",
+            "--spp",
+            "2000000",
+            "--integrator",
+            "mc",
+            "--out",
+            "a.exr",
+        ],
+        &["at most 1000000"],
+    );
     assert_input_error(
         &["render", "--env", "missing.hdr", "--out", "a.exr"],
         &["--env missing.hdr", "cannot read"],
@@ -159,4 +184,37 @@ fn constant_hdr_map_matches_the_white_environment() {
     let rmse: f64 = stdout.trim().strip_prefix("rmse = ").unwrap().parse().unwrap();
     assert!(rmse < 1e-6, "{stdout}");
     assert!(d.join("map-error.png").exists());
+}
+
+/// Rendering into the reference's own file is refused, and the reference survives.
+#[test]
+fn out_may_not_overwrite_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = [
+        "render",
+        "-q",
+        "--integrator",
+        "mc",
+        "--spp",
+        "2",
+        "--width",
+        "8",
+        "--height",
+        "8",
+    ];
+    let o = workbench(d, &[&base[..], &["--out", "ref.exr"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read(d.join("ref.exr")).unwrap();
+    let o = workbench(
+        d,
+        &[
+            &base[..],
+            &["--seed", "1", "--reference", "ref.exr", "--out", "./ref.exr"],
+        ]
+        .concat(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is the --reference file"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(d.join("ref.exr")).unwrap(), before);
 }

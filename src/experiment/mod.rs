@@ -33,6 +33,11 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
         if t == 0 {
             return Err(InputError::new("--trials: must be at least 1, got 0"));
         }
+        if t < 2 && !spec.checks.is_empty() {
+            return Err(InputError::new(format!(
+                "--trials {t}: the file's checks need at least 2 trials for their paired test"
+            )));
+        }
         spec.trials = t;
     }
     if overrides.threads == Some(0) {

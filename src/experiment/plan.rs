@@ -79,13 +79,23 @@ pub struct Check {
 
 /// Parses the JSON text; errors say where (`path: message`).
 pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
-    let de = &mut serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(de).map_err(|e| {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("malformed JSON: {e}"))?;
+    if !value.is_object() {
+        return Err(format!(
+            "the file must hold one JSON object (the experiment), got {}",
+            match value {
+                serde_json::Value::Array(_) => "an array",
+                serde_json::Value::String(_) => "a string",
+                serde_json::Value::Number(_) => "a number",
+                serde_json::Value::Bool(_) => "a boolean",
+                _ => "null",
+            }
+        ));
+    }
+    serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
-        if inner.is_syntax() || inner.is_eof() {
-            format!("malformed JSON: {inner}")
-        } else if path == "." {
+        if path == "." {
             inner.to_string()
         } else {
             format!("{path}: {inner}")
@@ -108,7 +118,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         let f = CosPower::parse(name).ok_or_else(|| {
             err(
                 format!("integrands[{i}]"),
-                format!("unknown integrand {name:?} (expected cos, cos2, cos3, … cos<k>)"),
+                format!("unknown integrand {name:?} (expected cos, cos2, cos3, …: cos<k> with k a whole number from 0 to 2147483647)"),
             )
         })?;
         if integrands.contains(&f) {
@@ -241,6 +251,9 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             return Err(err(at("than"), format!("{:?} is compared with itself", c.than)));
         }
         let from_n = c.from_n.unwrap_or(1);
+        if from_n == 0 {
+            return Err(err(at("from_n"), "must be at least 1, got 0"));
+        }
         if !spec.samples.iter().any(|&n| n >= from_n) {
             return Err(err(
                 at("from_n"),
@@ -309,22 +322,30 @@ fn resolve_estimator(
         DesignName::Uniform => Design::Uniform,
         DesignName::Cosine => Design::Cosine,
     };
-    let unused = |field: &str| {
+    let unused = |field: &str, value: String| {
         err(
             at(field),
-            format!("is not used by method {:?}", e.method).to_lowercase(),
+            format!(
+                "{value} is not used by method {}",
+                format!("{:?}", e.method).to_lowercase()
+            ),
         )
     };
+    // The value as it stood in the file, for the message.
+    fn json<T: Serialize>(v: &Option<T>) -> Option<String> {
+        v.as_ref()
+            .map(|v| serde_json::to_string(v).expect("spec values serialize"))
+    }
     if e.method == MethodName::Mc {
         for (field, given) in [
-            ("kernel", e.kernel.is_some()),
-            ("noise", e.noise.is_some()),
-            ("kernel_mean", e.kernel_mean.is_some()),
-            ("kernel_mean_samples", e.kernel_mean_samples.is_some()),
-            ("prior", e.prior.is_some()),
+            ("kernel", json(&e.kernel)),
+            ("noise", json(&e.noise)),
+            ("kernel_mean", json(&e.kernel_mean)),
+            ("kernel_mean_samples", json(&e.kernel_mean_samples)),
+            ("prior", json(&e.prior)),
         ] {
-            if given {
-                return Err(unused(field));
+            if let Some(value) = given {
+                return Err(unused(field, value));
             }
         }
         let settings = ResolvedSettings {
@@ -347,8 +368,8 @@ fn resolve_estimator(
             None,
         ));
     }
-    if e.method == MethodName::Bmc && e.prior.is_some() {
-        return Err(unused("prior"));
+    if let (MethodName::Bmc, Some(value)) = (e.method, json(&e.prior)) {
+        return Err(unused("prior", value));
     }
 
     let kernel = match e.kernel.unwrap_or(KernelSpec::Sobolev { s: None }) {

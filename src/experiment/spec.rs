@@ -92,11 +92,41 @@ pub enum KernelSpec {
 }
 
 /// `"analytic"` or a number.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum PriorSpec {
     Named(PriorName),
     Value(f64),
+}
+
+impl<'de> Deserialize<'de> for PriorSpec {
+    /// By hand rather than `untagged`, whose error ("did not match any variant") hides what is
+    /// accepted.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = PriorSpec;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("\"analytic\" or a number")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<PriorSpec, E> {
+                match v {
+                    "analytic" => Ok(PriorSpec::Named(PriorName::Analytic)),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)),
+                }
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<PriorSpec, E> {
+                Ok(PriorSpec::Value(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<PriorSpec, E> {
+                Ok(PriorSpec::Value(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<PriorSpec, E> {
+                Ok(PriorSpec::Value(v as f64))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]

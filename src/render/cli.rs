@@ -33,9 +33,9 @@ pub struct RenderArgs {
     /// Samples per pixel (hemisphere directions per estimate).
     #[arg(long, default_value_t = 40)]
     pub spp: usize,
-    /// Number of BMC sample sets ("GPs"); one is picked at random per pixel.
-    #[arg(long, default_value_t = 4)]
-    pub gps: usize,
+    /// Number of BMC sample sets ("GPs"); one is picked at random per pixel [default: 4].
+    #[arg(long)]
+    pub gps: Option<usize>,
     /// Do not rotate the BMC sample set by a random azimuth per pixel.
     #[arg(long)]
     pub no_rotate: bool,
@@ -58,13 +58,13 @@ pub struct RenderArgs {
     #[arg(long)]
     pub reference: Option<PathBuf>,
     /// Error image scale: by the largest error, or absolute (by --error-max).
-    #[arg(long, value_enum, default_value = "normalised")]
+    #[arg(long, requires = "reference", value_enum, default_value = "normalised")]
     pub error_scale: ErrorScale,
     /// Error norm shown at full intensity with `--error-scale absolute`.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, requires = "reference", default_value_t = 0.1)]
     pub error_max: f64,
     /// Error image colours.
-    #[arg(long, value_enum, default_value = "viridis")]
+    #[arg(long, requires = "reference", value_enum, default_value = "viridis")]
     pub error_colours: ColourMap,
     #[command(flatten)]
     pub model: ModelArgs,
@@ -76,9 +76,19 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+/// Sample sets of `bmc`/`bmcp` when `--gps` is not given.
+pub const DEFAULT_GPS: usize = 4;
+
 /// Runs `workbench render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     match &args.spec {
+        Some(_) if args.model.given().is_some() => {
+            let flag = args.model.given().unwrap_or_default();
+            return Err(InputError::new(format!(
+                "{flag}: applies to single images; a table takes its model from the spec's \"model\""
+            ))
+            .into());
+        }
         Some(spec) => {
             let plan = super::spec::load(spec)?;
             super::table::run(&plan, &args.results_dir, args.quiet)?;
@@ -149,13 +159,43 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     }
     check_size(args.width, args.height)?;
     check_spp(args.integrator, args.spp, "--spp")?;
-    check_gps(args.gps, "--gps")?;
+    if !args.integrator.uses_sets() {
+        // Options of the BMC integrators are errors with MC, not silently ignored.
+        let given = args
+            .gps
+            .map(|_| "--gps")
+            .or(args.no_rotate.then_some("--no-rotate"))
+            .or(args.model.given());
+        if let Some(flag) = given {
+            return Err(InputError::new(format!(
+                "{flag}: applies to --integrator bmc and bmcp, not {}",
+                args.integrator.name()
+            ))
+            .into());
+        }
+    }
+    let gps = args.gps.unwrap_or(DEFAULT_GPS);
+    check_gps(gps, "--gps")?;
     if !(args.error_max.is_finite() && args.error_max > 0.0) {
         return Err(InputError::new(format!(
             "--error-max: must be finite and > 0, got {}",
             args.error_max
         ))
         .into());
+    }
+    if let Some(reference) = &args.reference {
+        // Rendering into the reference's own file would replace it with a noisier image.
+        let same = match (std::fs::canonicalize(out), std::fs::canonicalize(reference)) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        if same {
+            return Err(InputError::new(format!(
+                "--out {}: is the --reference file; rendering would overwrite it",
+                out.display()
+            ))
+            .into());
+        }
     }
     let env = Environment::from_arg(&args.env)?;
     // Fail on an unwritable output folder now, not after the render.
@@ -190,7 +230,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     let integrator = Integrator::build(
         args.integrator,
         args.spp,
-        args.gps,
+        gps,
         !args.no_rotate,
         model.as_ref(),
         args.seed,
@@ -204,7 +244,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     write_atomic(out, &image.to_exr()?)?;
     let png = sibling_png(out, "");
     write_atomic(&png, &image.to_png()?)?;
-    eprintln!(
+    crate::status!(
         "render: {} {} spp, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
         args.integrator,
@@ -220,8 +260,8 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             &err,
             &image.error_png(r, args.error_scale, args.error_max, args.error_colours)?,
         )?;
-        println!("rmse = {:.6e}", image.rmse(r));
-        eprintln!("render: error image → {}", err.display());
+        crate::io::stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
+        crate::status!("render: error image → {}", err.display());
     }
     Ok(())
 }
@@ -234,7 +274,7 @@ pub fn warn_numerics(integrator: &Integrator) {
             for w in &set.weights.diagnostics.warnings {
                 let m = w.message();
                 if !seen.contains(&m) {
-                    eprintln!("warning: sample set {s}: {m}");
+                    crate::status!("warning: sample set {s}: {m}");
                     seen.push(m);
                 }
             }

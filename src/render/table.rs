@@ -114,8 +114,8 @@ pub fn run(plan: &TablePlan, results: &Path, quiet: bool) -> anyhow::Result<()> 
     let md = table_md(plan, &cells);
     write_atomic(&out.join("table.md"), md.as_bytes())?;
     write_atomic(&out.join("rmse_vs_spp.svg"), plot_svg(plan, &cells)?.as_bytes())?;
-    eprint!("{md}");
-    eprintln!("render: table → {}", out.display());
+    crate::io::stdout(&md)?;
+    crate::status!("render: table → {}", out.display());
     Ok(())
 }
 
@@ -126,15 +126,15 @@ fn reference(plan: &TablePlan, renderer: &Renderer, results: &Path, quiet: bool)
     if path.exists() {
         match Image::read(&path, "reference cache") {
             Ok(image) if (image.width, image.height) == (plan.width, plan.height) => {
-                eprintln!("render: reference from cache {}", path.display());
+                crate::status!("render: reference from cache {}", path.display());
                 return Ok(image);
             }
             // A damaged cache entry is replaced, not fatal.
-            Ok(_) => eprintln!(
+            Ok(_) => crate::status!(
                 "warning: {} has the wrong size; rendering it again",
                 path.display()
             ),
-            Err(e) => eprintln!("warning: {e}; rendering it again"),
+            Err(e) => crate::status!("warning: {e}; rendering it again"),
         }
     }
     let start = Instant::now();
@@ -147,7 +147,7 @@ fn reference(plan: &TablePlan, renderer: &Renderer, results: &Path, quiet: bool)
     bar.finish_and_clear();
     write_atomic(&path, &image.to_exr()?)?;
     write_atomic(&path.with_extension("json"), description.as_bytes())?;
-    eprintln!(
+    crate::status!(
         "render: reference (mc, {} spp) in {:.1} s → {}",
         plan.reference.spp,
         start.elapsed().as_secs_f64(),
