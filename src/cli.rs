@@ -254,25 +254,37 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         crate::status!("warning: {}", w.message());
     }
     let csv = crate::rule::rule_csv(&points, &weights.weights);
-    let summary = crate::rule::rule_summary(&model, args.model.mode_name(), &points, &weights);
     match &args.out {
         Some(path) => write_atomic(path, &csv)?,
-        None => std::io::Write::write_all(&mut std::io::stdout().lock(), &csv)?,
+        None => crate::io::stdout(std::str::from_utf8(&csv).expect("the CSV is ASCII"))?,
     }
     if let Some(path) = &args.summary {
-        write_atomic(path, &serde_json::to_vec_pretty(&summary)?)?;
+        // Everything needed to make the same rule again.
+        let source = match &args.points {
+            Some(file) => serde_json::json!({ "points": file.display().to_string() }),
+            None => {
+                serde_json::json!({ "generated": { "n": args.n, "seed": args.seed, "design": Design::from(args.design).name() } })
+            }
+        };
+        let mut summary = crate::rule::rule_summary(&model, args.model.mode_name(), &points, &weights);
+        summary["source"] = source;
+        summary["seed"] = serde_json::json!(args.seed);
+        if let crate::bmc::KernelMeans::MonteCarlo { samples } = model.means {
+            summary["kernel_mean_samples"] = serde_json::json!(samples);
+        }
+        let mut bytes = serde_json::to_vec_pretty(&summary)?;
+        bytes.push(b'\n');
+        write_atomic(path, &bytes)?;
     }
-    if args.out.is_some() {
-        let d = &weights.diagnostics;
-        crate::status!(
-            "rule: n = {}, Σw = {:.6} (2π = {:.6}), posterior sd = {:.3e}, {} negative weights",
-            d.n,
-            d.weight_sum,
-            std::f64::consts::TAU,
-            d.posterior_variance.max(0.0).sqrt(),
-            d.negative_weights
-        );
-    }
+    let d = &weights.diagnostics;
+    crate::status!(
+        "rule: n = {}, Σw = {:.6} (2π = {:.6}), posterior sd = {:.3e}, {} negative weights",
+        d.n,
+        d.weight_sum,
+        std::f64::consts::TAU,
+        d.posterior_variance.max(0.0).sqrt(),
+        d.negative_weights
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -119,7 +119,20 @@ pub fn manifest_json(plan: &Plan, threads: usize, wall_seconds: f64, checks: &[C
         "threads": threads,
         "wall_seconds": wall_seconds,
         "checks": checks.iter().map(|c| serde_json::json!({
-            "better": c.check.better, "than": c.check.than, "passed": c.passed()
+            "better": c.check.better,
+            "than": c.check.than,
+            "from_n": c.check.from_n,
+            "alpha": c.check.alpha,
+            "passed": c.passed(),
+            "cells": c.cells.iter().map(|x| serde_json::json!({
+                "integrand": plan.integrands[x.integrand].name(),
+                "n": x.n,
+                "mean_abs_error_better": x.mean_better,
+                "mean_abs_error_than": x.mean_than,
+                "t": x.test.t,
+                "p_value": x.test.p_value,
+                "passed": x.passed,
+            })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
         "files": {
             "trials.csv": "one row per (integrand, estimator, n, trial)",

@@ -83,10 +83,19 @@ pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> anyhow::
                 f64::NAN
             };
             let label = format!("{} mean, 10–90% band (slope {slope:.2})", e.label);
-            chart
+            let anno = chart
                 .draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))?
-                .label(label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3)));
+                .label(label);
+            // The legend sample: the line with the estimator's marker in the middle.
+            let line = move |x: i32, y: i32| {
+                EmptyElement::at((x, y)) + PathElement::new(vec![(0, 0), (24, 0)], color.stroke_width(3))
+            };
+            match ei % 4 {
+                0 => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 4, color.filled())),
+                1 => anno.legend(move |(x, y)| line(x, y) + TriangleMarker::new((12, 0), 6, color.filled())),
+                2 => anno.legend(move |(x, y)| line(x, y) + Cross::new((12, 0), 5, color.stroke_width(2))),
+                _ => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 5, color.stroke_width(2))),
+            };
             // A distinct marker per estimator, so the series stay apart in grey print.
             match ei % 4 {
                 0 => chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, color.filled())))?,
@@ -104,7 +113,13 @@ pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> anyhow::
             chart
                 .draw_series(DashedLineSeries::new(line, 6, 4, grey.stroke_width(2)))?
                 .label("reference ∝ N^(−1/2)")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], grey.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    // Dashed, as in the plot.
+                    EmptyElement::at((x, y))
+                        + PathElement::new(vec![(0, 0), (7, 0)], grey.stroke_width(2))
+                        + PathElement::new(vec![(11, 0), (18, 0)], grey.stroke_width(2))
+                        + PathElement::new(vec![(22, 0), (24, 0)], grey.stroke_width(2))
+                });
         }
         chart
             .configure_series_labels()
