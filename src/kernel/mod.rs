@@ -214,7 +214,7 @@ impl PointsSoa {
 impl Kernel {
     /// `out[k] = k(p_{start + k}, p_j)` for `k < out.len()`: part of column `j` of the Gram matrix.
     ///
-    /// On x86-64 with AVX2 the loop runs vectorised; it performs the same IEEE operations in
+    /// On x86-64 with AVX-512F or AVX2 the loop runs vectorised; it performs the same IEEE operations in
     /// the same order as the scalar loop, so the results do not depend on the vector width.
     pub fn fill_column(&self, pts: &PointsSoa, j: usize, start: usize, out: &mut [f64]) {
         self.fill_against(pts, start, &Vec3::new(pts.x[j], pts.y[j], pts.z[j]), out);
@@ -224,12 +224,23 @@ impl Kernel {
     pub fn fill_against(&self, pts: &PointsSoa, start: usize, q: &Vec3, out: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU supports AVX-512F, checked just above.
+                unsafe { self.fill_against_avx512(pts, start, q, out) };
+                return;
+            }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 unsafe { self.fill_against_avx2(pts, start, q, out) };
                 return;
             }
         }
+        self.fill_against_generic(pts, start, q, out);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn fill_against_avx512(&self, pts: &PointsSoa, start: usize, q: &Vec3, out: &mut [f64]) {
         self.fill_against_generic(pts, start, q, out);
     }
 
