@@ -187,6 +187,8 @@ pub struct BmcModel {
     pub means: KernelMeans,
     /// `V̂`, always exact (the MC mode estimates only the `z_i`, as the thesis did).
     pub prior_variance: f64,
+    /// The kernel-mean table's accuracy warning, if any.
+    table_warning: Option<String>,
 }
 
 impl BmcModel {
@@ -194,6 +196,7 @@ impl BmcModel {
     pub fn new(kernel: Kernel, noise: f64, mode: crate::kernel_mean::KernelMeanMode) -> Self {
         let table = std::sync::Arc::new(crate::kernel_mean::KernelMeanTable::new(&kernel));
         let prior_variance = table.prior_variance();
+        let table_warning = table.accuracy_warning();
         let means = match mode {
             crate::kernel_mean::KernelMeanMode::Exact => KernelMeans::Exact(table),
             crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => KernelMeans::MonteCarlo { samples },
@@ -203,7 +206,14 @@ impl BmcModel {
             noise,
             means,
             prior_variance,
+            table_warning,
         }
+    }
+
+    /// A warning if the kernel-mean table is less accurate than its target (see
+    /// [`crate::kernel_mean::KernelMeanTable::accuracy_warning`]); callers report it.
+    pub fn accuracy_warning(&self) -> Option<&str> {
+        self.table_warning.as_deref()
     }
 
     /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).

@@ -140,7 +140,11 @@ impl ModelArgs {
         let kernel = self.kernel()?;
         let noise = validate_noise(self.noise.unwrap_or(DEFAULT_NOISE))
             .map_err(|m| InputError::new(format!("--noise: {m}")))?;
-        Ok(BmcModel::new(kernel, noise, self.mode()?))
+        let model = BmcModel::new(kernel, noise, self.mode()?);
+        if let Some(w) = model.accuracy_warning() {
+            crate::status!("warning: {w}");
+        }
+        Ok(model)
     }
 
     /// The first model option given on the command line, if any (for commands and integrators

@@ -43,7 +43,11 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
     if overrides.threads == Some(0) {
         return Err(InputError::new("--threads: must be at least 1, got 0"));
     }
-    plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))
+    let plan = plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))?;
+    for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
+        crate::status!("warning: {w}");
+    }
+    Ok(plan)
 }
 
 /// A human-readable account of a plan (for `validate`), followed by the resolved JSON.

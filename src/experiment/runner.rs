@@ -133,7 +133,7 @@ pub fn run_unit(
             .iter()
             .map(|s| s.iter().map(|w| f.value(w)).collect())
             .collect();
-        let row = plan
+        let row: Vec<f64> = plan
             .estimators
             .iter()
             .map(|e| {
@@ -148,6 +148,27 @@ pub fn run_unit(
             .collect();
         estimates.push(row);
     }
+    let mut warnings: Vec<u32> = plan
+        .estimators
+        .iter()
+        .map(|e| weights_of(e).map_or(0, |w| w.diagnostics.warnings.len() as u32))
+        .collect();
+    let mut messages: Vec<String> = weights
+        .iter()
+        .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
+        .collect();
+    // A NaN or infinite estimate is numerical trouble too: count it where it happened.
+    for row in &estimates {
+        for (ei, est) in row.iter().enumerate() {
+            if !est.is_finite() {
+                warnings[ei] += 1;
+                messages.push(format!(
+                    "non-finite estimate ({est}) from {:?}; check the integrand and raise the noise σ_n²",
+                    plan.estimators[ei].label
+                ));
+            }
+        }
+    }
     Ok(UnitResult {
         estimates,
         posterior_sd: plan
@@ -155,14 +176,7 @@ pub fn run_unit(
             .iter()
             .map(|e| weights_of(e).map(|w| w.posterior_sd()))
             .collect(),
-        warnings: plan
-            .estimators
-            .iter()
-            .map(|e| weights_of(e).map_or(0, |w| w.diagnostics.warnings.len() as u32))
-            .collect(),
-        messages: weights
-            .iter()
-            .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
-            .collect(),
+        warnings,
+        messages,
     })
 }

@@ -50,6 +50,8 @@ pub struct KernelMeanTable {
     /// Chebyshev coefficients of every sub-panel, `NODES` each, flattened.
     coefficients: Vec<f64>,
     prior_variance: f64,
+    /// Octaves still unconverged at the split limit (0 for every kernel tested).
+    unconverged: usize,
 }
 
 impl KernelMeanTable {
@@ -59,6 +61,7 @@ impl KernelMeanTable {
         let mut octaves = Vec::with_capacity(OCTAVES + 1);
         let mut coefficients = Vec::new();
         let mut integral = 0.0;
+        let mut unconverged = 0;
         for k in 0..=OCTAVES {
             let (lo, hi) = if k == OCTAVES {
                 (0.0, 0.5f64.powi(OCTAVES as i32))
@@ -79,7 +82,11 @@ impl KernelMeanTable {
                         chebyshev_coefficients(&values)
                     })
                     .collect();
-                if split == MAX_SPLIT || panels.iter().all(|c| converged(c)) {
+                if panels.iter().all(|c| converged(c)) {
+                    break (panels, count);
+                }
+                if split == MAX_SPLIT {
+                    unconverged += 1;
                     break (panels, count);
                 }
                 split += 1;
@@ -101,7 +108,22 @@ impl KernelMeanTable {
             octaves,
             coefficients,
             prior_variance: TAU * integral,
+            unconverged,
         }
+    }
+
+    /// A warning with its remedy if some octave of the table did not reach its tolerance (the
+    /// kernel varies on a scale far below the panels, e.g. an SE length scale ≪ 0.05).
+    pub fn accuracy_warning(&self) -> Option<String> {
+        (self.unconverged > 0).then(|| {
+            format!(
+                "the kernel-mean table of {} did not converge on {} of its {} octaves, so z may be \
+                 less accurate than 1e-10 there; use a longer length scale",
+                self.kernel,
+                self.unconverged,
+                OCTAVES + 1
+            )
+        })
     }
 
     /// The kernel this table belongs to.

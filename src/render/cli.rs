@@ -104,7 +104,7 @@ pub fn progress_bar(quiet: bool, unit: &str) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let style = ProgressStyle::with_template(&format!(
-        "{{bar:40}} {{pos}}/{{len}} {unit} {{msg}} [{{elapsed}}]"
+        "{{bar:24}} {{pos}}/{{len}} {unit} [{{elapsed}}, ETA {{eta}}] {{wide_msg}}"
     ))
     .expect("valid template");
     ProgressBar::new(0).with_style(style)

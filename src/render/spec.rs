@@ -399,6 +399,9 @@ fn model(cx: &Cx, value: Option<&Value>, needed: bool) -> Result<(Option<BmcMode
         json["kernel_mean_samples"] = samples.into();
     }
     let model = needed.then(|| BmcModel::new(kernel, noise, mode));
+    if let Some(w) = model.as_ref().and_then(|m| m.accuracy_warning()) {
+        crate::status!("warning: {w}");
+    }
     Ok((model, json))
 }
 

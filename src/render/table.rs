@@ -102,9 +102,11 @@ pub fn run(plan: &TablePlan, results: &Path, quiet: bool) -> anyhow::Result<()> 
                 if rep == 0 {
                     write_atomic(&out.join(png_name(&variant.label, spp)), &image.to_png()?)?;
                 }
-                write_atomic(&out.join("rmse.csv"), &rmse_csv(plan, &rows)?)?;
                 bar.inc(1);
             }
+            // After every round of variants, so an interrupted table keeps what it measured
+            // (rewriting after every render made the I/O grow with the square of the renders).
+            write_atomic(&out.join("rmse.csv"), &rmse_csv(plan, &rows)?)?;
         }
     }
     bar.finish_and_clear();
