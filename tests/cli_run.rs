@@ -72,9 +72,24 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
             "truth",
             "abs_error",
             "posterior_sd",
-            "warnings"
+            "warnings",
+            "weight_sum",
+            "negative_weights",
+            "jitter",
+            "condition_estimate"
         ]
     );
+    // Weight diagnostics: present for BMC-type rows (Σw near 2π), empty for MC.
+    for r in &trials {
+        if r[1].starts_with("MC") {
+            assert!(r[11..].iter().all(|c| c.is_empty()), "{r:?}");
+        } else {
+            let sum = f(&r[11]);
+            assert!(sum > 0.0 && sum < 1.1 * std::f64::consts::TAU, "{r:?}");
+            assert_eq!(f(&r[13]), 0.0, "no jitter with σ_n² = 0.01");
+            assert!(f(&r[14]) >= 1.0);
+        }
+    }
     assert_eq!(trials.len(), 2 * 5 * 3 * 24);
     let (sh, summary) = read_csv(&out.join("summary.csv"));
     let col = |name: &str| {

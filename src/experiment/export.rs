@@ -24,7 +24,8 @@ fn num(v: f64) -> String {
 /// `trials.csv`: one row per (integrand, estimator, N, trial).
 pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
     let mut s = String::from(
-        "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,warnings\n",
+        "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,warnings,\
+         weight_sum,negative_weights,jitter,condition_estimate\n",
     );
     for (fi, f) in plan.integrands.iter().enumerate() {
         let truth = f.integral();
@@ -33,9 +34,16 @@ pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
                 for t in 0..plan.trials {
                     let u = results.unit(plan, ni, t);
                     let est = u.estimates[fi][ei];
+                    // The weight set's diagnostics (empty for MC).
+                    let diagnostics = u.diagnostics[ei].as_ref().map_or(",,,".to_string(), |d| {
+                        format!(
+                            "{:?},{},{:?},{:?}",
+                            d.weight_sum, d.negative_weights, d.jitter, d.condition_estimate
+                        )
+                    });
                     writeln!(
                         s,
-                        "{},{},{},{},{n},{t},{est:?},{truth:?},{:?},{},{}",
+                        "{},{},{},{},{n},{t},{est:?},{truth:?},{:?},{},{},{diagnostics}",
                         f.name(),
                         csv_field(&e.label),
                         e.method.name(),

@@ -23,7 +23,9 @@ pub struct UnitResult {
     pub estimates: Vec<Vec<f64>>,
     /// Posterior standard deviation per estimator (None for MC).
     pub posterior_sd: Vec<Option<f64>>,
-    /// Numerical warnings per estimator (from its weight set).
+    /// The diagnostics of each estimator's weight set (None for MC).
+    pub diagnostics: Vec<Option<crate::bmc::Diagnostics>>,
+    /// Numerical warnings per estimator (its weight set's, and non-finite estimates).
     pub warnings: Vec<u32>,
     /// The warnings' messages, once per weight set.
     pub messages: Vec<String>,
@@ -175,6 +177,11 @@ pub fn run_unit(
             .estimators
             .iter()
             .map(|e| weights_of(e).map(|w| w.posterior_sd()))
+            .collect(),
+        diagnostics: plan
+            .estimators
+            .iter()
+            .map(|e| weights_of(e).map(|w| w.diagnostics.clone()))
             .collect(),
         warnings,
         messages,
