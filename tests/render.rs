@@ -97,18 +97,18 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
     for kind in [IntegratorKind::Bmc, IntegratorKind::Bmcp] {
         let integ = bmc(kind, spp, 4, true, &m, 3);
         let s = sets(&integ);
+        // Each set's quadrature of cos θ (exact: π).
+        let cos_quadrature = |set: &workbench::render::integrator::SampleSet| -> f64 {
+            set.points
+                .iter()
+                .zip(&set.weights.weights)
+                .map(|(p, w)| w * p.z)
+                .sum()
+        };
         let cos_error = s
             .sets
             .iter()
-            .map(|set| {
-                let g: f64 = set
-                    .points
-                    .iter()
-                    .zip(&set.weights.weights)
-                    .map(|(p, w)| w * p.z)
-                    .sum();
-                (g / std::f64::consts::PI - 1.0).abs()
-            })
+            .map(|set| (cos_quadrature(set) / std::f64::consts::PI - 1.0).abs())
             .fold(0.0, f64::max);
         let sum_error = s
             .sets
@@ -127,12 +127,7 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
                 table.prior_variance(),
                 &m.kernel,
             );
-            let g: f64 = set
-                .points
-                .iter()
-                .zip(&set.weights.weights)
-                .map(|(p, w)| w * p.z)
-                .sum();
+            let g = cos_quadrature(set);
             assert!(
                 (g - std::f64::consts::PI).abs() <= norm_cos * e * (1.0 + 1e-9),
                 "{kind}: cos θ error above its bound"

@@ -236,8 +236,9 @@ fn rotate_field(v: &VariantPlan) -> String {
     }
 }
 
-/// `variant,integrator,gps,rotate,spp,repetition,seed,rmse,seconds`; RMSE in `%.6e`, seconds
-/// (building the sets plus rendering, wall clock) in `%.4f`.
+/// `variant,integrator,gps,rotate,spp,repetition,seed,rmse,seconds`; RMSE in Rust's shortest
+/// round-trip form (exact, like the `run` CSVs), seconds (building the sets plus rendering, wall
+/// clock) in `%.4f`.
 pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> anyhow::Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
@@ -261,7 +262,7 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> anyhow::Result<Vec<u8>> {
             r.spp.to_string(),
             r.repetition.to_string(),
             r.seed.to_string(),
-            format!("{:.6e}", r.rmse),
+            format!("{:?}", r.rmse),
             format!("{:.4}", r.seconds),
         ])?;
     }
@@ -299,7 +300,7 @@ pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
 
 fn num(x: f64) -> String {
     if x.is_finite() {
-        format!("{x:.6e}")
+        format!("{x:?}")
     } else {
         String::new()
     }
