@@ -10,6 +10,7 @@ figures:
     cargo run --release -- run experiments/cos2.json -q
     cargo run --release -- run experiments/cos3.json -q
     cargo run --release -- run experiments/cos3-thesis-kernel-mean.json -q
+    cargo run --release -- run experiments/cos3-designs.json -q
     cargo run --release -- render experiments/render-table.json -q
 
 # The default test suite (what CI runs).

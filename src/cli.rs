@@ -4,7 +4,7 @@ use crate::bmc::{BmcModel, DEFAULT_NOISE, validate_noise};
 use crate::io::{InputError, write_atomic};
 use crate::kernel::{Kernel, Sobolev, SquaredExponential};
 use crate::kernel_mean::KernelMeanMode;
-use crate::sampling::Design;
+use crate::sampling::{Design, SetDesign};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -204,15 +204,20 @@ struct RuleArgs {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
 enum DesignName {
+    /// Independent uniform points.
     Uniform,
+    /// Independent cosine-weighted points.
     Cosine,
+    /// Shifted spherical Fibonacci lattice (evenly spread; `--seed` draws the shift).
+    Fibonacci,
 }
 
-impl From<DesignName> for Design {
-    fn from(d: DesignName) -> Design {
+impl From<DesignName> for SetDesign {
+    fn from(d: DesignName) -> SetDesign {
         match d {
-            DesignName::Uniform => Design::Uniform,
-            DesignName::Cosine => Design::Cosine,
+            DesignName::Uniform => SetDesign::Iid(Design::Uniform),
+            DesignName::Cosine => SetDesign::Iid(Design::Cosine),
+            DesignName::Fibonacci => SetDesign::Fibonacci,
         }
     }
 }
@@ -267,7 +272,7 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         let source = match &args.points {
             Some(file) => serde_json::json!({ "points": file.display().to_string() }),
             None => {
-                serde_json::json!({ "generated": { "n": args.n, "seed": args.seed, "design": Design::from(args.design).name() } })
+                serde_json::json!({ "generated": { "n": args.n, "seed": args.seed, "design": SetDesign::from(args.design).name() } })
             }
         };
         let mut summary = crate::rule::rule_summary(&model, args.model.mode_name(), &points, &weights);

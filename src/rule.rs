@@ -5,7 +5,7 @@ use crate::geometry::Vec3;
 use crate::io::InputError;
 use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
-use crate::sampling::Design;
+use crate::sampling::SetDesign;
 use std::path::Path;
 
 /// Largest number of points a weight set may have: `Q` and its factor take `16 N²` bytes,
@@ -32,7 +32,7 @@ const POINTS_STREAM: u64 = 0;
 const KERNEL_MEAN_STREAM: u64 = 1;
 
 /// `n` points drawn with `design` from `seed`: the set `workbench rule --n N --seed S` uses.
-pub fn generate_points(n: usize, seed: u64, design: Design) -> Vec<Vec3> {
+pub fn generate_points(n: usize, seed: u64, design: SetDesign) -> Vec<Vec3> {
     design.sample_set(n, &mut stream(seed, &[POINTS_STREAM]))
 }
 

@@ -96,3 +96,82 @@ mod tests {
         }
     }
 }
+
+/// How a whole point set is drawn: independent points from a density, or a randomised
+/// low-discrepancy lattice (math.md §2, "extra designs").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SetDesign {
+    /// `n` independent points from the design's density.
+    Iid(Design),
+    /// Spherical Fibonacci lattice on the hemisphere with a Cranley–Patterson shift:
+    /// `u1 = frac((i + ½)/n + s1)`, `u2 = frac(i/φ + s2)` (φ the golden ratio, `(s1, s2)`
+    /// uniform per set), mapped like [`Design::Uniform`]. Each point is uniform on the
+    /// hemisphere, so MC on it is unbiased (randomised QMC), while the set is evenly spread:
+    /// one point per band `cos θ ∈ [i/n, (i+1)/n)`. Marques et al. (2013) use this lattice for
+    /// spherical quadrature.
+    Fibonacci,
+}
+
+impl SetDesign {
+    /// The name used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            SetDesign::Iid(d) => d.name(),
+            SetDesign::Fibonacci => "fibonacci",
+        }
+    }
+
+    /// The density each point follows (what MC divides by).
+    pub fn density(self) -> Design {
+        match self {
+            SetDesign::Iid(d) => d,
+            SetDesign::Fibonacci => Design::Uniform,
+        }
+    }
+
+    /// A set of `n` points.
+    pub fn sample_set<R: Rng + ?Sized>(self, n: usize, rng: &mut R) -> Vec<Vec3> {
+        match self {
+            SetDesign::Iid(d) => d.sample_set(n, rng),
+            SetDesign::Fibonacci => {
+                const INV_GOLDEN: f64 = 0.618_033_988_749_894_9;
+                let (s1, s2): (f64, f64) = (rng.random(), rng.random());
+                (0..n)
+                    .map(|i| {
+                        let u1 = ((i as f64 + 0.5) / n as f64 + s1).fract();
+                        let u2 = (i as f64 * INV_GOLDEN + s2).fract();
+                        Design::Uniform.map(u1, u2)
+                    })
+                    .collect()
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for SetDesign {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod set_design_tests {
+    use super::*;
+    use crate::rng::stream;
+
+    /// A shifted Fibonacci set has exactly one point in each band `cos θ ∈ [i/n, (i+1)/n)`
+    /// and all points are unit vectors on the upper hemisphere.
+    #[test]
+    fn fibonacci_sets_are_stratified_in_cos_theta() {
+        let mut rng = stream(9, &[]);
+        for n in [1, 7, 64, 255] {
+            let pts = SetDesign::Fibonacci.sample_set(n, &mut rng);
+            let mut bands = vec![0; n];
+            for p in &pts {
+                assert!((p.norm() - 1.0).abs() < 1e-14 && p.z >= 0.0);
+                bands[((p.z * n as f64) as usize).min(n - 1)] += 1;
+            }
+            assert!(bands.iter().all(|&c| c == 1), "n={n}: {bands:?}");
+        }
+    }
+}

@@ -11,6 +11,7 @@ fn points_file_of_a_generated_set_reproduces_its_weights() {
         &[
             "--kernel", "se", "--sigma", "1.5", "--length", "0.4", "--design", "cosine",
         ][..],
+        &["--design", "fibonacci"][..],
     ] {
         let mut args = vec![
             "rule",
@@ -35,7 +36,11 @@ fn points_file_of_a_generated_set_reproduces_its_weights() {
         std::fs::write(dir.path().join("points.csv"), points).unwrap();
 
         let mut args = vec!["rule", "--points", "points.csv", "--seed", "7", "--out", "b.csv"];
-        args.extend(extra.iter().filter(|a| !["--design", "cosine"].contains(a)));
+        args.extend(
+            extra
+                .iter()
+                .filter(|a| !["--design", "cosine", "fibonacci"].contains(a)),
+        );
         let o = workbench(dir.path(), &args);
         assert!(o.status.success(), "{}", stderr(&o));
         let a = std::fs::read(dir.path().join("a.csv")).unwrap();

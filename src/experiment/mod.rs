@@ -54,7 +54,7 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
 pub fn describe(plan: &plan::Plan) -> String {
     let cells = plan.integrands.len() * plan.estimators.len() * plan.samples.len();
     let weight_sets: usize = {
-        let mut keys: Vec<(usize, crate::sampling::Design)> = plan
+        let mut keys: Vec<(usize, crate::sampling::SetDesign)> = plan
             .estimators
             .iter()
             .filter_map(|e| e.model.map(|m| (m, e.design)))

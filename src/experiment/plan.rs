@@ -8,7 +8,7 @@ use crate::integrand::CosPower;
 use crate::kernel::{Kernel, Sobolev, SquaredExponential};
 use crate::kernel_mean::KernelMeanMode;
 use crate::rule::MAX_POINTS;
-use crate::sampling::Design;
+use crate::sampling::{Design, SetDesign};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -32,7 +32,7 @@ pub struct Plan {
     /// Distinct BMC models; estimators that share one share its weights within a trial.
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
-    pub designs: Vec<Design>,
+    pub designs: Vec<SetDesign>,
 }
 
 /// One estimator, resolved.
@@ -40,7 +40,7 @@ pub struct Plan {
 pub struct PlannedEstimator {
     pub label: String,
     pub method: Method,
-    pub design: Design,
+    pub design: SetDesign,
     /// Index into [`Plan::models`] (BMC-type methods).
     pub model: Option<usize>,
     /// The resolved settings, for the manifest and `validate`.
@@ -150,7 +150,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     let mut estimators: Vec<PlannedEstimator> = Vec::new();
     let mut models: Vec<Arc<BmcModel>> = Vec::new();
     let mut model_keys: Vec<ResolvedSettings> = Vec::new();
-    let mut designs: Vec<Design> = Vec::new();
+    let mut designs: Vec<SetDesign> = Vec::new();
     for (i, e) in spec.estimators.iter().enumerate() {
         let at = |field: &str| format!("estimators[{i}].{field}");
         if e.label.is_empty() || e.label.contains(|c: char| c.is_control()) {
@@ -319,8 +319,9 @@ fn resolve_estimator(
 ) -> Result<(PlannedEstimator, Option<ModelBuilder>), String> {
     let design_name = e.design.unwrap_or(DesignName::Uniform);
     let design = match design_name {
-        DesignName::Uniform => Design::Uniform,
-        DesignName::Cosine => Design::Cosine,
+        DesignName::Uniform => SetDesign::Iid(Design::Uniform),
+        DesignName::Cosine => SetDesign::Iid(Design::Cosine),
+        DesignName::Fibonacci => SetDesign::Fibonacci,
     };
     let unused = |field: &str, value: String| {
         err(

@@ -90,18 +90,29 @@ pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> anyhow::
             let line = move |x: i32, y: i32| {
                 EmptyElement::at((x, y)) + PathElement::new(vec![(0, 0), (24, 0)], color.stroke_width(3))
             };
-            match ei % 4 {
+            // A distinct marker per estimator (six kinds), so the series stay apart in grey print.
+            let square_style = if ei % 6 == 4 {
+                color.filled()
+            } else {
+                color.stroke_width(2)
+            };
+            match ei % 6 {
                 0 => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 4, color.filled())),
                 1 => anno.legend(move |(x, y)| line(x, y) + TriangleMarker::new((12, 0), 6, color.filled())),
                 2 => anno.legend(move |(x, y)| line(x, y) + Cross::new((12, 0), 5, color.stroke_width(2))),
-                _ => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 5, color.stroke_width(2))),
+                3 => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 5, color.stroke_width(2))),
+                _ => anno.legend(move |(x, y)| line(x, y) + Rectangle::new([(8, -4), (16, 4)], square_style)),
             };
-            // A distinct marker per estimator, so the series stay apart in grey print.
-            match ei % 4 {
+            match ei % 6 {
                 0 => chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, color.filled())))?,
                 1 => chart.draw_series(points.iter().map(|&p| TriangleMarker::new(p, 6, color.filled())))?,
                 2 => chart.draw_series(points.iter().map(|&p| Cross::new(p, 5, color.stroke_width(2))))?,
-                _ => chart.draw_series(points.iter().map(|&p| Circle::new(p, 5, color.stroke_width(2))))?,
+                3 => chart.draw_series(points.iter().map(|&p| Circle::new(p, 5, color.stroke_width(2))))?,
+                _ => chart.draw_series(
+                    points
+                        .iter()
+                        .map(|&p| EmptyElement::at(p) + Rectangle::new([(-4, -4), (4, 4)], square_style)),
+                )?,
             };
         }
 

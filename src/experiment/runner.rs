@@ -9,7 +9,7 @@ use super::plan::Plan;
 use crate::bmc::BmcWeights;
 use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
-use crate::sampling::Design;
+use crate::sampling::{Design, SetDesign};
 use rayon::prelude::*;
 
 /// Stream identifiers under the experiment's seed.
@@ -43,10 +43,11 @@ impl Results {
     }
 }
 
-fn design_id(d: Design) -> u64 {
+fn design_id(d: SetDesign) -> u64 {
     match d {
-        Design::Uniform => 0,
-        Design::Cosine => 1,
+        SetDesign::Iid(Design::Uniform) => 0,
+        SetDesign::Iid(Design::Cosine) => 1,
+        SetDesign::Fibonacci => 2,
     }
 }
 
@@ -89,7 +90,7 @@ pub fn run_unit(
             )
         })
         .collect();
-    let set_of = |d: Design| {
+    let set_of = |d: SetDesign| {
         &sets[plan
             .designs
             .iter()
@@ -98,7 +99,7 @@ pub fn run_unit(
     };
 
     // Weights per (model, design) pair in use, computed once.
-    let mut weights: Vec<((usize, Design), BmcWeights)> = Vec::new();
+    let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model else { continue };
         if weights.iter().any(|(k, _)| *k == (m, e.design)) {
@@ -144,8 +145,13 @@ pub fn run_unit(
                     .iter()
                     .position(|&x| x == e.design)
                     .expect("design is planned");
-                e.method
-                    .estimate(e.design, &sets[d], &values[d], weights_of(e), f.constant_prior())
+                e.method.estimate(
+                    e.design.density(),
+                    &sets[d],
+                    &values[d],
+                    weights_of(e),
+                    f.constant_prior(),
+                )
             })
             .collect();
         estimates.push(row);

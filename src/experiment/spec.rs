@@ -31,7 +31,7 @@ pub struct EstimatorSpec {
     /// Unique name in outputs and checks.
     pub label: String,
     pub method: MethodName,
-    /// Sampling design; default `uniform`.
+    /// Sampling design: `uniform`, `cosine` or `fibonacci`; default `uniform`.
     #[serde(default)]
     pub design: Option<DesignName>,
     /// BMC/BMCP only; default Sobolev with s = 1.4.
@@ -64,6 +64,8 @@ pub enum MethodName {
 pub enum DesignName {
     Uniform,
     Cosine,
+    /// Shifted spherical Fibonacci lattice (randomised QMC).
+    Fibonacci,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
