@@ -1,7 +1,8 @@
 //! The estimators compared by the workbench: MC, BMC and BMCP (math.md §3–4).
 //!
-//! Adding an estimator: one file here, one arm in [`Method`], one entry in the conformance
-//! tests' list (`tests/estimators.rs`).
+//! Adding an estimator: one file here, one arm in [`Method`], its JSON name in
+//! `experiment::spec::MethodName` (options validated in `experiment::plan`), and one entry in
+//! the conformance tests' list (`tests/estimators.rs`). See the README.
 
 pub mod mc;
 
