@@ -5,7 +5,38 @@ use std::io::Write;
 use std::path::Path;
 
 /// Writes `bytes` to `path` by way of a temporary file in the same folder and a rename.
+///
+/// A path that exists but is not a regular file (`/dev/null`, a named pipe, `/dev/stdout`) is
+/// written to directly: renaming over it would replace the device. A symbolic link is followed,
+/// and its target replaced atomically, so the link survives.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    write_atomic_following(path, bytes, 0)
+}
+
+fn write_atomic_following(path: &Path, bytes: &[u8], links: u32) -> anyhow::Result<()> {
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        anyhow::ensure!(
+            links < 40,
+            "{}: too many levels of symbolic links",
+            path.display()
+        );
+        let target =
+            std::fs::read_link(path).with_context(|| format!("reading the link {}", path.display()))?;
+        let target = match path.parent() {
+            Some(dir) if target.is_relative() => dir.join(target),
+            _ => target,
+        };
+        return write_atomic_following(&target, bytes, links + 1);
+    }
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .with_context(|| format!("opening {}", path.display()))?;
+        return f
+            .write_all(bytes)
+            .with_context(|| format!("writing {}", path.display()));
+    }
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -69,4 +100,47 @@ macro_rules! status {
         use std::io::Write as _;
         let _ = writeln!(std::io::stderr(), $($arg)*);
     }};
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::FileTypeExt;
+
+    #[test]
+    fn writes_through_links_and_keeps_them() {
+        let dir = tempfile::tempdir().unwrap();
+        std::os::unix::fs::symlink("target.csv", dir.path().join("link.csv")).unwrap();
+        write_atomic(&dir.path().join("link.csv"), b"a,b\n").unwrap();
+        assert!(
+            std::fs::symlink_metadata(dir.path().join("link.csv"))
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read(dir.path().join("target.csv")).unwrap(), b"a,b\n");
+    }
+
+    /// A named pipe (like `/dev/stdout` or `/dev/null`, which a test must not risk replacing) is
+    /// written to, not renamed over.
+    #[test]
+    fn writes_into_a_pipe_instead_of_replacing_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo");
+        assert!(
+            std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        write_atomic(&fifo, b"through the pipe\n").unwrap();
+        // Checked before joining: had the pipe been renamed over, the reader would wait forever.
+        assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+        assert_eq!(reader.join().unwrap(), b"through the pipe\n");
+    }
 }
