@@ -249,6 +249,17 @@ pub fn main() -> anyhow::Result<ExitCode> {
 }
 
 fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
+    let outputs: Vec<(&str, &std::path::Path)> = [("--out", &args.out), ("--summary", &args.summary)]
+        .into_iter()
+        .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
+        .collect();
+    let inputs: Vec<(&str, &std::path::Path)> = args
+        .points
+        .as_deref()
+        .map(|p| ("--points", p))
+        .into_iter()
+        .collect();
+    crate::io::check_distinct(&outputs, &inputs)?;
     let points = match &args.points {
         Some(path) => crate::rule::read_points_csv(path)?,
         None => {

@@ -144,3 +144,36 @@ mod tests {
         assert_eq!(reader.join().unwrap(), b"through the pipe\n");
     }
 }
+
+/// Where `path` points, for comparing paths that may not exist yet: the canonical form of an
+/// existing path, else the canonical parent folder joined with the file name.
+fn identity(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(p) = std::fs::canonicalize(path) {
+        return Some(p);
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(std::fs::canonicalize(parent).ok()?.join(path.file_name()?))
+}
+
+/// Refuses an output that is one of the inputs or another output (`(flag, path)` pairs), so
+/// that a run never destroys what it reads or writes one result over another.
+pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), InputError> {
+    for (i, (flag, out)) in outputs.iter().enumerate() {
+        let Some(id) = identity(out) else { continue };
+        let clash = inputs
+            .iter()
+            .map(|(f, p)| (f, p, "would overwrite"))
+            .chain(outputs[..i].iter().map(|(f, p)| (f, p, "is the same file as")))
+            .find(|(_, p, _)| identity(p).as_ref() == Some(&id));
+        if let Some((other, _, verb)) = clash {
+            return Err(InputError::new(format!(
+                "{flag} {}: {verb} {other}",
+                out.display()
+            )));
+        }
+    }
+    Ok(())
+}

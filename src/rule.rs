@@ -42,7 +42,7 @@ pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> anyhow::Res
     Ok(model.weights(points, &mut rng, &mut SpdWorkspace::new())?)
 }
 
-/// Reads a CSV with header `x,y,z` of unit vectors (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`.
+/// Reads a CSV with header `x,y,z` (or a rule's `x,y,z,weight`, weights ignored) of unit vectors (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`.
 pub fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, InputError> {
     let name = path.display();
     let text =
@@ -56,9 +56,11 @@ pub fn parse_points_csv(text: &str) -> Result<Vec<Vec3>, String> {
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     let header = reader.headers().map_err(|e| format!("line 1: {e}"))?.clone();
-    if header.iter().collect::<Vec<_>>() != ["x", "y", "z"] {
+    // A rule's own output (`x,y,z,weight`) is accepted too; its weights are ignored.
+    let names: Vec<&str> = header.iter().collect();
+    if names != ["x", "y", "z"] && names != ["x", "y", "z", "weight"] {
         return Err(format!(
-            "line 1: header must be `x,y,z`, got `{}`",
+            "line 1: header must be `x,y,z` (or a rule's `x,y,z,weight`), got `{}`",
             header.iter().collect::<Vec<_>>().join(",")
         ));
     }

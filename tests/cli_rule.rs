@@ -35,17 +35,20 @@ fn points_file_of_a_generated_set_reproduces_its_weights() {
             .collect();
         std::fs::write(dir.path().join("points.csv"), points).unwrap();
 
-        let mut args = vec!["rule", "--points", "points.csv", "--seed", "7", "--out", "b.csv"];
-        args.extend(
-            extra
-                .iter()
-                .filter(|a| !["--design", "cosine", "fibonacci"].contains(a)),
-        );
-        let o = workbench(dir.path(), &args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let a = std::fs::read(dir.path().join("a.csv")).unwrap();
-        let b = std::fs::read(dir.path().join("b.csv")).unwrap();
-        assert_eq!(a, b, "weights differ after the round trip");
+        // From the points alone, and from the rule's own CSV (its weight column is ignored).
+        for points in ["points.csv", "a.csv"] {
+            let mut args = vec!["rule", "--points", points, "--seed", "7", "--out", "b.csv"];
+            args.extend(
+                extra
+                    .iter()
+                    .filter(|a| !["--design", "cosine", "fibonacci"].contains(a)),
+            );
+            let o = workbench(dir.path(), &args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let a = std::fs::read(dir.path().join("a.csv")).unwrap();
+            let b = std::fs::read(dir.path().join("b.csv")).unwrap();
+            assert_eq!(a, b, "weights differ after the round trip from {points}");
+        }
 
         let summary: serde_json::Value =
             serde_json::from_slice(&std::fs::read(dir.path().join("a.json")).unwrap()).unwrap();
@@ -95,6 +98,22 @@ fn bad_rule_input_is_exit_2_with_a_clear_message() {
             "--kernel-mean-samples",
         ),
         (&["rule", "--kernel", "matern"], "matern"),
+        (
+            &["rule", "--out", "r.csv", "--summary", "r.csv"],
+            "--summary r.csv: is the same file as --out",
+        ),
+        (
+            &["rule", "--points", "bad.csv", "--out", "./bad.csv"],
+            "--out ./bad.csv: would overwrite --points",
+        ),
+        (
+            &["rule", "--kernel", "se", "--length", "1e-300"],
+            "length must be in [0.001, 10000]",
+        ),
+        (
+            &["rule", "--kernel", "se", "--sigma", "1e200"],
+            "sigma must be in [1e-100, 1e100]",
+        ),
         (
             &["rule", "--kernel", "se", "--s", "1.3"],
             "--s: applies to --kernel sobolev, not se",

@@ -295,7 +295,7 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
         ),
         (
             SMALL.replace("\"length\": 0.5", "\"length\": -1"),
-            "estimators[4].kernel: se kernel: length must be finite and > 0, got -1",
+            "estimators[4].kernel: se kernel: length must be in [0.001, 10000], got -1",
         ),
         (
             SMALL.replace("\"label\": \"BMCP\"", "\"label\": \"BMC\""),
@@ -386,9 +386,15 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
         "{}",
         stderr(&o)
     );
-    let o = workbench(dir.path(), &["run", "ok.json", "--threads", "0"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("--threads"));
+    for t in ["0", "100000"] {
+        let o = workbench(dir.path(), &["run", "ok.json", "--threads", t]);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(
+            stderr(&o).contains(&format!("--threads: must be in 1..=256, got {t}")),
+            "{}",
+            stderr(&o)
+        );
+    }
 
     assert_eq!(
         std::fs::read_to_string(earlier.join("summary.csv")).unwrap(),

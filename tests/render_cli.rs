@@ -215,6 +215,46 @@ fn out_may_not_overwrite_the_reference() {
         .concat(),
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("is the --reference file"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--out ./ref.exr: would overwrite --reference"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(std::fs::read(d.join("ref.exr")).unwrap(), before);
+    // Nor an environment map, and an error-image option must apply.
+    let o = workbench(
+        d,
+        &[&base[..], &["--env", "ref.exr", "--out", "ref.exr"]].concat(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--out ref.exr: would overwrite --env"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(d.join("ref.exr")).unwrap(), before);
+    let o = workbench(
+        d,
+        &[
+            &base[..],
+            &["--reference", "ref.exr", "--error-max", "0.5", "--out", "e.exr"],
+        ]
+        .concat(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--error-max: applies to --error-scale absolute"),
+        "{}",
+        stderr(&o)
+    );
+    let o = workbench(
+        d,
+        &[&base[..], &["--results-dir", "r", "--out", "e.exr"]].concat(),
+    );
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "--results-dir is for tables: {}",
+        stderr(&o)
+    );
 }

@@ -113,7 +113,7 @@ fn spec_errors_are_exit_2_before_any_work() {
         ("{\"name\": ".into(), "bad.json: invalid JSON"),
         (
             SPEC.replace("\"label\": \"BMCP\"", "\"label\": \"bmc-2-gp\""),
-            "$.variants[2].label = \"bmc-2-gp\": needs a letter or digit, and a file name",
+            "$.variants[2].label = \"bmc-2-gp\": needs an ASCII letter or digit, and a file name",
         ),
         (
             SPEC.replace("[3, 2]", "[3, 4611686018427387904]"),
@@ -121,7 +121,7 @@ fn spec_errors_are_exit_2_before_any_work() {
         ),
         (
             SPEC.replace("\"spp\": 64", "\"spp\": 5000000"),
-            "$.reference.spp: at most 1000000 samples per pixel, got 5000000",
+            "bad.json: $.reference.spp = 5000000: at most 1000000 samples per pixel",
         ),
         (
             SPEC.replace(

@@ -14,6 +14,9 @@ use crate::io::{InputError, write_atomic};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Most worker threads `--threads` accepts (each holds its own `Q` and factor).
+pub const MAX_THREADS: usize = 256;
+
 /// Command-line overrides of the experiment file.
 #[derive(Debug, Clone, Default)]
 pub struct Overrides {
@@ -40,8 +43,10 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
         }
         spec.trials = t;
     }
-    if overrides.threads == Some(0) {
-        return Err(InputError::new("--threads: must be at least 1, got 0"));
+    if let Some(t) = overrides.threads.filter(|&t| t == 0 || t > MAX_THREADS) {
+        return Err(InputError::new(format!(
+            "--threads: must be in 1..={MAX_THREADS}, got {t}"
+        )));
     }
     let plan = plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))?;
     for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {

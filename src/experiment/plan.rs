@@ -15,8 +15,9 @@ use std::sync::Arc;
 /// Largest N for estimators without weights (MC): the sample set and values of one trial
 /// take 32 bytes per point and per worker thread.
 pub const MAX_MC_POINTS: u64 = 10_000_000;
-/// Largest number of rows in `trials.csv`.
-pub const MAX_ROWS: u64 = 50_000_000;
+/// Largest number of rows in `trials.csv`: a run holds about 450 bytes per row in memory
+/// (results and the CSV text), so this keeps a run under ~5 GB.
+pub const MAX_ROWS: u64 = 10_000_000;
 
 /// A resolved, validated experiment.
 #[derive(Debug, Clone)]
@@ -80,6 +81,11 @@ pub struct Check {
 /// Parses the JSON text; errors say where (`path: message`).
 pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
     let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("malformed JSON: {e}"))?;
+    if value.get("variants").is_some() && value.get("estimators").is_none() {
+        return Err(
+            "this is a render table spec (it has \"variants\"); run it with `workbench render FILE`".into(),
+        );
+    }
     if !value.is_object() {
         return Err(format!(
             "the file must hold one JSON object (the experiment), got {}",

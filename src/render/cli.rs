@@ -60,21 +60,25 @@ pub struct RenderArgs {
     /// Error image scale: by the largest error, or absolute (by --error-max).
     #[arg(long, requires = "reference", value_enum, default_value = "normalised")]
     pub error_scale: ErrorScale,
-    /// Error norm shown at full intensity with `--error-scale absolute`.
-    #[arg(long, requires = "reference", default_value_t = 0.1)]
-    pub error_max: f64,
+    /// Error norm shown at full intensity; only with `--error-scale absolute` [default: 0.1].
+    #[arg(long, requires = "reference")]
+    pub error_max: Option<f64>,
     /// Error image colours.
     #[arg(long, requires = "reference", value_enum, default_value = "viridis")]
     pub error_colours: ColourMap,
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Folder of the table outputs (results/<name>/) and of the reference cache (cache/).
-    #[arg(long, default_value = "results")]
-    pub results_dir: PathBuf,
+    /// Tables only: folder of the outputs (<dir>/<name>/) and of the reference cache
+    /// (<dir>/cache/) [default: results].
+    #[arg(long)]
+    pub results_dir: Option<PathBuf>,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
 }
+
+/// Error norm shown at full intensity by `--error-scale absolute` when `--error-max` is not given.
+pub const DEFAULT_ERROR_MAX: f64 = 0.1;
 
 /// Sample sets of `bmc`/`bmcp` when `--gps` is not given.
 pub const DEFAULT_GPS: usize = 4;
@@ -91,7 +95,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         }
         Some(spec) => {
             let plan = super::spec::load(spec)?;
-            super::table::run(&plan, &args.results_dir, args.quiet)?;
+            let results = args
+                .results_dir
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("results"));
+            super::table::run(&plan, &results, args.quiet)?;
         }
         None => single(&args)?,
     }
@@ -176,27 +184,34 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let gps = args.gps.unwrap_or(DEFAULT_GPS);
     check_gps(gps, "--gps")?;
-    if !(args.error_max.is_finite() && args.error_max > 0.0) {
-        return Err(InputError::new(format!(
-            "--error-max: must be finite and > 0, got {}",
-            args.error_max
-        ))
+    if args.results_dir.is_some() {
+        return Err(InputError::new(
+            "--results-dir: applies to tables (render SPEC.json), not single images",
+        )
         .into());
     }
-    if let Some(reference) = &args.reference {
-        // Rendering into the reference's own file would replace it with a noisier image.
-        let same = match (std::fs::canonicalize(out), std::fs::canonicalize(reference)) {
-            (Ok(a), Ok(b)) => a == b,
-            _ => false,
-        };
-        if same {
-            return Err(InputError::new(format!(
-                "--out {}: is the --reference file; rendering would overwrite it",
-                out.display()
-            ))
-            .into());
-        }
+    if args.error_max.is_some() && args.error_scale != ErrorScale::Absolute {
+        return Err(InputError::new("--error-max: applies to --error-scale absolute").into());
     }
+    let error_max = args.error_max.unwrap_or(DEFAULT_ERROR_MAX);
+    if !(error_max.is_finite() && error_max > 0.0) {
+        return Err(InputError::new(format!("--error-max: must be finite and > 0, got {error_max}")).into());
+    }
+    // Never write over an input (the reference, an environment map) or one output over another.
+    let png = sibling_png(out, "");
+    let error_png = sibling_png(out, "-error");
+    let mut outputs: Vec<(&str, &std::path::Path)> = vec![("--out", out), ("--out (its PNG)", &png)];
+    if args.reference.is_some() {
+        outputs.push(("--out (its error image)", &error_png));
+    }
+    let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
+    if let Some(r) = &args.reference {
+        inputs.push(("--reference", r));
+    }
+    if !matches!(args.env.as_str(), "sky" | "white") {
+        inputs.push(("--env", std::path::Path::new(&args.env)));
+    }
+    crate::io::check_distinct(&outputs, &inputs)?;
     let env = Environment::from_arg(&args.env)?;
     // Fail on an unwritable output folder now, not after the render.
     let dir = match out.parent() {
@@ -258,7 +273,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         let err = sibling_png(out, "-error");
         write_atomic(
             &err,
-            &image.error_png(r, args.error_scale, args.error_max, args.error_colours)?,
+            &image.error_png(r, args.error_scale, error_max, args.error_colours)?,
         )?;
         crate::io::stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
         crate::status!("render: error image → {}", err.display());

@@ -206,7 +206,10 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
                 spp: cx
                     .opt(obj, "spp", |v| {
                         let n = cx.positive(v, "$.reference.spp")?;
-                        super::cli::check_spp(IntegratorKind::Mc, n, "$.reference.spp")?;
+                        if n > super::cli::MAX_MC_SPP {
+                            let msg = format!("at most {} samples per pixel", super::cli::MAX_MC_SPP);
+                            return Err(cx.err("$.reference.spp", v, &msg));
+                        }
                         Ok(n)
                     })?
                     .unwrap_or(DEFAULT_REFERENCE_SPP),
@@ -258,7 +261,7 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
             return Err(cx.err(
                 &format!("{p}.label"),
                 &Value::String(label),
-                "needs a letter or digit, and a file name (letters and digits, lower-cased) no other label has",
+                "needs an ASCII letter or digit, and a file name (ASCII letters and digits, lower-cased) no other label has",
             ));
         }
         for key in ["gps", "rotate"] {
