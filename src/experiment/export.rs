@@ -50,7 +50,7 @@ pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
                         e.design.name(),
                         (est - truth).abs(),
                         opt(u.posterior_sd[ei]),
-                        u.warnings[ei]
+                        u.warnings_for(fi, ei)
                     )
                     .expect("writing to a String");
                 }

@@ -25,10 +25,18 @@ pub struct UnitResult {
     pub posterior_sd: Vec<Option<f64>>,
     /// The diagnostics of each estimator's weight set (None for MC).
     pub diagnostics: Vec<Option<crate::bmc::Diagnostics>>,
-    /// Numerical warnings per estimator (its weight set's, and non-finite estimates).
+    /// Numerical warnings of each estimator's weight set.
     pub warnings: Vec<u32>,
     /// The warnings' messages, once per weight set.
     pub messages: Vec<String>,
+}
+
+impl UnitResult {
+    /// Warnings of estimator `ei` on integrand `fi`: its weight set's, plus one if the estimate
+    /// is not finite.
+    pub fn warnings_for(&self, fi: usize, ei: usize) -> u32 {
+        self.warnings[ei] + u32::from(!self.estimates[fi][ei].is_finite())
+    }
 }
 
 /// All results: `units[n_index * trials + trial]`.
@@ -156,7 +164,7 @@ pub fn run_unit(
             .collect();
         estimates.push(row);
     }
-    let mut warnings: Vec<u32> = plan
+    let warnings: Vec<u32> = plan
         .estimators
         .iter()
         .map(|e| weights_of(e).map_or(0, |w| w.diagnostics.warnings.len() as u32))
@@ -165,14 +173,15 @@ pub fn run_unit(
         .iter()
         .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
         .collect();
-    // A NaN or infinite estimate is numerical trouble too: count it where it happened.
-    for row in &estimates {
+    // A NaN or infinite estimate is numerical trouble too: reported here, and counted per
+    // (integrand, estimator) row by [`UnitResult::warnings_for`].
+    for (fi, row) in estimates.iter().enumerate() {
         for (ei, est) in row.iter().enumerate() {
             if !est.is_finite() {
-                warnings[ei] += 1;
                 messages.push(format!(
-                    "non-finite estimate ({est}) from {:?}; check the integrand and raise the noise σ_n²",
-                    plan.estimators[ei].label
+                    "non-finite estimate ({est}) from {:?} on {}; check the integrand and raise the noise σ_n²",
+                    plan.estimators[ei].label,
+                    plan.integrands[fi].name()
                 ));
             }
         }

@@ -67,7 +67,7 @@ pub fn summarize(plan: &Plan, results: &Results) -> Vec<CellSummary> {
                     q90_abs_error: quantile_sorted(&sorted, 0.9),
                     mean_posterior_sd: sds.as_ref().map(|s| mean(s)),
                     coverage95,
-                    warnings: units.iter().map(|u| u.warnings[ei] as u64).sum(),
+                    warnings: units.iter().map(|u| u.warnings_for(fi, ei) as u64).sum(),
                 });
             }
         }
