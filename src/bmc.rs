@@ -170,59 +170,53 @@ pub fn bmc_weights(
     Ok(BmcWeights { weights, diagnostics })
 }
 
-/// Where the kernel means of a sample set come from.
-#[derive(Clone, Debug)]
-pub enum KernelMeans {
-    /// The exact `z(μ)`, tabulated (shared between threads).
-    Exact(std::sync::Arc<crate::kernel_mean::KernelMeanTable>),
-    /// The thesis's per-point MC estimate with `samples` uniform directions (fresh per set).
-    MonteCarlo { samples: usize },
-}
-
-/// A BMC model: kernel, noise and kernel-mean source; turns point sets into weights.
+/// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.
 #[derive(Clone, Debug)]
 pub struct BmcModel {
     pub kernel: Kernel,
     pub noise: f64,
-    pub means: KernelMeans,
-    /// `V̂`, always exact (the MC mode estimates only the `z_i`, as the thesis did).
-    pub prior_variance: f64,
-    /// The kernel-mean table's accuracy warning, if any.
-    table_warning: Option<String>,
+    pub mode: crate::kernel_mean::KernelMeanMode,
+    /// The exact `z(μ)` and `V̂`, tabulated once and shared between threads; used for the
+    /// `z_i` in the exact mode, and for `V̂` in both (the MC mode estimates only the `z_i`, as
+    /// the thesis did).
+    table: std::sync::Arc<crate::kernel_mean::KernelMeanTable>,
 }
 
 impl BmcModel {
-    /// Builds the model; the exact mode tabulates `z` here, once.
+    /// Builds the model, tabulating `z` once.
     pub fn new(kernel: Kernel, noise: f64, mode: crate::kernel_mean::KernelMeanMode) -> Self {
         let table = std::sync::Arc::new(crate::kernel_mean::KernelMeanTable::new(&kernel));
-        let prior_variance = table.prior_variance();
-        let table_warning = table.accuracy_warning();
-        let means = match mode {
-            crate::kernel_mean::KernelMeanMode::Exact => KernelMeans::Exact(table),
-            crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => KernelMeans::MonteCarlo { samples },
-        };
         BmcModel {
             kernel,
             noise,
-            means,
-            prior_variance,
-            table_warning,
+            mode,
+            table,
         }
+    }
+
+    /// The exact kernel-mean table of the model's kernel.
+    pub fn table(&self) -> &crate::kernel_mean::KernelMeanTable {
+        &self.table
+    }
+
+    /// `V̂ = ∫_H ∫_H k dω dω'` (exact).
+    pub fn prior_variance(&self) -> f64 {
+        self.table.prior_variance()
     }
 
     /// A warning if the kernel-mean table is less accurate than its target (see
     /// [`crate::kernel_mean::KernelMeanTable::accuracy_warning`]); callers report it.
-    pub fn accuracy_warning(&self) -> Option<&str> {
-        self.table_warning.as_deref()
+    pub fn accuracy_warning(&self) -> Option<String> {
+        self.table.accuracy_warning()
     }
 
     /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
     /// `rng` is drawn from only in the MC mode.
     pub fn kernel_means<R: rand::Rng + ?Sized>(&self, points: &[Vec3], rng: &mut R) -> Vec<f64> {
-        match &self.means {
-            KernelMeans::Exact(table) => points.iter().map(|p| table.z(p.z)).collect(),
-            KernelMeans::MonteCarlo { samples } => {
-                let dirs = crate::sampling::Design::Uniform.sample_set(*samples, rng);
+        match self.mode {
+            crate::kernel_mean::KernelMeanMode::Exact => points.iter().map(|p| self.table.z(p.z)).collect(),
+            crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => {
+                let dirs = crate::sampling::Design::Uniform.sample_set(samples, rng);
                 crate::kernel_mean::kernel_means_mc(
                     &self.kernel,
                     points,
@@ -243,7 +237,7 @@ impl BmcModel {
         bmc_weights(
             points,
             &z,
-            self.prior_variance,
+            self.prior_variance(),
             &self.kernel,
             self.noise,
             workspace,

@@ -289,7 +289,7 @@ fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         let mut summary = crate::rule::rule_summary(&model, args.model.mode_name(), &points, &weights);
         summary["source"] = source;
         summary["seed"] = serde_json::json!(args.seed);
-        if let crate::bmc::KernelMeans::MonteCarlo { samples } = model.means {
+        if let KernelMeanMode::MonteCarlo { samples } = model.mode {
             summary["kernel_mean_samples"] = serde_json::json!(samples);
         }
         let mut bytes = serde_json::to_vec_pretty(&summary)?;

@@ -120,7 +120,7 @@ pub fn rule_summary(
 ) -> serde_json::Value {
     let d = &rule.diagnostics;
     // Against the exact kernel means whatever the mode, so it measures the rule itself.
-    let table = crate::kernel_mean::KernelMeanTable::new(&model.kernel);
+    let table = model.table();
     let z: Vec<f64> = points.iter().map(|p| table.z(p.z)).collect();
     let wce = crate::bmc::worst_case_error(points, &rule.weights, &z, table.prior_variance(), &model.kernel);
     serde_json::json!({
