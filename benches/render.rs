@@ -3,7 +3,6 @@
 //!
 //! Run: `cargo bench --bench render`. Prints the best of three wall-clock times.
 
-use indicatif::ProgressBar;
 use std::time::Instant;
 use workbench::bmc::{BmcModel, DEFAULT_NOISE};
 use workbench::kernel::{Kernel, Sobolev};
@@ -30,13 +29,13 @@ fn main() {
     );
     println!("kernel-mean table: {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
     let r = Renderer::new(500, 500, Environment::Sky);
-    let bar = ProgressBar::hidden();
+    let bar = workbench::report::Silent;
     let bmc = best_of_three(|| {
-        let i = Integrator::build(IntegratorKind::Bmc, 40, 4, true, Some(&model), 1).unwrap();
+        let i = Integrator::build(IntegratorKind::BMC, 40, 4, true, Some(&model), 1).unwrap();
         r.render(&i, 1, &bar);
     });
     let mc = best_of_three(|| {
-        let i = Integrator::build(IntegratorKind::Mc, 40, 0, false, None, 1).unwrap();
+        let i = Integrator::build(IntegratorKind::MC, 40, 0, false, None, 1).unwrap();
         r.render(&i, 1, &bar);
     });
     println!(
@@ -46,7 +45,7 @@ fn main() {
     let small = Renderer::new(256, 256, Environment::Sky);
     let reference = best_of_three(|| {
         small.render(
-            &Integrator::build(IntegratorKind::Mc, 3000, 0, false, None, 1).unwrap(),
+            &Integrator::build(IntegratorKind::MC, 3000, 0, false, None, 1).unwrap(),
             1,
             &bar,
         );

@@ -66,17 +66,6 @@ pub struct BmcWeights {
 }
 
 impl BmcWeights {
-    /// `Î = wᵀ Y` (zero prior mean).
-    pub fn bmc(&self, values: &[f64]) -> f64 {
-        dot(&self.weights, values)
-    }
-
-    /// `Î = 2πc + wᵀ (Y − c·1)` (constant prior mean `c`).
-    pub fn bmcp(&self, values: &[f64], c: f64) -> f64 {
-        let centred: f64 = self.weights.iter().zip(values).map(|(w, y)| w * (y - c)).sum();
-        std::f64::consts::TAU * c + centred
-    }
-
     /// Posterior standard deviation of the integral (0 if rounding made the variance negative).
     pub fn posterior_sd(&self) -> f64 {
         self.diagnostics.posterior_variance.max(0.0).sqrt()

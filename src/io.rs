@@ -1,6 +1,6 @@
 //! The one place that writes result files: atomically, so a crash never leaves half a file.
 
-use anyhow::Context;
+use crate::error::{Error, InputError, Result};
 use std::io::Write;
 use std::path::Path;
 
@@ -9,19 +9,19 @@ use std::path::Path;
 /// A path that exists but is not a regular file (`/dev/null`, a named pipe, `/dev/stdout`) is
 /// written to directly: renaming over it would replace the device. A symbolic link is followed,
 /// and its target replaced atomically, so the link survives.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic_following(path, bytes, 0)
 }
 
-fn write_atomic_following(path: &Path, bytes: &[u8], links: u32) -> anyhow::Result<()> {
+fn write_atomic_following(path: &Path, bytes: &[u8], links: u32) -> Result<()> {
     if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
-        anyhow::ensure!(
-            links < 40,
-            "{}: too many levels of symbolic links",
-            path.display()
-        );
-        let target =
-            std::fs::read_link(path).with_context(|| format!("reading the link {}", path.display()))?;
+        if links >= 40 {
+            return Err(
+                InputError::new(format!("{}: too many levels of symbolic links", path.display())).into(),
+            );
+        }
+        let target = std::fs::read_link(path)
+            .map_err(|e| Error::io(format!("reading the link {}", path.display()), e))?;
         let target = match path.parent() {
             Some(dir) if target.is_relative() => dir.join(target),
             _ => target,
@@ -32,74 +32,44 @@ fn write_atomic_following(path: &Path, bytes: &[u8], links: u32) -> anyhow::Resu
         let mut f = std::fs::OpenOptions::new()
             .write(true)
             .open(path)
-            .with_context(|| format!("opening {}", path.display()))?;
+            .map_err(|e| Error::io(format!("opening {}", path.display()), e))?;
         return f
             .write_all(bytes)
-            .with_context(|| format!("writing {}", path.display()));
+            .map_err(|e| Error::io(format!("writing {}", path.display()), e));
     }
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    std::fs::create_dir_all(dir).with_context(|| format!("creating folder {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating folder {}", dir.display()), e))?;
     let mut tmp = tempfile::Builder::new()
         .prefix(".workbench-")
         .tempfile_in(dir)
-        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
+        .map_err(|e| Error::io(format!("creating a temporary file in {}", dir.display()), e))?;
     tmp.write_all(bytes)
-        .with_context(|| format!("writing {}", path.display()))?;
+        .map_err(|e| Error::io(format!("writing {}", path.display()), e))?;
     // Temporary files are created 0600; results are ordinary files (0644 before the umask).
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
         tmp.as_file()
             .set_permissions(std::fs::Permissions::from_mode(0o644))
-            .with_context(|| format!("setting permissions of {}", path.display()))?;
+            .map_err(|e| Error::io(format!("setting permissions of {}", path.display()), e))?;
     }
     tmp.as_file()
         .sync_all()
-        .with_context(|| format!("syncing {}", path.display()))?;
+        .map_err(|e| Error::io(format!("syncing {}", path.display()), e))?;
     tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("renaming into {}", path.display()))?;
+        .map_err(|e| Error::io(format!("renaming into {}", path.display()), e.error))?;
     Ok(())
 }
 
-/// Bad input from the user: the binary exits with code 2.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct InputError(pub String);
-
-impl InputError {
-    pub fn new(message: impl Into<String>) -> Self {
-        InputError(message.into())
-    }
-}
-
-/// Writes `s` to standard output. A reader that has gone away (`| head`) gives an
-/// `io::ErrorKind::BrokenPipe` error, which the binary turns into a quiet exit.
-pub fn stdout(s: &str) -> std::io::Result<()> {
-    let mut out = std::io::stdout().lock();
-    out.write_all(s.as_bytes())?;
-    out.flush()
-}
-
-/// Whether an error was caused by writing to a closed pipe.
-pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
-    e.chain().any(|c| {
-        c.downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-    })
-}
-
-/// A status line on standard error (progress notes, warnings). Unlike `eprintln!` it never
-/// panics: if standard error is closed there is nowhere left to report to.
-#[macro_export]
-macro_rules! status {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
+/// Creates `dir` if needed and checks that files can be created in it, so that an unwritable
+/// output folder fails before the work, not after it.
+pub fn check_writable_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
+    tempfile::tempfile_in(dir).map_err(|e| Error::io(format!("{} is not writable", dir.display()), e))?;
+    Ok(())
 }
 
 #[cfg(all(test, unix))]

@@ -1,21 +1,28 @@
 //! workbench: Monte Carlo versus Bayesian Monte Carlo over the hemisphere.
 //!
 //! The formulas follow `docs/math.md` of the project's shared documentation; each module
-//! names the section it implements.
+//! names the section it implements. The library never prints: long work reports through a
+//! [`report::Reporter`], and errors are [`Error`]s. The command line lives in the binary.
 
 pub mod bmc;
-pub mod cli;
+pub mod error;
 pub mod estimator;
 pub mod experiment;
 pub mod geometry;
 pub mod integrand;
 pub mod io;
+pub mod json;
 pub mod kernel;
 pub mod kernel_mean;
 pub mod linalg;
+pub mod model_spec;
 pub mod quadrature;
 pub mod render;
+pub mod report;
 pub mod rng;
 pub mod rule;
 pub mod sampling;
 pub mod stats;
+pub mod threads;
+
+pub use error::{Error, InputError, Result};

@@ -1,17 +1,7 @@
-use std::process::ExitCode;
+//! The `workbench` binary: the command line over the library (see `cli`).
 
-fn main() -> ExitCode {
-    match workbench::cli::main() {
-        Ok(code) => code,
-        // `workbench … | head`: the reader has all it wanted.
-        Err(e) if workbench::io::is_broken_pipe(&e) => ExitCode::SUCCESS,
-        Err(e) => {
-            workbench::status!("Error: {e:#}");
-            if e.downcast_ref::<workbench::io::InputError>().is_some() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::from(1)
-            }
-        }
-    }
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
 }

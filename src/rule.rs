@@ -1,8 +1,8 @@
 //! `workbench rule`: a BMC quadrature rule (points and weights) as a file a renderer can load.
 
 use crate::bmc::{BmcModel, BmcWeights};
+use crate::error::InputError;
 use crate::geometry::Vec3;
-use crate::io::InputError;
 use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
 use crate::sampling::SetDesign;
@@ -37,7 +37,7 @@ pub fn generate_points(n: usize, seed: u64, design: SetDesign) -> Vec<Vec3> {
 }
 
 /// The weights of `points` under `model`; `seed` drives the MC kernel-mean mode only.
-pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> anyhow::Result<BmcWeights> {
+pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> crate::Result<BmcWeights> {
     let mut rng = stream(seed, &[KERNEL_MEAN_STREAM]);
     Ok(model.weights(points, &mut rng, &mut SpdWorkspace::new())?)
 }

@@ -113,6 +113,34 @@ pub enum SetDesign {
 }
 
 impl SetDesign {
+    /// Every design, in the order of the docs: the list that the conformance tests walk and
+    /// that names are parsed from. A new design is added here and in the matches below (all
+    /// exhaustive, so a design not wired everywhere does not compile).
+    pub const ALL: [SetDesign; 3] = [
+        SetDesign::Iid(Design::Uniform),
+        SetDesign::Iid(Design::Cosine),
+        SetDesign::Fibonacci,
+    ];
+
+    /// Parses [`SetDesign::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|d| d.name() == name)
+    }
+
+    /// The names of [`SetDesign::ALL`], for messages.
+    pub fn names() -> String {
+        Self::ALL.map(|d| d.name()).join(", ")
+    }
+
+    /// A stable number for seeding the design's random stream (never reuse one).
+    pub fn stream_id(self) -> u64 {
+        match self {
+            SetDesign::Iid(Design::Uniform) => 0,
+            SetDesign::Iid(Design::Cosine) => 1,
+            SetDesign::Fibonacci => 2,
+        }
+    }
+
     /// The name used in files and on the command line.
     pub fn name(self) -> &'static str {
         match self {
@@ -145,6 +173,24 @@ impl SetDesign {
                     .collect()
             }
         }
+    }
+}
+
+impl serde::Serialize for SetDesign {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for SetDesign {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        SetDesign::from_name(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "unknown design {name:?}; expected one of {}",
+                SetDesign::names()
+            ))
+        })
     }
 }
 

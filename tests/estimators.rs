@@ -7,14 +7,14 @@ use common::{funk_hecke_0_1, rkhs_norms_of_one_and_cos};
 
 use std::f64::consts::{PI, TAU};
 use workbench::bmc::{BmcModel, bmc_weights, worst_case_error};
-use workbench::estimator::{Method, Prior, mc};
+use workbench::estimator::{Method, bmc, bmcp, mc};
 use workbench::geometry::{Vec3, rotate_about_z};
 use workbench::integrand::CosPower;
 use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
 use workbench::kernel_mean::{KernelMeanMode, KernelMeanTable};
 use workbench::linalg::SpdWorkspace;
 use workbench::rng::stream;
-use workbench::sampling::Design;
+use workbench::sampling::{Design, SetDesign};
 
 fn sobolev() -> Kernel {
     Kernel::Sobolev(Sobolev::new(1.4).unwrap())
@@ -93,8 +93,8 @@ fn bmc_on_a_constant_integrand() {
             let pts = Design::Uniform.sample_set(n, &mut stream(13, &[n as u64]));
             let w = weights(kernel, 0.01, &pts);
             let values = vec![0.7; n];
-            assert!((w.bmcp(&values, 0.7) - TAU * 0.7).abs() < 1e-12);
-            assert!((w.bmc(&values) - 0.7 * w.diagnostics.weight_sum).abs() < 1e-12);
+            assert!((bmcp::estimate(&w, &values, 0.7) - TAU * 0.7).abs() < 1e-12);
+            assert!((bmc::estimate(&w, &values) - 0.7 * w.diagnostics.weight_sum).abs() < 1e-12);
             let gap = (w.diagnostics.weight_sum - TAU).abs();
             assert!(
                 gap < last_gap,
@@ -144,7 +144,10 @@ fn bmc_is_exact_for_kernel_sections() {
         for x in pts.iter().step_by(5) {
             let values: Vec<f64> = pts.iter().map(|p| kernel.eval(p, x)).collect();
             let exact = table.z(x.z);
-            assert!((w.bmc(&values) - exact).abs() < 1e-9 * exact, "{kernel}");
+            assert!(
+                (bmc::estimate(&w, &values) - exact).abs() < 1e-9 * exact,
+                "{kernel}"
+            );
         }
     }
 }
@@ -225,49 +228,61 @@ fn singular_q_gets_counted_jitter() {
     assert!(w.weights.iter().all(|x| x.is_finite()));
 }
 
-/// Conformance: every method gives a finite, reproducible estimate; BMCP with c = 0 is BMC.
+/// Conformance, walking the one list of estimators and the one list of designs: every method
+/// on every design gives a finite, reproducible estimate near the truth; its name parses back
+/// (in experiment files, through serde, and as a render integrator); a prior reaches the
+/// methods that use one, and a zero prior is no prior.
 #[test]
 fn every_method_conforms() {
-    let methods = [
-        Method::Mc,
-        Method::Bmc,
-        Method::Bmcp(Prior::Analytic),
-        Method::Bmcp(Prior::Value(0.0)),
-    ];
     let f = CosPower::new(3);
-    for design in [Design::Uniform, Design::Cosine] {
-        let pts = design.sample_set(32, &mut stream(19, &[]));
+    for design in SetDesign::ALL {
+        assert_eq!(SetDesign::from_name(design.name()), Some(design));
+        let pts = design.sample_set(32, &mut stream(19, &[design.stream_id()]));
         let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
         let w = weights(sobolev(), 0.01, &pts);
-        let est: Vec<f64> = methods
-            .iter()
-            .map(|m| {
+        for m in Method::ALL {
+            let estimate = |prior: f64| {
                 m.estimate(
-                    design,
+                    design.density(),
                     &pts,
                     &vals,
                     m.needs_weights().then_some(&w),
-                    f.constant_prior(),
+                    prior,
                 )
-            })
-            .collect();
-        for (m, e) in methods.iter().zip(&est) {
+            };
+            let e = estimate(f.constant_prior());
+            // Five standard errors of uniform MC at this N; the other estimators do better.
+            let tolerance = 5.0 * (f.uniform_mc_variance() / 32.0).sqrt();
             assert!(
-                // Five standard errors of uniform MC at this N; the other estimators do better.
-                e.is_finite() && (e - f.integral()).abs() < 5.0 * (f.uniform_mc_variance() / 32.0).sqrt(),
-                "{m:?} {design}: {e}"
+                e.is_finite() && (e - f.integral()).abs() < tolerance,
+                "{m} on {design}: {e}"
             );
-            let again = m.estimate(
-                design,
-                &pts,
-                &vals,
-                m.needs_weights().then_some(&w),
-                f.constant_prior(),
+            assert_eq!(
+                e,
+                estimate(f.constant_prior()),
+                "{m} on {design} is not reproducible"
             );
-            assert_eq!(*e, again);
+            if m.uses_prior() {
+                assert_ne!(e, estimate(0.0), "{m}: the prior must reach the estimate");
+                assert_eq!(
+                    estimate(0.0),
+                    Method::Bmc.estimate(design.density(), &pts, &vals, Some(&w), 0.0),
+                    "{m} with c = 0 must equal BMC"
+                );
+            } else {
+                assert_eq!(e, estimate(0.0), "{m} takes no prior");
+            }
+            assert_eq!(m.posterior_sd(Some(&w)).is_some(), m.needs_weights(), "{m}");
         }
-        assert_eq!(est[1], est[3], "BMCP with c = 0 must equal BMC");
-        assert_ne!(est[1], est[2], "the analytic prior must reach BMCP");
+    }
+    for m in Method::ALL {
+        assert_eq!(Method::from_name(m.name()), Some(m));
+        let json = serde_json::to_string(&m).unwrap();
+        assert_eq!(json, format!("\"{}\"", m.name()));
+        assert_eq!(serde_json::from_str::<Method>(&json).unwrap(), m);
+        // Every estimator is a render integrator under its own name.
+        let kind = workbench::render::IntegratorKind::from_name(m.name()).unwrap();
+        assert_eq!(kind.method, m);
     }
 }
 

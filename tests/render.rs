@@ -5,13 +5,13 @@
 #![allow(clippy::needless_range_loop)]
 
 mod common;
-use indicatif::ProgressBar;
 use workbench::bmc::{BmcModel, DEFAULT_NOISE};
 use workbench::geometry::Vec3;
 use workbench::kernel::{Kernel, Sobolev};
 use workbench::kernel_mean::KernelMeanMode;
-use workbench::render::integrator::{BmcSets, Estimator};
+use workbench::render::integrator::BmcSets;
 use workbench::render::{Environment, Image, Integrator, IntegratorKind, Renderer, Scene};
+use workbench::report::Silent;
 use workbench::sampling::Design;
 
 fn model() -> BmcModel {
@@ -22,8 +22,8 @@ fn model() -> BmcModel {
     )
 }
 
-fn hidden() -> ProgressBar {
-    ProgressBar::hidden()
+fn hidden() -> Silent {
+    Silent
 }
 
 /// The renderer with only the sphere (convex, so every hit pixel sees its whole hemisphere).
@@ -52,10 +52,7 @@ fn bmc(kind: IntegratorKind, spp: usize, gps: usize, rotate: bool, m: &BmcModel,
 }
 
 fn sets(i: &Integrator) -> &BmcSets {
-    match &i.estimator {
-        Estimator::Bmc(s) => s,
-        Estimator::Mc(_) => panic!("not BMC"),
-    }
+    i.sets.as_ref().expect("an integrator with weights")
 }
 
 /// Test 1 adapted: under `env = 1` an unoccluded Lambertian pixel is
@@ -94,7 +91,7 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
         );
     }
 
-    for kind in [IntegratorKind::Bmc, IntegratorKind::Bmcp] {
+    for kind in [IntegratorKind::BMC, IntegratorKind::BMCP] {
         let integ = bmc(kind, spp, 4, true, &m, 3);
         let s = sets(&integ);
         // Each set's quadrature of cos θ (exact: π).
@@ -137,7 +134,7 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
         for (k, a, _) in &hit {
             for c in 0..3 {
                 // BMCP's prior is a mean of neighbour estimates, each at most albedo·(1 + cos_error).
-                let prior = if kind == IntegratorKind::Bmcp {
+                let prior = if kind == IntegratorKind::BMCP {
                     (1.0 + cos_error) * a[c] / std::f64::consts::TAU
                 } else {
                     0.0
@@ -159,9 +156,9 @@ fn one_sample_along_the_normal_shows_the_sky_reflected() {
     let r = sphere_only(64, Environment::Sky);
     let m = model();
     let integ = Integrator {
-        kind: IntegratorKind::Bmc,
+        kind: IntegratorKind::BMC,
         spp: 1,
-        estimator: Estimator::Bmc(BmcSets::from_points(vec![vec![Vec3::z()]], false, &m, 0).unwrap()),
+        sets: Some(BmcSets::from_points(vec![vec![Vec3::z()]], false, &m, 0).unwrap()),
     };
     let w = sets(&integ).sets[0].weights.weights[0];
     let img = r.render(&integ, 0, &hidden());
@@ -205,7 +202,7 @@ fn images_do_not_depend_on_the_thread_count() {
     let r = Renderer::new(40, 40, Environment::Sky);
     let m = model();
     let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
-    for kind in IntegratorKind::ALL {
+    for kind in IntegratorKind::all() {
         let integ = Integrator::build(kind, 12, 3, true, Some(&m), 5).unwrap();
         let one = pool(1).install(|| r.render(&integ, 5, &hidden()));
         let two = pool(2).install(|| r.render(&integ, 5, &hidden()));
@@ -222,8 +219,8 @@ fn images_do_not_depend_on_the_thread_count() {
 fn bmcp_differs_from_bmc_exactly_where_the_prior_is_not_zero() {
     let r = Renderer::new(32, 32, Environment::Sky);
     let m = model();
-    let plain = bmc(IntegratorKind::Bmc, 20, 2, true, &m, 8);
-    let prior = bmc(IntegratorKind::Bmcp, 20, 2, true, &m, 8);
+    let plain = bmc(IntegratorKind::BMC, 20, 2, true, &m, 8);
+    let prior = bmc(IntegratorKind::BMCP, 20, 2, true, &m, 8);
     let a = r.render(&plain, 8, &hidden());
     let b = r.render(&prior, 8, &hidden());
     let (mut second, mut changed) = (0, 0);
@@ -242,10 +239,10 @@ fn bmcp_differs_from_bmc_exactly_where_the_prior_is_not_zero() {
     );
     // c = 0 is plain BMC.
     for (i, j) in [(10, 20), (16, 16), (3, 30)] {
-        let none = r.pixel(i, j, &prior, 8, None);
+        let none = r.pixel(i, j, &prior, 8, [0.0; 3]);
         assert!(none.is_some());
-        assert_eq!(none, r.pixel(i, j, &prior, 8, Some([0.0; 3])));
-        assert_eq!(none, r.pixel(i, j, &plain, 8, None));
+        assert_eq!(none, r.pixel(i, j, &plain, 8, [0.0; 3]));
+        assert_ne!(none, r.pixel(i, j, &prior, 8, [0.05; 3]));
     }
     // A 1×1 image has no neighbours: c = 0 and BMCP = BMC.
     let tiny = Renderer::new(1, 1, Environment::Sky);
@@ -270,7 +267,7 @@ fn rmse_falls_with_spp_and_bmc_beats_mc() {
         for rep in 0..reps {
             let seed = 100 * spp as u64 + rep;
             let mc: Image = r.render(&Integrator::mc(Design::Uniform, spp), seed, &hidden());
-            let b = r.render(&bmc(IntegratorKind::Bmc, spp, 4, true, &m, seed), seed, &hidden());
+            let b = r.render(&bmc(IntegratorKind::BMC, spp, 4, true, &m, seed), seed, &hidden());
             let (e_mc, e_bmc) = (mc.rmse(&reference), b.rmse(&reference));
             assert!(e_bmc < e_mc, "spp {spp} rep {rep}: BMC {e_bmc} vs MC {e_mc}");
             mean[0] += e_mc / reps as f64;

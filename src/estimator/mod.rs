@@ -1,75 +1,102 @@
-//! The estimators compared by the workbench: MC, BMC and BMCP (math.md §3–4).
+//! The estimators compared by the workbench (math.md §3–4), shared by `run` and `render`:
+//! every estimator turns a sample set and the integrand's values on it into an estimate of
+//! `I = ∫_H f dω`. Experiments call it once per integrand; the renderer once per colour channel.
 //!
-//! Adding an estimator: one file here, one arm in [`Method`], its JSON name in
-//! `experiment::spec::MethodName` (options validated in `experiment::plan`), and one entry in
-//! the conformance tests' list (`tests/estimators.rs`). See the README.
+//! Adding an estimator (see the README): one file here with its `estimate` function, one arm in
+//! [`Method`] and in [`Method::ALL`]; every `match` on `Method` is exhaustive, so the compiler
+//! lists every place that must decide what the new estimator does (its name, whether it needs
+//! BMC weights or a prior, how it estimates, its posterior). Experiments (`"method": "<name>"`)
+//! and the renderer (`--integrator <name>`) then accept it, and the conformance tests in
+//! `tests/estimators.rs` walk [`Method::ALL`].
 
+pub mod bmc;
+pub mod bmcp;
 pub mod mc;
 
 use crate::bmc::BmcWeights;
 use crate::geometry::Vec3;
 use crate::sampling::Design;
+use serde::{Deserialize, Serialize};
 
-/// The constant prior mean of BMCP.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Prior {
-    /// `c = I / (2π)` of the integrand (math.md §1).
-    Analytic,
-    /// A given constant.
-    Value(f64),
-}
-
-impl Prior {
-    /// The constant for an integrand whose analytic prior is `analytic`.
-    pub fn resolve(self, analytic: f64) -> f64 {
-        match self {
-            Prior::Analytic => analytic,
-            Prior::Value(c) => c,
-        }
-    }
-}
-
-/// Which estimate to form from a sample set.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// An estimator of `∫_H f dω` from values on a sample set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Method {
-    /// `Î = (1/N) Σ f(ω_i)/p(ω_i)`.
+    /// Classical Monte Carlo, `Î = (1/N) Σ f(ω_i)/p(ω_i)` ([`mc`]).
     Mc,
-    /// `Î = wᵀ Y`.
+    /// Bayesian Monte Carlo with zero prior mean, `Î = wᵀ Y` ([`bmc`]).
     Bmc,
-    /// `Î = 2πc + wᵀ (Y − c·1)`.
-    Bmcp(Prior),
+    /// BMC with a constant prior mean `c`, `Î = 2πc + wᵀ (Y − c·1)` ([`bmcp`]).
+    Bmcp,
 }
 
 impl Method {
-    pub fn name(&self) -> &'static str {
+    /// Every estimator, in the order of the docs: the list the conformance tests walk and that
+    /// names are parsed from.
+    pub const ALL: [Method; 3] = [Method::Mc, Method::Bmc, Method::Bmcp];
+
+    /// The name in experiment files, on the command line and in CSVs.
+    pub fn name(self) -> &'static str {
         match self {
             Method::Mc => "mc",
             Method::Bmc => "bmc",
-            Method::Bmcp(_) => "bmcp",
+            Method::Bmcp => "bmcp",
         }
     }
 
-    /// Whether the estimate needs BMC weights.
-    pub fn needs_weights(&self) -> bool {
-        !matches!(self, Method::Mc)
+    /// Parses [`Method::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The estimate from the sample set `points` (drawn with `design`), the integrand values
-    /// `values`, the weights (for BMC-type methods) and the integrand's analytic prior constant.
+    /// Whether the estimate needs BMC weights (a kernel, noise and kernel means).
+    pub fn needs_weights(self) -> bool {
+        match self {
+            Method::Mc => false,
+            Method::Bmc | Method::Bmcp => true,
+        }
+    }
+
+    /// Whether the estimate takes a constant prior mean `c`.
+    pub fn uses_prior(self) -> bool {
+        match self {
+            Method::Mc | Method::Bmc => false,
+            Method::Bmcp => true,
+        }
+    }
+
+    /// The estimate from the sample set `points` (each point drawn from `density`), the
+    /// integrand values `values`, the weights (when [`Method::needs_weights`]) and the prior
+    /// constant `c` (used when [`Method::uses_prior`]; `c = 0` makes BMCP plain BMC).
+    ///
+    /// # Panics
+    /// If a method that needs weights is given none, or the lengths differ.
     pub fn estimate(
-        &self,
-        design: Design,
+        self,
+        density: Design,
         points: &[Vec3],
         values: &[f64],
         weights: Option<&BmcWeights>,
-        analytic_prior: f64,
+        prior: f64,
     ) -> f64 {
         match self {
-            Method::Mc => mc::estimate(design, points, values),
-            Method::Bmc => weights.expect("BMC needs weights").bmc(values),
-            Method::Bmcp(prior) => weights
-                .expect("BMCP needs weights")
-                .bmcp(values, prior.resolve(analytic_prior)),
+            Method::Mc => mc::estimate(density, points, values),
+            Method::Bmc => bmc::estimate(weights.expect("BMC needs weights"), values),
+            Method::Bmcp => bmcp::estimate(weights.expect("BMCP needs weights"), values, prior),
         }
+    }
+
+    /// The posterior standard deviation of the integral, for the estimators that have one.
+    pub fn posterior_sd(self, weights: Option<&BmcWeights>) -> Option<f64> {
+        match self {
+            Method::Mc => None,
+            Method::Bmc | Method::Bmcp => weights.map(BmcWeights::posterior_sd),
+        }
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }

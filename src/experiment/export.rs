@@ -119,13 +119,11 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
 }
 
 /// `manifest.json`: the plan and how the run went.
-pub fn manifest_json(plan: &Plan, threads: usize, wall_seconds: f64, checks: &[CheckOutcome]) -> Vec<u8> {
+pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome]) -> Vec<u8> {
     let v = serde_json::json!({
         "plan": plan_json(plan),
         "seed": plan.seed,
         "workbench_version": env!("CARGO_PKG_VERSION"),
-        "threads": threads,
-        "wall_seconds": wall_seconds,
         "checks": checks.iter().map(|c| serde_json::json!({
             "better": c.check.better,
             "than": c.check.than,
@@ -145,9 +143,19 @@ pub fn manifest_json(plan: &Plan, threads: usize, wall_seconds: f64, checks: &[C
         "files": {
             "trials.csv": "one row per (integrand, estimator, n, trial)",
             "summary.csv": "one row per (integrand, estimator, n)",
+            "timings.json": "wall-clock seconds and threads of the run (machine-dependent; not committed)",
         },
     });
     let mut bytes = serde_json::to_vec_pretty(&v).expect("manifest serializes");
+    bytes.push(b'\n');
+    bytes
+}
+
+/// `timings.json`: how long the run took on how many threads. Machine-dependent, so it stays
+/// out of the manifest and out of the committed results.
+pub fn timings_json(threads: usize, wall_seconds: f64) -> Vec<u8> {
+    let v = serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds });
+    let mut bytes = serde_json::to_vec_pretty(&v).expect("timings serialize");
     bytes.push(b'\n');
     bytes
 }

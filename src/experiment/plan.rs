@@ -2,11 +2,10 @@
 //! one-line error naming the file, the JSON path and the value.
 
 use super::spec::*;
-use crate::bmc::{BmcModel, DEFAULT_NOISE};
-use crate::estimator::{Method, Prior};
+use crate::bmc::BmcModel;
+use crate::estimator::Method;
 use crate::integrand::CosPower;
-use crate::kernel::{Kernel, Sobolev, SquaredExponential};
-use crate::kernel_mean::KernelMeanMode;
+use crate::model_spec::ResolvedModel;
 use crate::rule::MAX_POINTS;
 use crate::sampling::{Design, SetDesign};
 use serde::Serialize;
@@ -36,14 +35,35 @@ pub struct Plan {
     pub designs: Vec<SetDesign>,
 }
 
+/// The constant prior mean of an estimator that takes one ([`Method::uses_prior`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Prior {
+    /// The oracle prior `c = I / (2π)` of the integrand (math.md §1): it is given the answer.
+    Analytic,
+    /// A given constant.
+    Value(f64),
+}
+
+impl Prior {
+    /// The constant for an integrand whose analytic prior is `analytic`.
+    pub fn resolve(self, analytic: f64) -> f64 {
+        match self {
+            Prior::Analytic => analytic,
+            Prior::Value(c) => c,
+        }
+    }
+}
+
 /// One estimator, resolved.
 #[derive(Debug, Clone)]
 pub struct PlannedEstimator {
     pub label: String,
     pub method: Method,
     pub design: SetDesign,
-    /// Index into [`Plan::models`] (BMC-type methods).
+    /// Index into [`Plan::models`] (methods that need weights).
     pub model: Option<usize>,
+    /// The prior mean (methods that use one).
+    pub prior: Option<Prior>,
     /// The resolved settings, for the manifest and `validate`.
     pub settings: ResolvedSettings,
 }
@@ -51,8 +71,8 @@ pub struct PlannedEstimator {
 /// The settings of an estimator with defaults filled in.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResolvedSettings {
-    pub method: MethodName,
-    pub design: DesignName,
+    pub method: Method,
+    pub design: SetDesign,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kernel: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -80,33 +100,12 @@ pub struct Check {
 
 /// Parses the JSON text; errors say where (`path: message`).
 pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("malformed JSON: {e}"))?;
-    if value.get("variants").is_some() && value.get("estimators").is_none() {
+    if crate::json::spec_kind(text) == Some(crate::json::SpecKind::RenderTable) {
         return Err(
             "this is a render table spec (it has \"variants\"); run it with `workbench render FILE`".into(),
         );
     }
-    if !value.is_object() {
-        return Err(format!(
-            "the file must hold one JSON object (the experiment), got {}",
-            match value {
-                serde_json::Value::Array(_) => "an array",
-                serde_json::Value::String(_) => "a string",
-                serde_json::Value::Number(_) => "a number",
-                serde_json::Value::Bool(_) => "a boolean",
-                _ => "null",
-            }
-        ));
-    }
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        if path == "." {
-            inner.to_string()
-        } else {
-            format!("{path}: {inner}")
-        }
-    })
+    crate::json::parse(text, "the experiment")
 }
 
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
@@ -155,7 +154,9 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
 
     let mut estimators: Vec<PlannedEstimator> = Vec::new();
     let mut models: Vec<Arc<BmcModel>> = Vec::new();
-    let mut model_keys: Vec<ResolvedSettings> = Vec::new();
+    // Estimators with the same model and design share their weights; the key's index also
+    // seeds the model's kernel-mean stream, so its order is part of the results.
+    let mut model_keys: Vec<(ResolvedModel, SetDesign)> = Vec::new();
     let mut designs: Vec<SetDesign> = Vec::new();
     for (i, e) in spec.estimators.iter().enumerate() {
         let at = |field: &str| format!("estimators[{i}].{field}");
@@ -168,20 +169,14 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
                 format!("{:?} is already the label of estimators[{j}]", e.label),
             ));
         }
-        let (planned, model) = resolve_estimator(e, &at)?;
-        let mut planned = planned;
+        let (mut planned, model) = resolve_estimator(e, &at)?;
         if let Some(model) = model {
-            // The key is everything that determines the weights: method and prior aside.
-            let key = ResolvedSettings {
-                method: MethodName::Bmc,
-                prior: None,
-                ..planned.settings.clone()
-            };
+            let key = (model, planned.design);
             let index = match model_keys.iter().position(|k| *k == key) {
                 Some(index) => index,
                 None => {
                     model_keys.push(key);
-                    models.push(Arc::new(model()));
+                    models.push(Arc::new(model.build()));
                     models.len() - 1
                 }
             };
@@ -317,128 +312,69 @@ fn check_name(name: &str) -> Result<(), String> {
     }
 }
 
-type ModelBuilder = Box<dyn FnOnce() -> BmcModel>;
-
+/// One estimator's options, checked against what its method takes: options a method does not
+/// use are errors, never silently ignored.
 fn resolve_estimator(
     e: &EstimatorSpec,
     at: &dyn Fn(&str) -> String,
-) -> Result<(PlannedEstimator, Option<ModelBuilder>), String> {
-    let design_name = e.design.unwrap_or(DesignName::Uniform);
-    let design = match design_name {
-        DesignName::Uniform => SetDesign::Iid(Design::Uniform),
-        DesignName::Cosine => SetDesign::Iid(Design::Cosine),
-        DesignName::Fibonacci => SetDesign::Fibonacci,
-    };
-    let unused = |field: &str, value: String| {
-        err(
-            at(field),
-            format!(
-                "{value} is not used by method {}",
-                format!("{:?}", e.method).to_lowercase()
-            ),
-        )
-    };
-    // The value as it stood in the file, for the message.
-    fn json<T: Serialize>(v: &Option<T>) -> Option<String> {
-        v.as_ref()
-            .map(|v| serde_json::to_string(v).expect("spec values serialize"))
-    }
-    if e.method == MethodName::Mc {
-        for (field, given) in [
-            ("kernel", json(&e.kernel)),
-            ("noise", json(&e.noise)),
-            ("kernel_mean", json(&e.kernel_mean)),
-            ("kernel_mean_samples", json(&e.kernel_mean_samples)),
-            ("prior", json(&e.prior)),
-        ] {
-            if let Some(value) = given {
-                return Err(unused(field, value));
-            }
+) -> Result<(PlannedEstimator, Option<ResolvedModel>), String> {
+    let design = e.design.unwrap_or(SetDesign::Iid(Design::Uniform));
+    let unused =
+        |field: &str, value: String| err(at(field), format!("{value} is not used by method {}", e.method));
+    let model = if e.method.needs_weights() {
+        let model = e
+            .model()
+            .resolve()
+            .map_err(|m| err(at(m.field.json()), m.message))?;
+        Some(model)
+    } else {
+        if let Some((field, value)) = e.model().given_fields().into_iter().next() {
+            return Err(unused(field.json(), value));
         }
-        let settings = ResolvedSettings {
-            method: MethodName::Mc,
-            design: design_name,
-            kernel: None,
-            noise: None,
-            kernel_mean: None,
-            kernel_mean_samples: None,
-            prior: None,
-        };
-        return Ok((
-            PlannedEstimator {
-                label: e.label.clone(),
-                method: Method::Mc,
-                design,
-                model: None,
-                settings,
-            },
-            None,
-        ));
-    }
-    if let (MethodName::Bmc, Some(value)) = (e.method, json(&e.prior)) {
-        return Err(unused("prior", value));
-    }
-
-    let kernel = match e.kernel.unwrap_or(KernelSpec::Sobolev { s: None }) {
-        KernelSpec::Sobolev { s } => Sobolev::new(s.unwrap_or(Sobolev::DEFAULT_S)).map(Kernel::Sobolev),
-        KernelSpec::SquaredExponential { sigma, length } => {
-            SquaredExponential::new(sigma.unwrap_or(1.0), length.unwrap_or(0.5))
-                .map(Kernel::SquaredExponential)
-        }
-    }
-    .map_err(|k| err(at("kernel"), k))?;
-    let noise = e.noise.unwrap_or(DEFAULT_NOISE);
-    crate::bmc::validate_noise(noise).map_err(|m| err(at("noise"), m))?;
-    let mean_name = e.kernel_mean.unwrap_or(KernelMeanName::Exact);
-    let (mode, samples) = match mean_name {
-        KernelMeanName::Exact => {
-            if e.kernel_mean_samples.is_some() {
+        None
+    };
+    let prior = if e.method.uses_prior() {
+        Some(match e.prior.unwrap_or(PriorSpec::Named(PriorName::Analytic)) {
+            PriorSpec::Named(PriorName::Analytic) => Prior::Analytic,
+            // 2πc must be finite, or every estimate is infinite or NaN.
+            PriorSpec::Value(c) if (std::f64::consts::TAU * c).is_finite() => Prior::Value(c),
+            PriorSpec::Value(c) => {
                 return Err(err(
-                    at("kernel_mean_samples"),
-                    "is only used with \"kernel_mean\": \"mc\"",
+                    at("prior"),
+                    format!("must be finite with |2π·c| representable (|c| ≤ 2.8e307), got {c}"),
                 ));
             }
-            (KernelMeanMode::Exact, None)
+        })
+    } else {
+        if let Some(p) = &e.prior {
+            return Err(unused(
+                "prior",
+                serde_json::to_string(p).expect("spec values serialize"),
+            ));
         }
-        KernelMeanName::Mc => {
-            let m = e
-                .kernel_mean_samples
-                .unwrap_or(KernelMeanMode::THESIS_SAMPLES as u64);
-            let mode = KernelMeanMode::monte_carlo(m).map_err(|msg| err(at("kernel_mean_samples"), msg))?;
-            (mode, Some(m))
-        }
-    };
-    let (method, prior) = match e.method {
-        MethodName::Bmc => (Method::Bmc, None),
-        _ => match e.prior.unwrap_or(PriorSpec::Named(PriorName::Analytic)) {
-            PriorSpec::Named(PriorName::Analytic) => (
-                Method::Bmcp(Prior::Analytic),
-                Some(PriorSpec::Named(PriorName::Analytic)),
-            ),
-            PriorSpec::Value(c) if c.is_finite() => {
-                (Method::Bmcp(Prior::Value(c)), Some(PriorSpec::Value(c)))
-            }
-            PriorSpec::Value(c) => return Err(err(at("prior"), format!("must be finite, got {c}"))),
-        },
+        None
     };
     let settings = ResolvedSettings {
         method: e.method,
-        design: design_name,
-        kernel: Some(kernel.to_json()),
-        noise: Some(noise),
-        kernel_mean: Some(mean_name),
-        kernel_mean_samples: samples,
-        prior,
+        design,
+        kernel: model.map(|m| m.kernel.to_json()),
+        noise: model.map(|m| m.noise),
+        kernel_mean: model.map(|m| m.kernel_mean),
+        kernel_mean_samples: model.and_then(|m| m.samples()),
+        prior: prior.map(|p| match p {
+            Prior::Analytic => PriorSpec::Named(PriorName::Analytic),
+            Prior::Value(c) => PriorSpec::Value(c),
+        }),
     };
-    let builder: ModelBuilder = Box::new(move || BmcModel::new(kernel, noise, mode));
     Ok((
         PlannedEstimator {
             label: e.label.clone(),
-            method,
+            method: e.method,
             design,
             model: None,
+            prior,
             settings,
         },
-        Some(builder),
+        model,
     ))
 }

@@ -19,7 +19,11 @@ const PALETTE: [RGBColor; 6] = [
 const FLOOR: f64 = 1e-16;
 
 /// The SVG for integrand `fi` as a string.
-pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> anyhow::Result<String> {
+pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<String> {
+    draw(plan, cells, fi).map_err(|e| crate::Error::Encode(format!("drawing the error plot: {e}")))
+}
+
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
     let mine: Vec<&CellSummary> = cells.iter().filter(|c| c.integrand == fi).collect();
     let (n_min, n_max) = (
         *plan.samples.iter().min().expect("samples") as f64,

@@ -9,7 +9,7 @@ use super::plan::Plan;
 use crate::bmc::BmcWeights;
 use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
-use crate::sampling::{Design, SetDesign};
+use crate::sampling::SetDesign;
 use rayon::prelude::*;
 
 /// Stream identifiers under the experiment's seed.
@@ -51,23 +51,15 @@ impl Results {
     }
 }
 
-fn design_id(d: SetDesign) -> u64 {
-    match d {
-        SetDesign::Iid(Design::Uniform) => 0,
-        SetDesign::Iid(Design::Cosine) => 1,
-        SetDesign::Fibonacci => 2,
-    }
-}
-
 /// Runs every unit; `tick` is called once per finished unit (for a progress bar).
-pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> anyhow::Result<Results> {
+pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> crate::Result<Results> {
     let units = plan.samples.len() * plan.trials;
     thread_local! {
         // One workspace per worker thread for the whole run (map_init would make one per
         // work split, churning allocations of n_max² matrices).
         static WORKSPACE: std::cell::RefCell<SpdWorkspace> = std::cell::RefCell::new(SpdWorkspace::new());
     }
-    let results: Vec<anyhow::Result<UnitResult>> = (0..units)
+    let results: Vec<crate::Result<UnitResult>> = (0..units)
         .into_par_iter()
         .map(|u| {
             let r = WORKSPACE.with_borrow_mut(|ws| run_unit(plan, u / plan.trials, u % plan.trials, ws));
@@ -76,7 +68,7 @@ pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> anyhow::Result<Results> {
         })
         .collect();
     Ok(Results {
-        units: results.into_iter().collect::<anyhow::Result<_>>()?,
+        units: results.into_iter().collect::<crate::Result<_>>()?,
     })
 }
 
@@ -86,7 +78,7 @@ pub fn run_unit(
     n_index: usize,
     trial: usize,
     workspace: &mut SpdWorkspace,
-) -> anyhow::Result<UnitResult> {
+) -> crate::Result<UnitResult> {
     let n = plan.samples[n_index];
     let sets: Vec<Vec<crate::geometry::Vec3>> = plan
         .designs
@@ -94,7 +86,10 @@ pub fn run_unit(
         .map(|&d| {
             d.sample_set(
                 n,
-                &mut stream(plan.seed, &[SAMPLES_STREAM, design_id(d), n as u64, trial as u64]),
+                &mut stream(
+                    plan.seed,
+                    &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
+                ),
             )
         })
         .collect();
@@ -118,14 +113,17 @@ pub fn run_unit(
             &[
                 KERNEL_MEAN_STREAM,
                 m as u64,
-                design_id(e.design),
+                e.design.stream_id(),
                 n as u64,
                 trial as u64,
             ],
         );
         let w = plan.models[m]
             .weights(set_of(e.design), &mut rng, workspace)
-            .map_err(|err| anyhow::anyhow!("estimator {:?}, N = {n}, trial {trial}: {err}", e.label))?;
+            .map_err(|source| crate::Error::Numerical {
+                what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
+                source,
+            })?;
         weights.push(((m, e.design), w));
     }
     let weights_of = |e: &super::plan::PlannedEstimator| {
@@ -153,13 +151,9 @@ pub fn run_unit(
                     .iter()
                     .position(|&x| x == e.design)
                     .expect("design is planned");
-                e.method.estimate(
-                    e.design.density(),
-                    &sets[d],
-                    &values[d],
-                    weights_of(e),
-                    f.constant_prior(),
-                )
+                let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
+                e.method
+                    .estimate(e.design.density(), &sets[d], &values[d], weights_of(e), prior)
             })
             .collect();
         estimates.push(row);
@@ -191,7 +185,7 @@ pub fn run_unit(
         posterior_sd: plan
             .estimators
             .iter()
-            .map(|e| weights_of(e).map(|w| w.posterior_sd()))
+            .map(|e| e.method.posterior_sd(weights_of(e)))
             .collect(),
         diagnostics: plan
             .estimators

@@ -2,6 +2,9 @@
 //!
 //! Nothing here is validated beyond types; [`super::plan`] turns a spec into a plan.
 
+use crate::estimator::Method;
+pub use crate::model_spec::{KernelMeanName, KernelSpec, ModelSpec};
+use crate::sampling::SetDesign;
 use serde::{Deserialize, Serialize};
 
 /// An experiment file. See the README ("Experiment files") for every field.
@@ -30,10 +33,11 @@ pub struct ExperimentSpec {
 pub struct EstimatorSpec {
     /// Unique name in outputs and checks.
     pub label: String,
-    pub method: MethodName,
-    /// Sampling design: `uniform`, `cosine` or `fibonacci`; default `uniform`.
+    /// One of [`Method::ALL`] by name.
+    pub method: Method,
+    /// Sampling design, one of [`SetDesign::ALL`] by name; default `uniform`.
     #[serde(default)]
-    pub design: Option<DesignName>,
+    pub design: Option<SetDesign>,
     /// BMC/BMCP only; default Sobolev with s = 1.4.
     #[serde(default)]
     pub kernel: Option<KernelSpec>,
@@ -49,48 +53,6 @@ pub struct EstimatorSpec {
     /// BMCP only: `"analytic"` (default) or a number.
     #[serde(default)]
     pub prior: Option<PriorSpec>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum MethodName {
-    Mc,
-    Bmc,
-    Bmcp,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DesignName {
-    Uniform,
-    Cosine,
-    /// Shifted spherical Fibonacci lattice (randomised QMC).
-    Fibonacci,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum KernelMeanName {
-    Exact,
-    Mc,
-}
-
-/// `{"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
-#[serde(tag = "type", deny_unknown_fields)]
-pub enum KernelSpec {
-    #[serde(rename = "sobolev")]
-    Sobolev {
-        #[serde(default)]
-        s: Option<f64>,
-    },
-    #[serde(rename = "se")]
-    SquaredExponential {
-        #[serde(default)]
-        sigma: Option<f64>,
-        #[serde(default)]
-        length: Option<f64>,
-    },
 }
 
 /// `"analytic"` or a number.
@@ -135,6 +97,18 @@ impl<'de> Deserialize<'de> for PriorSpec {
 #[serde(rename_all = "lowercase")]
 pub enum PriorName {
     Analytic,
+}
+
+impl EstimatorSpec {
+    /// The model fields (kernel, noise, kernel mean), parsed by [`ModelSpec::resolve`].
+    pub fn model(&self) -> ModelSpec {
+        ModelSpec {
+            kernel: self.kernel,
+            noise: self.noise,
+            kernel_mean: self.kernel_mean,
+            kernel_mean_samples: self.kernel_mean_samples,
+        }
+    }
 }
 
 /// `better` has lower error than `than` for every integrand and every N ≥ `from_n`.

@@ -2,8 +2,8 @@
 //! the procedural sky, a constant white environment, or an equirectangular map.
 
 use super::scene::Rgb;
+use crate::error::InputError;
 use crate::geometry::Vec3;
-use crate::io::InputError;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
 

@@ -3,7 +3,7 @@
 //! the caller writes with [`crate::io::write_atomic`].
 
 use super::scene::Rgb;
-use crate::io::InputError;
+use crate::error::InputError;
 use ::image::{ImageFormat, Rgb32FImage, RgbImage};
 use std::io::Cursor;
 use std::path::Path;
@@ -17,7 +17,7 @@ pub struct Image {
 }
 
 /// How an error image scales the per-pixel error norm to `[0, 1]`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ErrorScale {
     /// Divide by the largest error of the image.
     Normalised,
@@ -26,7 +26,7 @@ pub enum ErrorScale {
 }
 
 /// How an error image shows the scaled error.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ColourMap {
     /// Black (0) to white (1).
     Grey,
@@ -62,13 +62,15 @@ impl Image {
     }
 
     /// The linear image as OpenEXR, 32-bit float RGB.
-    pub fn to_exr(&self) -> anyhow::Result<Vec<u8>> {
+    pub fn to_exr(&self) -> crate::Result<Vec<u8>> {
         let buf = Rgb32FImage::from_fn(self.width as u32, self.height as u32, |x, y| {
             let p = self.data[y as usize * self.width + x as usize];
             ::image::Rgb(p.map(|v| v as f32))
         });
         let mut out = Cursor::new(Vec::new());
-        ::image::DynamicImage::ImageRgb32F(buf).write_to(&mut out, ImageFormat::OpenExr)?;
+        ::image::DynamicImage::ImageRgb32F(buf)
+            .write_to(&mut out, ImageFormat::OpenExr)
+            .map_err(|e| crate::Error::Encode(format!("encoding OpenEXR: {e}")))?;
         Ok(out.into_inner())
     }
 
@@ -91,7 +93,7 @@ impl Image {
     }
 
     /// The picture for people: exposure 1, clamp to `[0, 1]`, sRGB transfer curve, 8-bit PNG.
-    pub fn to_png(&self) -> anyhow::Result<Vec<u8>> {
+    pub fn to_png(&self) -> crate::Result<Vec<u8>> {
         let buf = RgbImage::from_fn(self.width as u32, self.height as u32, |x, y| {
             let p = self.data[y as usize * self.width + x as usize];
             ::image::Rgb(p.map(|v| to_u8(srgb(v.clamp(0.0, 1.0)))))
@@ -116,7 +118,7 @@ impl Image {
         scale: ErrorScale,
         max_error: f64,
         map: ColourMap,
-    ) -> anyhow::Result<Vec<u8>> {
+    ) -> crate::Result<Vec<u8>> {
         let e = self.error_norms(reference);
         let top = match scale {
             ErrorScale::Normalised => e.iter().copied().fold(0.0, f64::max),
@@ -134,9 +136,10 @@ impl Image {
     }
 }
 
-fn encode_png(buf: RgbImage) -> anyhow::Result<Vec<u8>> {
+fn encode_png(buf: RgbImage) -> crate::Result<Vec<u8>> {
     let mut out = Cursor::new(Vec::new());
-    buf.write_to(&mut out, ImageFormat::Png)?;
+    buf.write_to(&mut out, ImageFormat::Png)
+        .map_err(|e| crate::Error::Encode(format!("encoding PNG: {e}")))?;
     Ok(out.into_inner())
 }
 

@@ -1,17 +1,15 @@
-//! `workbench render`: a small renderer whose pixels are hemisphere integrals estimated with
-//! MC, BMC or BMCP, and the RMSE-against-spp tables of the thesis (Table 4.1, Fig. 4.1b).
+//! `workbench render`: a small renderer whose pixels are hemisphere integrals estimated with the
+//! workbench's estimators, and the RMSE-against-spp tables of the thesis (Table 4.1, Fig. 4.1b).
 //!
 //! The scene, camera, shading and sky are defined in `docs/render-scene.md`; the estimators
 //! in `docs/math.md` §3–5; the error measure in §6.
 
 pub mod camera;
-pub mod cli;
 pub mod env;
 pub mod image;
 pub mod integrator;
 pub mod renderer;
 pub mod scene;
-pub mod spec;
 pub mod table;
 
 pub use camera::Camera;

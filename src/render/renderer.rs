@@ -5,12 +5,12 @@
 use super::camera::Camera;
 use super::env::Environment;
 use super::image::Image;
-use super::integrator::bmcp::{first_pass, neighbour_prior};
-use super::integrator::{Integrator, IntegratorKind, ShadingPoint};
+use super::integrator::neighbours::{first_pass, neighbour_prior};
+use super::integrator::{Integrator, ShadingPoint};
 use super::scene::{Rgb, Scene};
-use crate::io::InputError;
+use crate::error::InputError;
+use crate::report::Reporter;
 use crate::rng::stream;
-use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 /// Stream family of the per-pixel streams.
@@ -61,34 +61,35 @@ impl Renderer {
         }
     }
 
-    /// Renders one image; `progress` advances by one per row and pass.
+    /// The number of row passes [`Renderer::render`] makes (two for estimators with a prior).
+    pub fn passes(&self, integrator: &Integrator) -> usize {
+        if integrator.kind.method.uses_prior() { 2 } else { 1 }
+    }
+
+    /// Renders one image; `progress` advances by one per row and pass (see [`Renderer::passes`]).
     ///
-    /// Pixels whose primary ray hits nothing show `env(dir)`. For `bmcp` the first pass renders
-    /// the `(i + j)`-even pixels with BMC, the second the others with the neighbour prior.
-    pub fn render(&self, integrator: &Integrator, seed: u64, progress: &ProgressBar) -> Image {
-        let passes = if integrator.kind == IntegratorKind::Bmcp {
-            2
-        } else {
-            1
-        };
-        progress.inc_length((passes * self.height) as u64);
+    /// Pixels whose primary ray hits nothing show `env(dir)`. For an estimator with a prior mean
+    /// (`bmcp`) the first pass renders the `(i + j)`-even pixels with prior 0 (plain BMC), the
+    /// second the others with the neighbour prior.
+    pub fn render(&self, integrator: &Integrator, seed: u64, progress: &dyn Reporter) -> Image {
+        let with_prior = integrator.kind.method.uses_prior();
         let first: Vec<Option<Rgb>> = self.rows(progress, |i, j| {
-            if integrator.kind == IntegratorKind::Bmcp && !first_pass(i, j) {
+            if with_prior && !first_pass(i, j) {
                 return None;
             }
-            self.pixel(i, j, integrator, seed, None)
+            self.pixel(i, j, integrator, seed, [0.0; 3])
         });
         let pixel_or_background = |i: usize, j: usize, value: Option<Rgb>| {
             value.unwrap_or_else(|| self.env.radiance(&self.camera.ray(i, j)))
         };
-        let data = if integrator.kind == IntegratorKind::Bmcp {
+        let data = if with_prior {
             self.rows(progress, |i, j| {
                 let k = j * self.width + i;
                 let value = if first_pass(i, j) {
                     first[k]
                 } else {
                     let c = neighbour_prior(&first, self.width, self.height, i, j);
-                    self.pixel(i, j, integrator, seed, Some(c))
+                    self.pixel(i, j, integrator, seed, c)
                 };
                 Some(pixel_or_background(i, j, value))
             })
@@ -105,14 +106,7 @@ impl Renderer {
     }
 
     /// The integral estimate at pixel `(i, j)`, or `None` if the primary ray hits nothing.
-    pub fn pixel(
-        &self,
-        i: usize,
-        j: usize,
-        integrator: &Integrator,
-        seed: u64,
-        prior: Option<Rgb>,
-    ) -> Option<Rgb> {
+    pub fn pixel(&self, i: usize, j: usize, integrator: &Integrator, seed: u64, prior: Rgb) -> Option<Rgb> {
         let dir = self.camera.ray(i, j);
         let hit = self.scene.intersect(&self.camera.origin, &dir)?;
         let mut rng = stream(seed, &[PIXELS, (j * self.width + i) as u64]);
@@ -121,12 +115,12 @@ impl Renderer {
     }
 
     /// `f(i, j)` for every pixel, rows in parallel, collected in row-major order.
-    fn rows<T: Send>(&self, progress: &ProgressBar, f: impl Fn(usize, usize) -> T + Sync) -> Vec<T> {
+    fn rows<T: Send>(&self, progress: &dyn Reporter, f: impl Fn(usize, usize) -> T + Sync) -> Vec<T> {
         let rows: Vec<Vec<T>> = (0..self.height)
             .into_par_iter()
             .map(|j| {
                 let row = (0..self.width).map(|i| f(i, j)).collect();
-                progress.inc(1);
+                progress.advance(1);
                 row
             })
             .collect();

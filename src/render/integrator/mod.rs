@@ -3,67 +3,143 @@
 //! `L_o = ∫_{H(n)} f(ω) dω`, `f(ω) = L_i(ω) · (albedo/π) · (ω·n)` per colour channel,
 //! with `L_i(ω) = env(ω)` when the ray from `x + 1e-4 n` towards `ω` escapes and 0 otherwise.
 //!
-//! Adding an integrator: one file here, one arm in [`IntegratorKind`] and [`Estimator`].
+//! The estimators are the experiments' own ([`crate::estimator::Method`]), applied once per
+//! channel to the integrand's values at the pixel's sample directions: a new estimator is a
+//! render integrator as soon as it is a [`Method`]. What the renderer adds is where the samples
+//! come from — fresh per pixel for MC ([`Design::Uniform`] or [`Design::Cosine`]), re-used
+//! rotated sets for estimators with weights ([`sets`]) — and, for estimators with a prior mean,
+//! the checkerboard neighbours that supply it ([`neighbours`]).
 
-pub mod bmc;
-pub mod bmcp;
-pub mod mc;
+pub mod neighbours;
+pub mod sets;
 
 use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
-use crate::bmc::BmcModel;
+use crate::bmc::{BmcModel, BmcWeights};
+use crate::error::InputError;
+use crate::estimator::Method;
 use crate::geometry::{Frame, Vec3};
 use crate::rng::WorkbenchRng;
 use crate::sampling::Design;
-pub use bmc::{BmcSets, SampleSet};
+pub use sets::{BmcSets, SampleSet};
+use std::f64::consts::PI;
 
-/// The integrators of `workbench render --integrator`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum IntegratorKind {
-    /// MC with uniform hemisphere samples, fresh per pixel (math.md §3).
-    Mc,
-    /// MC with cosine-weighted samples, the standard importance-sampled baseline.
-    McCos,
-    /// BMC with precomputed sample sets rotated to the normal (math.md §4–5).
-    Bmc,
-    /// BMC with a constant prior from the checkerboard neighbours (thesis §3.2.5).
-    Bmcp,
+/// A render integrator: an estimator and the density of its fresh samples (MC only; estimators
+/// with weights use uniform sets).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct IntegratorKind {
+    pub method: Method,
+    pub design: Design,
 }
 
 impl IntegratorKind {
-    /// All kinds, in the order of the docs.
-    pub const ALL: [IntegratorKind; 4] = [
-        IntegratorKind::Mc,
-        IntegratorKind::McCos,
-        IntegratorKind::Bmc,
-        IntegratorKind::Bmcp,
-    ];
+    /// `mc`: uniform samples, fresh per pixel (math.md §3).
+    pub const MC: Self = Self::uniform(Method::Mc);
+    /// `mc-cos`: cosine-weighted samples, the standard importance-sampled baseline.
+    pub const MC_COS: Self = IntegratorKind {
+        method: Method::Mc,
+        design: Design::Cosine,
+    };
+    /// `bmc`: precomputed sample sets rotated to the normal (math.md §4–5).
+    pub const BMC: Self = Self::uniform(Method::Bmc);
+    /// `bmcp`: BMC with a constant prior from the checkerboard neighbours (thesis §3.2.5).
+    pub const BMCP: Self = Self::uniform(Method::Bmcp);
 
-    /// The name on the command line and in files.
-    pub fn name(self) -> &'static str {
-        match self {
-            IntegratorKind::Mc => "mc",
-            IntegratorKind::McCos => "mc-cos",
-            IntegratorKind::Bmc => "bmc",
-            IntegratorKind::Bmcp => "bmcp",
+    const fn uniform(method: Method) -> Self {
+        IntegratorKind {
+            method,
+            design: Design::Uniform,
+        }
+    }
+
+    /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
+    /// uniform samples, and those without weights also on cosine-weighted ones.
+    pub fn all() -> Vec<Self> {
+        let mut all = Vec::new();
+        for method in Method::ALL {
+            all.push(Self::uniform(method));
+            if !method.needs_weights() {
+                all.push(IntegratorKind {
+                    method,
+                    design: Design::Cosine,
+                });
+            }
+        }
+        all
+    }
+
+    /// The name on the command line and in files: the estimator's, with `-cos` for
+    /// cosine-weighted samples (`mc`, `mc-cos`, `bmc`, `bmcp`).
+    pub fn name(self) -> String {
+        match self.design {
+            Design::Uniform => self.method.name().to_string(),
+            Design::Cosine => format!("{}-cos", self.method.name()),
         }
     }
 
     /// Parses [`IntegratorKind::name`].
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
+        Self::all().into_iter().find(|k| k.name() == name)
     }
 
-    /// Whether the kind uses BMC sample sets (and so the `gps`/`rotate`/model options).
+    /// The names of [`IntegratorKind::all`], for messages and `--help`.
+    pub fn names() -> String {
+        Self::all()
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// Whether the integrator uses BMC sample sets (and so the `gps`/`rotate`/model options).
     pub fn uses_sets(self) -> bool {
-        matches!(self, IntegratorKind::Bmc | IntegratorKind::Bmcp)
+        self.method.needs_weights()
     }
 }
 
 impl std::fmt::Display for IntegratorKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
+        f.write_str(&self.name())
+    }
+}
+
+impl serde::Serialize for IntegratorKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.name())
+    }
+}
+
+/// Most samples per pixel for MC (ten times the thesis's 3000-spp reference would already take
+/// minutes per image).
+pub const MAX_MC_SPP: usize = 1_000_000;
+/// Sample sets of integrators with weights when none is given.
+pub const DEFAULT_GPS: usize = 4;
+/// Most sample sets.
+pub const MAX_GPS: usize = 1024;
+
+/// Validates the sample count of `kind` (`what` names the option or field).
+pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), InputError> {
+    if kind.uses_sets() {
+        crate::rule::check_point_count(spp, what)
+    } else if spp == 0 {
+        Err(InputError::new(format!("{what}: must be at least 1, got 0")))
+    } else if spp > MAX_MC_SPP {
+        Err(InputError::new(format!(
+            "{what}: at most {MAX_MC_SPP} samples per pixel, got {spp}"
+        )))
+    } else {
+        Ok(())
+    }
+}
+
+/// Validates the number of sample sets.
+pub fn check_gps(gps: usize, what: &str) -> Result<(), InputError> {
+    if (1..=MAX_GPS).contains(&gps) {
+        Ok(())
+    } else {
+        Err(InputError::new(format!(
+            "{what}: must be in 1..={MAX_GPS}, got {gps}"
+        )))
     }
 }
 
@@ -98,43 +174,42 @@ impl ShadingPoint {
             env.radiance(&w)
         }
     }
+
+    /// The integrand `f(ω) = L_i(ω) · (albedo/π) · (ω·n)` per channel at the local direction
+    /// `v` (so `ω·n = v.z`).
+    #[inline]
+    pub fn integrand(&self, scene: &Scene, env: &Environment, v: &Vec3) -> Rgb {
+        let li = self.incident(scene, env, v);
+        [0, 1, 2].map(|c| li[c] * (self.albedo[c] / PI) * v.z)
+    }
 }
 
-/// A ready-to-use integrator: the kind, the samples per pixel and, for BMC, the sample sets
-/// with their weights (one Cholesky per set, computed before rendering).
+/// A ready-to-use integrator: the kind, the samples per pixel and, for estimators with weights,
+/// the sample sets with their weights (one Cholesky per set, computed before rendering).
 #[derive(Clone, Debug)]
 pub struct Integrator {
     pub kind: IntegratorKind,
     pub spp: usize,
-    pub estimator: Estimator,
-}
-
-/// How one pixel's integral is formed.
-#[derive(Clone, Debug)]
-pub enum Estimator {
-    /// Fresh samples per pixel from `Design`.
-    Mc(Design),
-    /// Rotated, pre-weighted sample sets.
-    Bmc(BmcSets),
+    /// The weighted sets (exactly when `kind.uses_sets()`).
+    pub sets: Option<BmcSets>,
 }
 
 impl Integrator {
     /// MC with uniform (`mc`) or cosine-weighted (`mc-cos`) sampling.
     pub fn mc(design: Design, spp: usize) -> Self {
-        let kind = match design {
-            Design::Uniform => IntegratorKind::Mc,
-            Design::Cosine => IntegratorKind::McCos,
-        };
         Integrator {
-            kind,
+            kind: IntegratorKind {
+                method: Method::Mc,
+                design,
+            },
             spp,
-            estimator: Estimator::Mc(design),
+            sets: None,
         }
     }
 
-    /// Builds the integrator `kind` with `spp` samples; for `bmc`/`bmcp`, `gps` uniform sample
-    /// sets drawn from `seed` and weighted under `model` (needed only by those kinds, so that
-    /// MC never pays for the kernel-mean table).
+    /// Builds the integrator `kind` with `spp` samples; for estimators with weights, `gps`
+    /// uniform sample sets drawn from `seed` and weighted under `model` (needed only by those,
+    /// so that MC never pays for the kernel-mean table).
     pub fn build(
         kind: IntegratorKind,
         spp: usize,
@@ -142,35 +217,46 @@ impl Integrator {
         rotate: bool,
         model: Option<&BmcModel>,
         seed: u64,
-    ) -> anyhow::Result<Self> {
-        Ok(match kind {
-            IntegratorKind::Mc => Self::mc(Design::Uniform, spp),
-            IntegratorKind::McCos => Self::mc(Design::Cosine, spp),
-            IntegratorKind::Bmc | IntegratorKind::Bmcp => {
-                let model = model.ok_or_else(|| anyhow::anyhow!("{kind} needs a BMC model"))?;
-                Integrator {
-                    kind,
-                    spp,
-                    estimator: Estimator::Bmc(BmcSets::generate(spp, gps, rotate, model, seed)?),
-                }
-            }
-        })
+    ) -> crate::Result<Self> {
+        let sets = if kind.uses_sets() {
+            let model =
+                model.ok_or_else(|| InputError::new(format!("--integrator {kind}: needs a BMC model")))?;
+            Some(BmcSets::generate(spp, gps, rotate, model, seed)?)
+        } else {
+            None
+        };
+        Ok(Integrator { kind, spp, sets })
     }
 
-    /// The estimate of `L_o` at `p`; `prior` is the BMCP constant `c` per channel (`None` or
-    /// zero for plain BMC; ignored by MC). `rng` is the pixel's own stream.
-    #[inline]
+    /// The estimate of `L_o` at `p`: the pixel's sample directions (fresh from its stream
+    /// `rng`, or a chosen and rotated set), the integrand on them, and the estimator per channel
+    /// with the prior constant `prior[c]` (for estimators with a prior mean; zero is none).
     pub fn estimate(
         &self,
         p: &ShadingPoint,
         scene: &Scene,
         env: &Environment,
         rng: &mut WorkbenchRng,
-        prior: Option<Rgb>,
+        prior: Rgb,
     ) -> Rgb {
-        match &self.estimator {
-            Estimator::Mc(design) => mc::estimate(*design, self.spp, p, scene, env, rng),
-            Estimator::Bmc(sets) => sets.estimate(p, scene, env, rng, prior.unwrap_or([0.0; 3])),
+        let (points, weights): (Vec<Vec3>, Option<&BmcWeights>) = match &self.sets {
+            Some(sets) => {
+                let (set, points) = sets.pick(rng);
+                (points, Some(&set.weights))
+            }
+            None => (self.kind.design.sample_set(self.spp, rng), None),
+        };
+        let mut values: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(points.len()));
+        for v in &points {
+            let f = p.integrand(scene, env, v);
+            for c in 0..3 {
+                values[c].push(f[c]);
+            }
         }
+        [0, 1, 2].map(|c| {
+            self.kind
+                .method
+                .estimate(self.kind.design, &points, &values[c], weights, prior[c])
+        })
     }
 }

@@ -6,16 +6,13 @@
 //! points away from the locations the weights were computed for), and carried to the normal by
 //! the frame. Because the kernel depends on `x·y` only, rotated points keep their weights.
 
-use super::ShadingPoint;
 use crate::bmc::{BmcModel, BmcWeights};
 use crate::geometry::Vec3;
 use crate::linalg::{NotPositiveDefinite, SpdWorkspace};
-use crate::render::env::Environment;
-use crate::render::scene::{Rgb, Scene};
 use crate::rng::{WorkbenchRng, stream};
 use crate::sampling::Design;
 use rand::RngExt;
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
 /// Stream of the points of set `s`: `stream(seed, [SET_POINTS, s])`.
 const SET_POINTS: u64 = 0x5e7;
@@ -90,32 +87,18 @@ impl BmcSets {
         (set, phi)
     }
 
-    /// `Î = 2πc + Σ w_i (Y_i − c)` per channel, with `Y_i = f(ω_i)` at the rotated points;
-    /// `c = 0` is plain BMC, `Î = Σ w_i Y_i`. Formed as `Σ w_i Y_i + c (2π − Σ w_i)`, the same
-    /// sum regrouped so that no per-pixel buffer is needed (checked against
-    /// [`BmcWeights::bmcp`] in the tests).
-    pub fn estimate(
-        &self,
-        p: &ShadingPoint,
-        scene: &Scene,
-        env: &Environment,
-        rng: &mut WorkbenchRng,
-        prior: Rgb,
-    ) -> Rgb {
+    /// The set for a pixel and its points rotated by the pixel's azimuth (see
+    /// [`BmcSets::choose`]); the weights are the set's own.
+    pub fn pick(&self, rng: &mut WorkbenchRng) -> (&SampleSet, Vec<Vec3>) {
         let (s, phi) = self.choose(rng);
         let set = &self.sets[s];
         let (sin, cos) = phi.sin_cos();
-        let mut sum = [0.0; 3];
-        for (v, w) in set.points.iter().zip(&set.weights.weights) {
-            let r = crate::geometry::rotate_about_z_by(v, sin, cos);
-            let li = p.incident(scene, env, &r);
-            let g = w * v.z / PI;
-            for c in 0..3 {
-                sum[c] += li[c] * g;
-            }
-        }
-        let weight_sum = set.weights.diagnostics.weight_sum;
-        [0, 1, 2].map(|c| p.albedo[c] * sum[c] + prior[c] * (TAU - weight_sum))
+        let points = set
+            .points
+            .iter()
+            .map(|v| crate::geometry::rotate_about_z_by(v, sin, cos))
+            .collect();
+        (set, points)
     }
 }
 
@@ -125,7 +108,6 @@ mod tests {
     use crate::bmc::DEFAULT_NOISE;
     use crate::kernel::{Kernel, Sobolev};
     use crate::kernel_mean::KernelMeanMode;
-    use crate::render::scene::Hit;
 
     fn model() -> BmcModel {
         BmcModel::new(
@@ -135,35 +117,21 @@ mod tests {
         )
     }
 
-    /// The regrouped sum equals `BmcWeights::bmcp` on the explicit values `Y_i`, for `c = 0`
-    /// (then also `BmcWeights::bmc`) and `c ≠ 0`.
+    /// Without rotation a pixel gets a set's own points; with it, the same points turned about
+    /// `+z` (same heights, same lengths, not all in place), so the weights still apply.
     #[test]
-    fn regrouped_bmcp_equals_the_library_formula() {
-        let sets = BmcSets::generate(30, 1, false, &model(), 9).unwrap();
-        let hit = Hit {
-            t: 1.0,
-            point: Vec3::new(0.0, 2.0, 0.0),
-            normal: Vec3::new(0.3, 0.9, 0.1).normalize(),
-            albedo: [0.8, 0.35, 0.25],
-        };
-        let p = ShadingPoint::new(&hit);
-        let scene = Scene::default_scene();
-        let env = Environment::Sky;
-        let set = &sets.sets[0];
-        for c in [0.0, 0.05, 0.4] {
-            let got = sets.estimate(&p, &scene, &env, &mut stream(1, &[]), [c; 3]);
-            for (ch, got) in got.iter().enumerate() {
-                let y: Vec<f64> = set
-                    .points
-                    .iter()
-                    .map(|v| p.incident(&scene, &env, v)[ch] * p.albedo[ch] / PI * v.z)
-                    .collect();
-                let want = set.weights.bmcp(&y, c);
-                assert!((*got - want).abs() < 1e-12, "c={c} ch={ch}: {} vs {want}", *got);
-                if c == 0.0 {
-                    assert!((*got - set.weights.bmc(&y)).abs() < 1e-12);
-                }
-            }
+    fn picked_points_are_the_set_rotated_about_the_normal() {
+        let still = BmcSets::generate(30, 2, false, &model(), 9).unwrap();
+        let (set, points) = still.pick(&mut stream(1, &[]));
+        assert_eq!(&points, &set.points);
+        let turning = BmcSets::generate(30, 2, true, &model(), 9).unwrap();
+        let (set, points) = turning.pick(&mut stream(1, &[]));
+        let mut moved = 0;
+        for (p, q) in points.iter().zip(&set.points) {
+            assert_eq!(p.z, q.z);
+            assert!((p.norm() - 1.0).abs() < 1e-14);
+            moved += usize::from((p.x - q.x).abs() > 1e-9);
         }
+        assert!(moved > 20, "only {moved} of 30 points moved");
     }
 }

@@ -1,34 +1,37 @@
 //! `workbench render`: one image (`--out x.exr`) or a table (`workbench render SPEC.json`).
 
-use super::env::Environment;
-use super::image::{ColourMap, ErrorScale, Image};
-use super::integrator::{Integrator, IntegratorKind};
-use super::renderer::{Renderer, check_size};
-use crate::cli::ModelArgs;
-use crate::io::{InputError, write_atomic};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
+use super::model_args::ModelArgs;
+use super::output::{status, stdout};
+use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
+use workbench::error::InputError;
+use workbench::io::write_atomic;
+use workbench::render::image::{ColourMap, ErrorScale, Image};
+use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
+use workbench::render::{Environment, Integrator, Renderer, check_size};
+use workbench::report::Reporter;
 
 /// Options of `workbench render`.
 #[derive(clap::Args, Debug)]
-#[command(
-    after_help = "Examples:\n  workbench render --integrator bmc --spp 40 --out bmc.exr\n  \
-                        workbench render experiments/render-table.json"
-)]
+#[command(after_help = "Examples:\n  \
+    workbench render --integrator mc --spp 3000 --out ref.exr\n  \
+    workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr\n  \
+    workbench render experiments/render-table.json\n\n\
+    Render-table fields are documented in the README (\"Tables\"); the scene in docs/render-scene.md.\n\n\
+    Exit codes: 0 success; 2 any error (bad input, I/O).")]
 pub struct RenderArgs {
-    /// Table spec (JSON): renders every variant × spp × repetition against a cached reference
-    /// and writes results/<name>/. Without it, one image is rendered to --out.
+    /// Render-table file (JSON): renders every variant × spp × repetition against a cached
+    /// reference and writes results/<name>/. Without it, one image is rendered to --out.
     #[arg(
         value_name = "SPEC.json",
         conflicts_with_all = ["out", "integrator", "spp", "gps", "no_rotate", "width", "height", "env",
                               "seed", "reference"]
     )]
     pub spec: Option<PathBuf>,
-    /// The estimator of each pixel's illumination integral.
-    #[arg(long, value_enum, default_value = "bmc")]
+    /// The estimator of each pixel's illumination integral: mc, mc-cos, bmc, bmcp.
+    #[arg(long, default_value = "bmc", value_parser = parse_integrator)]
     pub integrator: IntegratorKind,
     /// Samples per pixel (hemisphere directions per estimate).
     #[arg(long, default_value_t = 40)]
@@ -58,14 +61,14 @@ pub struct RenderArgs {
     #[arg(long)]
     pub reference: Option<PathBuf>,
     /// Error image scale: by the largest error, or absolute (by --error-max).
-    #[arg(long, requires = "reference", value_enum, default_value = "normalised")]
-    pub error_scale: ErrorScale,
+    #[arg(long, requires = "reference", default_value = "normalised", value_parser = ["normalised", "absolute"])]
+    pub error_scale: String,
     /// Error norm shown at full intensity; only with `--error-scale absolute` [default: 0.1].
     #[arg(long, requires = "reference")]
     pub error_max: Option<f64>,
     /// Error image colours.
-    #[arg(long, requires = "reference", value_enum, default_value = "viridis")]
-    pub error_colours: ColourMap,
+    #[arg(long, requires = "reference", default_value = "viridis", value_parser = ["viridis", "grey"])]
+    pub error_colours: String,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Tables only: folder of the outputs (<dir>/<name>/) and of the reference cache
@@ -80,11 +83,17 @@ pub struct RenderArgs {
 /// Error norm shown at full intensity by `--error-scale absolute` when `--error-max` is not given.
 pub const DEFAULT_ERROR_MAX: f64 = 0.1;
 
-/// Sample sets of `bmc`/`bmcp` when `--gps` is not given.
-pub const DEFAULT_GPS: usize = 4;
+fn parse_integrator(name: &str) -> Result<IntegratorKind, String> {
+    IntegratorKind::from_name(name).ok_or_else(|| {
+        format!(
+            "unknown integrator {name:?}; expected one of {}",
+            IntegratorKind::names()
+        )
+    })
+}
 
 /// Runs `workbench render`.
-pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
+pub fn render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     match &args.spec {
         Some(_) if args.model.given().is_some() => {
             let flag = args.model.given().unwrap_or_default();
@@ -93,57 +102,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
             ))
             .into());
         }
-        Some(spec) => {
-            let plan = super::spec::load(spec)?;
-            let results = args
-                .results_dir
-                .clone()
-                .unwrap_or_else(|| PathBuf::from("results"));
-            super::table::run(&plan, &results, args.quiet)?;
-        }
+        Some(spec) => table(spec, &args)?,
         None => single(&args)?,
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// A progress bar on stderr, hidden with `--quiet` or when stderr is not a terminal.
-pub fn progress_bar(quiet: bool, unit: &str) -> ProgressBar {
-    if quiet || !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
+fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
+    let plan = workbench::render::table::load(spec)?;
+    if let Some(w) = plan.model.as_ref().and_then(|m| m.accuracy_warning()) {
+        status!("warning: {w}");
     }
-    let style = ProgressStyle::with_template(&format!(
-        "{{bar:24}} {{pos}}/{{len}} {unit} [{{elapsed}}, ETA {{eta}}] {{wide_msg}}"
-    ))
-    .expect("valid template");
-    ProgressBar::new(0).with_style(style)
-}
-
-/// Most samples per pixel for MC (ten times the thesis's 3000-spp reference would already take
-/// minutes per image).
-pub const MAX_MC_SPP: usize = 1_000_000;
-
-/// Validates the sample count of `kind` (`what` names the option).
-pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), InputError> {
-    if kind.uses_sets() {
-        crate::rule::check_point_count(spp, what)
-    } else if spp == 0 {
-        Err(InputError::new(format!("{what}: must be at least 1, got 0")))
-    } else if spp > MAX_MC_SPP {
-        Err(InputError::new(format!(
-            "{what}: at most {MAX_MC_SPP} samples per pixel, got {spp}"
-        )))
-    } else {
-        Ok(())
-    }
-}
-
-/// Validates the number of sample sets.
-pub fn check_gps(gps: usize, what: &str) -> Result<(), InputError> {
-    if (1..=1024).contains(&gps) {
-        Ok(())
-    } else {
-        Err(InputError::new(format!("{what}: must be in 1..=1024, got {gps}")))
-    }
+    let results = args
+        .results_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results"));
+    let pool = workbench::threads::pool(None)?;
+    let report = pool.install(|| workbench::render::table::run(&plan, &results, &Bar::new(args.quiet)))?;
+    stdout(&report.table_md)?;
+    stdout(&format!("\n{}", report.times_md))?;
+    status!("render: table → {}", report.out_dir.display());
+    Ok(())
 }
 
 /// `x.exr` → `x<suffix>.png`.
@@ -190,9 +169,17 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         )
         .into());
     }
-    if args.error_max.is_some() && args.error_scale != ErrorScale::Absolute {
+    if args.error_max.is_some() && args.error_scale != "absolute" {
         return Err(InputError::new("--error-max: applies to --error-scale absolute").into());
     }
+    let error_scale = match args.error_scale.as_str() {
+        "absolute" => ErrorScale::Absolute,
+        _ => ErrorScale::Normalised,
+    };
+    let error_colours = match args.error_colours.as_str() {
+        "grey" => ColourMap::Grey,
+        _ => ColourMap::Viridis,
+    };
     let error_max = args.error_max.unwrap_or(DEFAULT_ERROR_MAX);
     if !(error_max.is_finite() && error_max > 0.0) {
         return Err(InputError::new(format!("--error-max: must be finite and > 0, got {error_max}")).into());
@@ -211,18 +198,17 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     if !matches!(args.env.as_str(), "sky" | "white") {
         inputs.push(("--env", std::path::Path::new(&args.env)));
     }
-    crate::io::check_distinct(&outputs, &inputs)?;
+    workbench::io::check_distinct(&outputs, &inputs)?;
     let env = Environment::from_arg(&args.env)?;
     // Fail on an unwritable output folder now, not after the render.
     let dir = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
-    std::fs::create_dir_all(&dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
-    tempfile::tempfile_in(&dir).map_err(|e| anyhow::anyhow!("{} is not writable: {e}", dir.display()))?;
+    workbench::io::check_writable_dir(&dir)?;
     let model_start = Instant::now();
     let model = if args.integrator.uses_sets() {
-        Some(args.model.model()?)
+        Some(args.model.build()?)
     } else {
         None
     };
@@ -250,16 +236,20 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         model.as_ref(),
         args.seed,
     )?;
-    warn_numerics(&integrator);
-    let bar = progress_bar(args.quiet, "rows");
-    let image = renderer.render(&integrator, args.seed, &bar);
-    bar.finish_and_clear();
+    for line in workbench::render::table::runner::numerical_warnings(&integrator) {
+        status!("warning: {line}");
+    }
+    let bar = Bar::new(args.quiet);
+    bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
+    let pool = workbench::threads::pool(None)?;
+    let image = pool.install(|| renderer.render(&integrator, args.seed, &bar));
+    bar.finish();
     let seconds = start.elapsed().as_secs_f64();
 
     write_atomic(out, &image.to_exr()?)?;
     let png = sibling_png(out, "");
     write_atomic(&png, &image.to_png()?)?;
-    crate::status!(
+    status!(
         "render: {} {} spp, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
         args.integrator,
@@ -271,28 +261,9 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     );
     if let Some(r) = &reference {
         let err = sibling_png(out, "-error");
-        write_atomic(
-            &err,
-            &image.error_png(r, args.error_scale, error_max, args.error_colours)?,
-        )?;
-        crate::io::stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
-        crate::status!("render: error image → {}", err.display());
+        write_atomic(&err, &image.error_png(r, error_scale, error_max, error_colours)?)?;
+        stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
+        status!("render: error image → {}", err.display());
     }
     Ok(())
-}
-
-/// Prints each distinct numerical warning of the sample sets once, with its remedy.
-pub fn warn_numerics(integrator: &Integrator) {
-    if let super::integrator::Estimator::Bmc(sets) = &integrator.estimator {
-        let mut seen = Vec::new();
-        for (s, set) in sets.sets.iter().enumerate() {
-            for w in &set.weights.diagnostics.warnings {
-                let m = w.message();
-                if !seen.contains(&m) {
-                    crate::status!("warning: sample set {s}: {m}");
-                    seen.push(m);
-                }
-            }
-        }
-    }
 }

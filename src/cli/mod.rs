@@ -1,0 +1,73 @@
+//! The command line (binary only): options → validated plan → run → export, and the one place
+//! that prints. Exit codes: 0 success, 1 a check failed (outputs still written), 2 any error.
+
+mod model_args;
+mod output;
+mod progress;
+mod render;
+mod rule;
+mod run;
+
+use clap::{Parser, Subcommand};
+use output::{is_broken_pipe, status};
+use std::process::ExitCode;
+
+/// Shown under every `--help`.
+const EXIT_CODES: &str = "Exit codes: 0 success; 1 a check failed (outputs are still written); \
+                          2 any error (bad input, I/O). Results go to stdout; progress, status lines \
+                          and warnings to stderr.";
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "workbench",
+    version,
+    about = "Monte Carlo vs Bayesian Monte Carlo over the hemisphere",
+    after_help = EXIT_CODES
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run an experiment file: parallel trials, CSV, SVG plots, summary and checks.
+    Run(run::RunArgs),
+    /// Check an experiment or render-table file and print the resolved plan, without running it.
+    Validate(run::ValidateArgs),
+    /// Compute a BMC quadrature rule (points and weights) for use in other code.
+    Rule(rule::RuleArgs),
+    /// Render the sphere-on-a-plane scene with any estimator, or an RMSE-against-spp table.
+    Render(render::RenderArgs),
+}
+
+/// Entry point of the binary.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Usage errors in clap's own words (exit 2); --help and --version exit 0.
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    let result = match cli.command {
+        Command::Run(args) => run::run(args),
+        Command::Validate(args) => run::validate(&args),
+        Command::Rule(args) => rule::rule(args),
+        Command::Render(args) => render::render(args),
+    };
+    match result {
+        Ok(code) => code,
+        // `workbench … | head`: the reader has all it wanted.
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            status!("Error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

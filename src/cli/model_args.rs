@@ -1,0 +1,131 @@
+//! The model options shared by `rule` and `render`: flags → [`ModelSpec`], the same parser and
+//! defaults as the JSON files.
+
+use anyhow::bail;
+use workbench::bmc::BmcModel;
+use workbench::error::InputError;
+use workbench::model_spec::{KernelMeanName, KernelSpec, ModelField, ModelSpec, ResolvedModel};
+
+/// Kernel, noise and kernel-mean options of the commands that build BMC weights.
+///
+/// Every option is optional so that one that does not apply (`--s` with `--kernel se`,
+/// `--kernel-mean-samples` with the exact mean, any of them with an MC integrator) is an error
+/// rather than silently ignored; defaults are [`ModelSpec::resolve`]'s.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ModelArgs {
+    /// Covariance kernel [default: sobolev].
+    #[arg(long, value_parser = ["sobolev", "se"])]
+    kernel: Option<String>,
+    /// Sobolev smoothness s, in (1, 2) [default: 1.4].
+    #[arg(long, allow_negative_numbers = true)]
+    s: Option<f64>,
+    /// Squared-exponential σ_f [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    sigma: Option<f64>,
+    /// Squared-exponential length scale l [default: 0.5].
+    #[arg(long, allow_negative_numbers = true)]
+    length: Option<f64>,
+    /// Observation noise σ_n² added to the diagonal of K [default: 0.01].
+    #[arg(long, allow_negative_numbers = true)]
+    noise: Option<f64>,
+    /// Kernel mean: exact (tabulated) or the thesis's plain MC estimate [default: exact].
+    #[arg(long, value_parser = ["exact", "mc"])]
+    kernel_mean: Option<String>,
+    /// Uniform samples per kernel mean with `--kernel-mean mc` [default: 10000].
+    #[arg(long)]
+    kernel_mean_samples: Option<u64>,
+}
+
+impl ModelArgs {
+    /// The flag of a model field, for messages.
+    fn flag(field: ModelField) -> &'static str {
+        match field {
+            ModelField::Kernel => "--kernel",
+            ModelField::Noise => "--noise",
+            ModelField::KernelMean => "--kernel-mean",
+            ModelField::KernelMeanSamples => "--kernel-mean-samples",
+        }
+    }
+
+    /// The options as a [`ModelSpec`]; kernel parameters of the other kernel are errors.
+    pub fn spec(&self) -> anyhow::Result<ModelSpec> {
+        let kernel = match self.kernel.as_deref().unwrap_or("sobolev") {
+            "se" => {
+                if self.s.is_some() {
+                    bail!(InputError::new("--s: applies to --kernel sobolev, not se"));
+                }
+                (self.sigma.is_some() || self.length.is_some() || self.kernel.is_some()).then_some(
+                    KernelSpec::SquaredExponential {
+                        sigma: self.sigma,
+                        length: self.length,
+                    },
+                )
+            }
+            _ => {
+                if let Some(flag) = self.sigma.map(|_| "--sigma").or(self.length.map(|_| "--length")) {
+                    bail!(InputError::new(format!(
+                        "{flag}: applies to --kernel se, not sobolev"
+                    )));
+                }
+                (self.s.is_some() || self.kernel.is_some()).then_some(KernelSpec::Sobolev { s: self.s })
+            }
+        };
+        let kernel_mean = self.kernel_mean.as_deref().map(|m| match m {
+            "mc" => KernelMeanName::Mc,
+            _ => KernelMeanName::Exact,
+        });
+        Ok(ModelSpec {
+            kernel,
+            noise: self.noise,
+            kernel_mean,
+            kernel_mean_samples: self.kernel_mean_samples,
+        })
+    }
+
+    /// The validated model.
+    pub fn resolve(&self) -> anyhow::Result<ResolvedModel> {
+        let spec = self.spec()?;
+        let model = spec.resolve().map_err(|e| {
+            let message = match e.field {
+                ModelField::Kernel => format!(
+                    "{} {}: {}",
+                    Self::flag(e.field),
+                    self.kernel.as_deref().unwrap_or("sobolev"),
+                    e.message
+                ),
+                ModelField::KernelMeanSamples if e.message.starts_with("is only used") => {
+                    format!("{}: applies to --kernel-mean mc, not exact", Self::flag(e.field))
+                }
+                _ => format!("{}: {}", Self::flag(e.field), e.message),
+            };
+            InputError::new(message)
+        })?;
+        Ok(model)
+    }
+
+    /// The validated model, built (its kernel-mean table tabulated), with the table's accuracy
+    /// warning printed if it has one.
+    pub fn build(&self) -> anyhow::Result<BmcModel> {
+        let model = self.resolve()?.build();
+        if let Some(w) = model.accuracy_warning() {
+            super::output::status!("warning: {w}");
+        }
+        Ok(model)
+    }
+
+    /// The first model option given on the command line, if any (for commands and integrators
+    /// that do not use a model).
+    pub fn given(&self) -> Option<&'static str> {
+        [
+            ("--kernel", self.kernel.is_some()),
+            ("--s", self.s.is_some()),
+            ("--sigma", self.sigma.is_some()),
+            ("--length", self.length.is_some()),
+            ("--noise", self.noise.is_some()),
+            ("--kernel-mean", self.kernel_mean.is_some()),
+            ("--kernel-mean-samples", self.kernel_mean_samples.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(flag, given)| given.then_some(flag))
+    }
+}

@@ -1,0 +1,112 @@
+//! `workbench rule`: a BMC quadrature rule (points and weights) as a file.
+
+use super::model_args::ModelArgs;
+use super::output::{status, stdout};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use workbench::io::write_atomic;
+use workbench::sampling::SetDesign;
+
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    workbench rule --n 64 --seed 7 --out rule.csv --summary rule.json\n  \
+    workbench rule --points my-points.csv --kernel se --length 0.3 > rule.csv\n\n\
+    The CSV and summary fields are documented in the README (\"workbench rule\").\n\n\
+    Exit codes: 0 success; 2 any error (bad input, I/O).")]
+pub struct RuleArgs {
+    /// Number of points to generate (not with --points) [default: 64].
+    #[arg(long, conflicts_with = "points")]
+    n: Option<usize>,
+    /// Seed of the generated points (and of the MC kernel means).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Sampling design of the generated points (not with --points) [default: uniform].
+    #[arg(long, value_parser = design_names(), conflicts_with = "points")]
+    design: Option<String>,
+    /// Read the points from a CSV with header `x,y,z` instead of generating them.
+    #[arg(long)]
+    points: Option<PathBuf>,
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Write the rule (CSV `x,y,z,weight`) here instead of to stdout.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the diagnostics as JSON here.
+    #[arg(long)]
+    summary: Option<PathBuf>,
+}
+
+fn design_names() -> Vec<&'static str> {
+    SetDesign::ALL.iter().map(|d| d.name()).collect()
+}
+
+/// Default number of generated points.
+const DEFAULT_N: usize = 64;
+
+pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
+    let outputs: Vec<(&str, &Path)> = [("--out", &args.out), ("--summary", &args.summary)]
+        .into_iter()
+        .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
+        .collect();
+    let inputs: Vec<(&str, &Path)> = args
+        .points
+        .as_deref()
+        .map(|p| ("--points", p))
+        .into_iter()
+        .collect();
+    workbench::io::check_distinct(&outputs, &inputs)?;
+    let n = args.n.unwrap_or(DEFAULT_N);
+    let design = args
+        .design
+        .as_deref()
+        .and_then(SetDesign::from_name)
+        .unwrap_or(SetDesign::Iid(workbench::sampling::Design::Uniform));
+    let points = match &args.points {
+        Some(path) => workbench::rule::read_points_csv(path)?,
+        None => {
+            workbench::rule::check_point_count(n, "--n")?;
+            workbench::rule::generate_points(n, args.seed, design)
+        }
+    };
+    workbench::rule::check_point_count(points.len(), "--points")?;
+    let resolved = args.model.resolve()?;
+    let model = args.model.build()?;
+    let weights = workbench::rule::compute_rule(&points, &model, args.seed)?;
+    for w in &weights.diagnostics.warnings {
+        status!("warning: {}", w.message());
+    }
+    let csv = workbench::rule::rule_csv(&points, &weights.weights);
+    match &args.out {
+        Some(path) => write_atomic(path, &csv)?,
+        None => stdout(std::str::from_utf8(&csv).expect("the CSV is ASCII"))?,
+    }
+    if let Some(path) = &args.summary {
+        // Everything needed to make the same rule again.
+        let source = match &args.points {
+            Some(file) => serde_json::json!({ "points": file.display().to_string() }),
+            None => {
+                serde_json::json!({ "generated": { "n": n, "seed": args.seed, "design": design.name() } })
+            }
+        };
+        let mut summary =
+            workbench::rule::rule_summary(&model, resolved.kernel_mean.name(), &points, &weights);
+        summary["source"] = source;
+        summary["seed"] = serde_json::json!(args.seed);
+        if let Some(m) = resolved.samples() {
+            summary["kernel_mean_samples"] = serde_json::json!(m);
+        }
+        let mut bytes = serde_json::to_vec_pretty(&summary)?;
+        bytes.push(b'\n');
+        write_atomic(path, &bytes)?;
+    }
+    let d = &weights.diagnostics;
+    status!(
+        "rule: n = {}, Σw = {:.6} (2π = {:.6}), posterior sd = {:.3e}, {} negative weights",
+        d.n,
+        d.weight_sum,
+        std::f64::consts::TAU,
+        weights.posterior_sd(),
+        d.negative_weights
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,88 @@
+//! `workbench run` and `workbench validate`.
+
+use super::output::{status, stdout};
+use super::progress::Bar;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use workbench::experiment as ex;
+use workbench::json::SpecKind;
+
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    workbench run experiments/cos3.json\n  \
+    workbench run experiments/cos3.json --trials 50 --out /tmp/cos3 -q\n\n\
+    The fields of experiment files are documented in the README (\"Experiment files\").\n\n\
+    Exit codes: 0 every check passed; 1 a check failed (outputs are still written); 2 any error \
+    (bad input, I/O), before anything is written for bad input.")]
+pub struct RunArgs {
+    /// The experiment file (JSON).
+    file: PathBuf,
+    /// Output folder [default: results/<name>/].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Override the number of trials.
+    #[arg(long)]
+    trials: Option<u64>,
+    /// Worker threads, 1 to 256 [default: one per core]. Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    workbench validate experiments/cos3.json\n  \
+    workbench validate experiments/render-table.json\n\n\
+    Exit codes: 0 the file is valid; 2 it is not (one line naming the file, field and value).")]
+pub struct ValidateArgs {
+    /// An experiment file or a render-table file (JSON).
+    file: PathBuf,
+}
+
+pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let overrides = ex::Overrides {
+        out: args.out,
+        trials: args.trials,
+        threads: args.threads,
+    };
+    let plan = ex::load_plan(&args.file, &overrides)?;
+    for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
+        status!("warning: {w}");
+    }
+    let report = ex::run_plan(&plan, &overrides, &Bar::new(args.quiet))?;
+    stdout(&ex::format_report(&plan, &report))?;
+    for (message, count) in &report.warnings {
+        status!("warning: {count} weight set(s): {message}");
+    }
+    status!(
+        "wrote {} ({:.2} s on {} thread{})",
+        report.out_dir.display(),
+        report.wall_seconds,
+        report.threads,
+        if report.threads == 1 { "" } else { "s" }
+    );
+    let failed = report.checks.iter().any(|c| !c.passed());
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
+    let text = std::fs::read_to_string(&args.file).unwrap_or_default();
+    match workbench::json::spec_kind(&text) {
+        Some(SpecKind::RenderTable) => {
+            let plan = workbench::render::table::load(&args.file)?;
+            stdout(&workbench::render::table::describe(&plan))?;
+        }
+        // Anything else, unreadable files included, gets the experiment's messages.
+        _ => {
+            let plan = ex::load_plan(&args.file, &Default::default())?;
+            stdout(&ex::describe(&plan))?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

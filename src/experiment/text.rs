@@ -1,0 +1,118 @@
+//! Text for people: the plan (`validate`) and the results table with the check lines (`run`).
+//! Pure functions; the binary prints them.
+
+use super::plan;
+use super::summary;
+use super::{RunReport, export};
+
+/// A human-readable account of a plan (for `validate`), followed by the resolved JSON.
+pub fn describe(plan: &plan::Plan) -> String {
+    let cells = plan.integrands.len() * plan.estimators.len() * plan.samples.len();
+    let weight_sets: usize = {
+        let mut keys: Vec<(usize, crate::sampling::SetDesign)> = plan
+            .estimators
+            .iter()
+            .filter_map(|e| e.model.map(|m| (m, e.design)))
+            .collect();
+        keys.sort_by_key(|k| (k.0, k.1.name()));
+        keys.dedup();
+        keys.len()
+    };
+    let max_n = plan.samples.iter().max().copied().unwrap_or(0);
+    let mut s = format!(
+        "{}: {} integrand(s) × {} estimator(s) × {} sample count(s) × {} trials = {} estimates in {cells} cells\n",
+        plan.name,
+        plan.integrands.len(),
+        plan.estimators.len(),
+        plan.samples.len(),
+        plan.trials,
+        cells * plan.trials
+    );
+    s += &format!(
+        "BMC weight sets: {} per trial and N ({} Cholesky factorisations; largest N = {max_n}, {:.1} MiB per thread)\n",
+        weight_sets,
+        weight_sets * plan.samples.len() * plan.trials,
+        if weight_sets > 0 {
+            16.0 * (max_n as f64).powi(2) / (1u64 << 20) as f64
+        } else {
+            0.0
+        }
+    );
+    s += &serde_json::to_string_pretty(&export::plan_json(plan)).expect("plan serializes");
+    s.push('\n');
+    s
+}
+
+/// The summary table (estimators side by side per N) and the check lines.
+pub fn format_report(plan: &plan::Plan, report: &RunReport) -> String {
+    let mut s = String::new();
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        s += &format!(
+            "\n{} — ∫ {} dω = {:.10}; mean |Î − I| over {} trials [95% CI half-width]\n",
+            plan.title,
+            f.name(),
+            f.integral(),
+            plan.trials
+        );
+        s += &format!("{:>7}", "N");
+        for e in &plan.estimators {
+            s += &format!("  {:>22}", e.label);
+        }
+        s.push('\n');
+        for &n in &plan.samples {
+            s += &format!("{n:>7}");
+            for ei in 0..plan.estimators.len() {
+                let c = report
+                    .cells
+                    .iter()
+                    .find(|c| c.integrand == fi && c.estimator == ei && c.n == n)
+                    .expect("every cell is summarised");
+                let half = 0.5 * (c.ci95.1 - c.ci95.0);
+                let cell = if half.is_nan() {
+                    format!("{:.3e}", c.mean_abs_error)
+                } else {
+                    format!("{:.3e} [{half:.1e}]", c.mean_abs_error)
+                };
+                s += &format!("  {cell:>22}");
+            }
+            s.push('\n');
+        }
+    }
+    s.push('\n');
+    for o in &report.checks {
+        s += &check_line(plan, o);
+        s.push('\n');
+    }
+    s
+}
+
+fn check_line(plan: &plan::Plan, o: &summary::CheckOutcome) -> String {
+    let c = &o.check;
+    let head = format!(
+        "check {} < {} for N ≥ {} (paired t-test, α = {})",
+        c.better, c.than, c.from_n, c.alpha
+    );
+    if o.passed() {
+        let worst = o.cells.iter().map(|x| x.test.p_value).fold(0.0, f64::max);
+        format!("PASS {head}: {} cells, largest p = {worst:.2e}", o.cells.len())
+    } else {
+        let fails: Vec<String> = o
+            .cells
+            .iter()
+            .filter(|x| !x.passed)
+            .map(|x| {
+                format!(
+                    "{} N={}: {} {:.3e} vs {} {:.3e}, p = {:.3}",
+                    plan.integrands[x.integrand].name(),
+                    x.n,
+                    c.better,
+                    x.mean_better,
+                    c.than,
+                    x.mean_than,
+                    x.test.p_value
+                )
+            })
+            .collect();
+        format!("FAIL {head}: {}", fails.join("; "))
+    }
+}

@@ -1,0 +1,205 @@
+//! The BMC model as a user writes it — kernel and its parameters, noise, kernel-mean mode —
+//! with one parser and named defaults, shared by experiments (`estimators[i]`), render tables
+//! (`model`) and the command line (`rule`, `render`).
+//!
+//! JSON: `"kernel": {"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`,
+//! `"noise": 0.01`, `"kernel_mean": "exact" | "mc"`, `"kernel_mean_samples": 10000`.
+
+use crate::bmc::BmcModel;
+use crate::kernel::{Kernel, Sobolev, SquaredExponential};
+use crate::kernel_mean::KernelMeanMode;
+use serde::{Deserialize, Serialize};
+
+/// The thesis's observation noise σ_n², the default.
+pub const DEFAULT_NOISE: f64 = crate::bmc::DEFAULT_NOISE;
+/// Default σ_f of the squared-exponential kernel.
+pub const DEFAULT_SE_SIGMA: f64 = 1.0;
+/// Default length scale of the squared-exponential kernel.
+pub const DEFAULT_SE_LENGTH: f64 = 0.5;
+
+/// `{"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(tag = "type", deny_unknown_fields)]
+pub enum KernelSpec {
+    #[serde(rename = "sobolev")]
+    Sobolev {
+        #[serde(default)]
+        s: Option<f64>,
+    },
+    #[serde(rename = "se")]
+    SquaredExponential {
+        #[serde(default)]
+        sigma: Option<f64>,
+        #[serde(default)]
+        length: Option<f64>,
+    },
+}
+
+/// How the kernel means are obtained, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum KernelMeanName {
+    /// The exact, tabulated `z(μ)` (math.md §4).
+    Exact,
+    /// The thesis's plain MC estimate of each `z_i`.
+    Mc,
+}
+
+impl KernelMeanName {
+    pub fn name(self) -> &'static str {
+        match self {
+            KernelMeanName::Exact => "exact",
+            KernelMeanName::Mc => "mc",
+        }
+    }
+}
+
+/// The model fields as given; `None` means "the default".
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kernel: Option<KernelSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kernel_mean: Option<KernelMeanName>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kernel_mean_samples: Option<u64>,
+}
+
+/// Which field of a [`ModelSpec`] a problem is in; each context names it its own way (a JSON
+/// path, a command-line flag).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelField {
+    Kernel,
+    Noise,
+    KernelMean,
+    KernelMeanSamples,
+}
+
+impl ModelField {
+    /// The JSON field name.
+    pub fn json(self) -> &'static str {
+        match self {
+            ModelField::Kernel => "kernel",
+            ModelField::Noise => "noise",
+            ModelField::KernelMean => "kernel_mean",
+            ModelField::KernelMeanSamples => "kernel_mean_samples",
+        }
+    }
+}
+
+/// A rejected model value: the field and what is wrong with it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelError {
+    pub field: ModelField,
+    pub message: String,
+}
+
+/// A validated model with every default filled in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResolvedModel {
+    pub kernel: Kernel,
+    pub noise: f64,
+    pub kernel_mean: KernelMeanName,
+    pub mode: KernelMeanMode,
+}
+
+impl ModelSpec {
+    /// Whether any field is given.
+    pub fn is_given(&self) -> bool {
+        *self != ModelSpec::default()
+    }
+
+    /// The given fields, in file order, with their JSON names (for "not used by" messages).
+    pub fn given_fields(&self) -> Vec<(ModelField, String)> {
+        fn json<T: Serialize>(v: &T) -> String {
+            serde_json::to_string(v).expect("model values serialize")
+        }
+        let mut out = Vec::new();
+        if let Some(k) = &self.kernel {
+            out.push((ModelField::Kernel, json(k)));
+        }
+        if let Some(n) = &self.noise {
+            out.push((ModelField::Noise, json(n)));
+        }
+        if let Some(m) = &self.kernel_mean {
+            out.push((ModelField::KernelMean, json(m)));
+        }
+        if let Some(m) = &self.kernel_mean_samples {
+            out.push((ModelField::KernelMeanSamples, json(m)));
+        }
+        out
+    }
+
+    /// Checks every value and fills in the defaults: Sobolev `s = 1.4` (SE: σ = 1, l = 0.5),
+    /// noise 0.01, exact kernel means (MC: M = 10 000).
+    pub fn resolve(&self) -> Result<ResolvedModel, ModelError> {
+        let fail = |field, message: String| ModelError { field, message };
+        let kernel = match self.kernel.unwrap_or(KernelSpec::Sobolev { s: None }) {
+            KernelSpec::Sobolev { s } => Sobolev::new(s.unwrap_or(Sobolev::DEFAULT_S)).map(Kernel::Sobolev),
+            KernelSpec::SquaredExponential { sigma, length } => SquaredExponential::new(
+                sigma.unwrap_or(DEFAULT_SE_SIGMA),
+                length.unwrap_or(DEFAULT_SE_LENGTH),
+            )
+            .map(Kernel::SquaredExponential),
+        }
+        .map_err(|e| fail(ModelField::Kernel, e.to_string()))?;
+        let noise = crate::bmc::validate_noise(self.noise.unwrap_or(DEFAULT_NOISE))
+            .map_err(|m| fail(ModelField::Noise, m))?;
+        let kernel_mean = self.kernel_mean.unwrap_or(KernelMeanName::Exact);
+        let mode = match kernel_mean {
+            KernelMeanName::Exact => {
+                if self.kernel_mean_samples.is_some() {
+                    return Err(fail(
+                        ModelField::KernelMeanSamples,
+                        "is only used with \"kernel_mean\": \"mc\"".into(),
+                    ));
+                }
+                KernelMeanMode::Exact
+            }
+            KernelMeanName::Mc => {
+                let m = self
+                    .kernel_mean_samples
+                    .unwrap_or(KernelMeanMode::THESIS_SAMPLES as u64);
+                KernelMeanMode::monte_carlo(m).map_err(|msg| fail(ModelField::KernelMeanSamples, msg))?
+            }
+        };
+        Ok(ResolvedModel {
+            kernel,
+            noise,
+            kernel_mean,
+            mode,
+        })
+    }
+}
+
+impl ResolvedModel {
+    /// The model, with its kernel-mean table (about 10 ms to tabulate).
+    pub fn build(&self) -> BmcModel {
+        BmcModel::new(self.kernel, self.noise, self.mode)
+    }
+
+    /// The resolved fields as JSON (kernel with its parameters, noise, kernel mean and, for
+    /// MC kernel means, their sample count), for manifests and `validate`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut json = serde_json::json!({
+            "kernel": self.kernel.to_json(),
+            "noise": self.noise,
+            "kernel_mean": self.kernel_mean,
+        });
+        if let Some(m) = self.samples() {
+            json["kernel_mean_samples"] = m.into();
+        }
+        json
+    }
+
+    /// M for MC kernel means.
+    pub fn samples(&self) -> Option<u64> {
+        match self.mode {
+            KernelMeanMode::Exact => None,
+            KernelMeanMode::MonteCarlo { samples } => Some(samples as u64),
+        }
+    }
+}

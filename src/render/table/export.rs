@@ -1,0 +1,225 @@
+//! The table's files, serialised to bytes (pure; [`super::run`] writes them):
+//!
+//! - `rmse.csv` — stable raw data, one row per render;
+//! - `table.csv`, `table.md` — mean RMSE with its 95% Student-t interval per cell;
+//! - `manifest.json` — the resolved plan;
+//! - `timings.csv`, `timings.md` — wall-clock seconds, machine-dependent and not committed.
+
+use super::plan::{TablePlan, VariantPlan};
+use super::reference::{SCENE_VERSION, cache_path};
+use super::runner::Row;
+use super::summary::Cell;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Writing CSV into a `Vec` cannot fail.
+const IN_MEMORY: &str = "writing CSV to memory";
+
+/// `manifest.json`: the resolved plan, with the reference and how render seeds are derived.
+pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
+    let variants: Vec<_> = plan
+        .variants
+        .iter()
+        .map(
+            |v| serde_json::json!({"label": v.label, "integrator": v.kind, "gps": v.gps, "rotate": v.rotate}),
+        )
+        .collect();
+    let json = serde_json::json!({
+        "spec": plan.file.display().to_string(),
+        "scene": SCENE_VERSION,
+        "seed": plan.seed,
+        "width": plan.width,
+        "height": plan.height,
+        "env": plan.env_arg,
+        "spp": plan.spp,
+        "repetitions": plan.repetitions,
+        "reference": {"integrator": "mc", "spp": plan.reference.spp, "seed": plan.reference.seed,
+                      "cache": cache_path(plan, results).display().to_string()},
+        "model": plan.model_json,
+        "variants": variants,
+        "render_seed": "mix(seed, [spp, repetition]), the same for every variant",
+    });
+    let mut bytes = serde_json::to_vec_pretty(&json).expect("serialisable");
+    bytes.push(b'\n');
+    bytes
+}
+
+fn gps_field(v: &VariantPlan) -> String {
+    if v.kind.uses_sets() {
+        v.gps.to_string()
+    } else {
+        String::new()
+    }
+}
+
+fn rotate_field(v: &VariantPlan) -> String {
+    if v.kind.uses_sets() {
+        v.rotate.to_string()
+    } else {
+        String::new()
+    }
+}
+
+pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "variant",
+        "integrator",
+        "gps",
+        "rotate",
+        "spp",
+        "repetition",
+        "seed",
+        "rmse",
+    ])
+    .expect(IN_MEMORY);
+    for r in rows {
+        let v = &plan.variants[r.variant];
+        w.write_record([
+            v.label.clone(),
+            v.kind.name(),
+            gps_field(v),
+            rotate_field(v),
+            r.spp.to_string(),
+            r.repetition.to_string(),
+            r.seed.to_string(),
+            format!("{:?}", r.rmse),
+        ])
+        .expect(IN_MEMORY);
+    }
+    w.into_inner().expect(IN_MEMORY)
+}
+
+fn num(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:?}")
+    } else {
+        String::new()
+    }
+}
+
+pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "variant",
+        "integrator",
+        "gps",
+        "rotate",
+        "spp",
+        "repetitions",
+        "rmse_mean",
+        "rmse_sd",
+        "rmse_ci95_low",
+        "rmse_ci95_high",
+    ])
+    .expect(IN_MEMORY);
+    for c in cells {
+        let v = &plan.variants[c.variant];
+        w.write_record([
+            v.label.clone(),
+            v.kind.name(),
+            gps_field(v),
+            rotate_field(v),
+            c.spp.to_string(),
+            c.n.to_string(),
+            num(c.mean),
+            num(c.sd),
+            num(c.mean - c.half_width),
+            num(c.mean + c.half_width),
+        ])
+        .expect(IN_MEMORY);
+    }
+    w.into_inner().expect(IN_MEMORY)
+}
+
+pub fn table_md(plan: &TablePlan, cells: &[Cell]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Mean RMSE (± half-width of the 95% Student-t interval) of {}×{} renders against an MC \
+         reference with {} spp; repetitions per spp: {}.\n",
+        plan.width,
+        plan.height,
+        plan.reference.spp,
+        plan.spp
+            .iter()
+            .zip(&plan.repetitions)
+            .map(|(s, r)| format!("{r} at {s}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let cell = |v: usize, spp: usize| cells.iter().find(|c| c.variant == v && c.spp == spp);
+    md_header(plan, &mut s, "Method");
+    for (v, variant) in plan.variants.iter().enumerate() {
+        let _ = write!(s, "| {} |", variant.label);
+        for &spp in &plan.spp {
+            match cell(v, spp) {
+                Some(c) if c.half_width.is_finite() => {
+                    let _ = write!(s, " {:.5} ± {:.5} |", c.mean, c.half_width);
+                }
+                Some(c) => {
+                    let _ = write!(s, " {:.5} |", c.mean);
+                }
+                None => s.push_str(" |"),
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Mean wall-clock seconds per image (building the sample sets plus rendering) in Markdown:
+/// printed and written to the uncommitted `timings.md`, never into the stable outputs.
+pub fn times_md(plan: &TablePlan, cells: &[Cell]) -> String {
+    let mut s = String::new();
+    let cell = |v: usize, spp: usize| cells.iter().find(|c| c.variant == v && c.spp == spp);
+    let _ = writeln!(
+        s,
+        "Mean time per image in seconds (building the sample sets plus rendering, wall clock):\n"
+    );
+    md_header(plan, &mut s, "Method");
+    for (v, variant) in plan.variants.iter().enumerate() {
+        let _ = write!(s, "| {} |", variant.label);
+        for &spp in &plan.spp {
+            match cell(v, spp) {
+                Some(c) => {
+                    let _ = write!(s, " {:.3} |", c.seconds);
+                }
+                None => s.push_str(" |"),
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// A Markdown header row `| first | 20 spp | … |` and its rule.
+fn md_header(plan: &TablePlan, s: &mut String, first: &str) {
+    let _ = write!(s, "| {first} |");
+    for spp in &plan.spp {
+        let _ = write!(s, " {spp} spp |");
+    }
+    let _ = write!(s, "\n|---|");
+    for _ in &plan.spp {
+        let _ = write!(s, "---:|");
+    }
+    s.push('\n');
+}
+
+/// `timings.csv`: `variant,spp,repetition,seconds` per render (wall clock; machine-dependent,
+/// so outside the stable outputs and not committed).
+pub fn timings_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(["variant", "spp", "repetition", "seconds"])
+        .expect(IN_MEMORY);
+    for r in rows {
+        w.write_record([
+            plan.variants[r.variant].label.clone(),
+            r.spp.to_string(),
+            r.repetition.to_string(),
+            format!("{:.4}", r.seconds),
+        ])
+        .expect(IN_MEMORY);
+    }
+    w.into_inner().expect(IN_MEMORY)
+}

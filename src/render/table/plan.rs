@@ -1,0 +1,436 @@
+//! Validation: a [`TableSpec`] becomes a [`TablePlan`] with every default filled in, or a
+//! one-line error naming the file, the JSON path, the value and what is accepted — the same
+//! form as experiment files.
+
+use super::spec::{Repetitions, TableSpec, VariantSpec};
+use crate::bmc::BmcModel;
+use crate::error::InputError;
+use crate::render::env::Environment;
+use crate::render::integrator::{DEFAULT_GPS, IntegratorKind, MAX_MC_SPP, check_gps, check_spp};
+use crate::render::renderer::check_size;
+use std::path::{Path, PathBuf};
+
+/// One row of the table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VariantPlan {
+    pub label: String,
+    pub kind: IntegratorKind,
+    /// Sample sets (integrators with weights only; 0 otherwise).
+    pub gps: usize,
+    /// Random azimuth rotation (integrators with weights only; false otherwise).
+    pub rotate: bool,
+}
+
+/// The MC reference image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferencePlan {
+    pub spp: usize,
+    pub seed: u64,
+}
+
+/// A validated table: everything the run needs, defaults filled in.
+#[derive(Clone, Debug)]
+pub struct TablePlan {
+    pub file: PathBuf,
+    pub name: String,
+    pub seed: u64,
+    pub width: usize,
+    pub height: usize,
+    pub env: Environment,
+    pub env_arg: String,
+    pub spp: Vec<usize>,
+    /// Repetitions per entry of `spp`.
+    pub repetitions: Vec<usize>,
+    pub reference: ReferencePlan,
+    /// The BMC model, built only when a variant needs it.
+    pub model: Option<BmcModel>,
+    /// The model's resolved parameters, for the manifest.
+    pub model_json: serde_json::Value,
+    pub variants: Vec<VariantPlan>,
+}
+
+/// Default spp list (thesis Table 4.1, Fig. 4.1b).
+pub const DEFAULT_SPP: [usize; 4] = [20, 40, 60, 80];
+/// Default repetitions per spp.
+pub const DEFAULT_REPETITIONS: usize = 10;
+/// Most repetitions per spp (a table of more would run for days).
+pub const MAX_REPETITIONS: usize = 10_000;
+/// Default spp of the MC reference (thesis §3.2.7).
+pub const DEFAULT_REFERENCE_SPP: usize = 3000;
+/// Default image size.
+pub const DEFAULT_SIZE: usize = 256;
+/// Longest variant label: it names PNG files, which file systems limit to 255 bytes.
+pub const MAX_LABEL: usize = 100;
+/// The reference's default seed is `mix(seed, [REFERENCE_SEED])`.
+const REFERENCE_SEED: u64 = 0x2ef;
+
+/// Reads and validates `path`.
+pub fn load(path: &Path) -> Result<TablePlan, InputError> {
+    let file = path.display().to_string();
+    let text =
+        std::fs::read_to_string(path).map_err(|e| InputError::new(format!("{file}: cannot read: {e}")))?;
+    parse(&text, path)
+}
+
+/// Validates the text of a spec read from `path`.
+pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
+    let file = path.display().to_string();
+    let in_file = |m: String| InputError::new(format!("{file}: {m}"));
+    if crate::json::spec_kind(text) == Some(crate::json::SpecKind::Experiment) {
+        return Err(in_file(
+            "this is an experiment file (it has no \"variants\"); run it with `workbench run FILE`".into(),
+        ));
+    }
+    let spec: TableSpec = crate::json::parse(text, "the render table").map_err(in_file)?;
+    resolve(&spec, path).map_err(in_file)
+}
+
+/// `path: value: message`.
+fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
+    format!("{path}: {message}")
+}
+
+/// Checks every value and fills in defaults.
+pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
+    check_name(&spec.name)?;
+    let seed = spec.seed.unwrap_or(0);
+    let width = spec.width.unwrap_or(DEFAULT_SIZE as u64) as usize;
+    let height = spec.height.unwrap_or(DEFAULT_SIZE as u64) as usize;
+    check_size(width, height)
+        .map_err(|e| err("width/height", e.0.trim_start_matches("--width/--height: ")))?;
+    let env_arg = spec.env.clone().unwrap_or_else(|| "sky".into());
+    let env = Environment::from_arg(&env_arg).map_err(|e| err("env", e.0))?;
+    let spp = resolve_spp(spec.spp.as_deref())?;
+    let repetitions = resolve_repetitions(spec.repetitions.as_ref(), spp.len())?;
+    let reference = resolve_reference(spec, seed)?;
+
+    if spec.variants.is_empty() {
+        return Err(err("variants", "must list at least one variant"));
+    }
+    let mut variants: Vec<VariantPlan> = Vec::new();
+    for (k, v) in spec.variants.iter().enumerate() {
+        let variant = resolve_variant(v, &format!("variants[{k}]"), &variants)?;
+        for &n in &spp {
+            check_spp(variant.kind, n, "spp").map_err(|e| {
+                err(
+                    format!("spp with variants[{k}] ({})", variant.kind),
+                    e.0.trim_start_matches("spp: "),
+                )
+            })?;
+        }
+        variants.push(variant);
+    }
+
+    let model_spec = spec.model.unwrap_or_default();
+    let model = model_spec
+        .resolve()
+        .map_err(|m| err(format!("model.{}", m.field.json()), m.message))?;
+    let needed = variants.iter().any(|v| v.kind.uses_sets());
+    Ok(TablePlan {
+        file: path.to_path_buf(),
+        name: spec.name.clone(),
+        seed,
+        width,
+        height,
+        env,
+        env_arg,
+        spp,
+        repetitions,
+        reference,
+        model: needed.then(|| model.build()),
+        model_json: model.to_json(),
+        variants,
+    })
+}
+
+/// The table name becomes a folder: keep it to a safe alphabet.
+fn check_name(name: &str) -> Result<(), String> {
+    let ok = !name.is_empty()
+        && name.len() <= 100
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if ok {
+        Ok(())
+    } else {
+        Err(err(
+            "name",
+            format!("{name:?} is not a usable folder name (1 to 100 of A–Z, a–z, 0–9, - and _)"),
+        ))
+    }
+}
+
+fn resolve_spp(spp: Option<&[u64]>) -> Result<Vec<usize>, String> {
+    let Some(items) = spp else {
+        return Ok(DEFAULT_SPP.to_vec());
+    };
+    if items.is_empty() {
+        return Err(err("spp", "must list at least one sample count"));
+    }
+    let mut out = Vec::new();
+    for (k, &n) in items.iter().enumerate() {
+        if n == 0 {
+            return Err(err(format!("spp[{k}]"), "must be at least 1, got 0"));
+        }
+        if n > MAX_MC_SPP as u64 {
+            return Err(err(
+                format!("spp[{k}]"),
+                format!("at most {MAX_MC_SPP} samples per pixel, got {n}"),
+            ));
+        }
+        if out.contains(&(n as usize)) {
+            return Err(err(format!("spp[{k}]"), format!("{n} is listed twice")));
+        }
+        out.push(n as usize);
+    }
+    Ok(out)
+}
+
+fn resolve_repetitions(reps: Option<&Repetitions>, n_spp: usize) -> Result<Vec<usize>, String> {
+    let check = |path: String, r: u64| {
+        if r == 0 {
+            Err(err(path, "must be at least 1, got 0"))
+        } else if r > MAX_REPETITIONS as u64 {
+            Err(err(
+                path,
+                format!("at most {MAX_REPETITIONS} renders per spp, got {r}"),
+            ))
+        } else {
+            Ok(r as usize)
+        }
+    };
+    match reps {
+        None => Ok(vec![DEFAULT_REPETITIONS; n_spp]),
+        Some(&Repetitions::All(r)) => Ok(vec![check("repetitions".into(), r)?; n_spp]),
+        Some(Repetitions::PerSpp(list)) => {
+            if list.len() != n_spp {
+                return Err(err(
+                    "repetitions",
+                    format!(
+                        "has {} entries; it needs one count per entry of spp ({n_spp}), or one number",
+                        list.len()
+                    ),
+                ));
+            }
+            list.iter()
+                .enumerate()
+                .map(|(k, &r)| check(format!("repetitions[{k}]"), r))
+                .collect()
+        }
+    }
+}
+
+fn resolve_reference(spec: &TableSpec, seed: u64) -> Result<ReferencePlan, String> {
+    let r = spec.reference.unwrap_or(super::spec::ReferenceSpec {
+        spp: None,
+        seed: None,
+    });
+    let spp = r.spp.unwrap_or(DEFAULT_REFERENCE_SPP as u64);
+    if spp == 0 || spp > MAX_MC_SPP as u64 {
+        return Err(err(
+            "reference.spp",
+            format!("must be in 1..={MAX_MC_SPP}, got {spp}"),
+        ));
+    }
+    Ok(ReferencePlan {
+        spp: spp as usize,
+        seed: r.seed.unwrap_or_else(|| crate::rng::mix(seed, &[REFERENCE_SEED])),
+    })
+}
+
+fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result<VariantPlan, String> {
+    let kind = v.integrator;
+    let label = v.label.clone().unwrap_or_else(|| kind.name());
+    let label_path = format!("{at}.label");
+    if label.is_empty() || label.chars().count() > MAX_LABEL || label.contains(|c: char| c.is_control()) {
+        return Err(err(
+            label_path,
+            format!("{label:?}: labels are 1 to {MAX_LABEL} printable characters"),
+        ));
+    }
+    if let Some(j) = earlier.iter().position(|e| e.label == label) {
+        return Err(err(
+            label_path,
+            format!("{label:?} is already the label of variants[{j}]"),
+        ));
+    }
+    // Labels name the PNG files: two that give the same file name would overwrite each other.
+    let slug = png_name(&label, 0);
+    if slug == "-0spp.png" {
+        return Err(err(
+            label_path,
+            format!("{label:?} needs an ASCII letter or digit (it names the PNG files)"),
+        ));
+    }
+    if let Some(j) = earlier.iter().position(|e| png_name(&e.label, 0) == slug) {
+        return Err(err(
+            label_path,
+            format!(
+                "{label:?} gives the same file names as variants[{j}] ({:?}); file names keep ASCII letters and digits, lower-cased",
+                earlier[j].label
+            ),
+        ));
+    }
+    if !kind.uses_sets() {
+        if let Some(g) = v.gps {
+            return Err(err(
+                format!("{at}.gps"),
+                format!("{g} is not used by integrator {kind}"),
+            ));
+        }
+        if let Some(r) = v.rotate {
+            return Err(err(
+                format!("{at}.rotate"),
+                format!("{r} is not used by integrator {kind}"),
+            ));
+        }
+        return Ok(VariantPlan {
+            label,
+            kind,
+            gps: 0,
+            rotate: false,
+        });
+    }
+    let gps = v.gps.unwrap_or(DEFAULT_GPS as u64);
+    let gps = usize::try_from(gps).unwrap_or(usize::MAX);
+    check_gps(gps, "gps").map_err(|e| err(format!("{at}.gps"), e.0.trim_start_matches("gps: ")))?;
+    Ok(VariantPlan {
+        label,
+        kind,
+        gps,
+        rotate: v.rotate.unwrap_or(true),
+    })
+}
+
+/// `BMC 4 GP (no rotation)` at 40 spp → `bmc-4-gp-no-rotation-40spp.png`.
+pub fn png_name(label: &str, spp: usize) -> String {
+    let mut slug = String::new();
+    for c in label.chars() {
+        if c.is_ascii_alphanumeric() {
+            slug.push(c.to_ascii_lowercase());
+        } else if !slug.ends_with('-') && !slug.is_empty() {
+            slug.push('-');
+        }
+    }
+    format!("{}-{spp}spp.png", slug.trim_end_matches('-'))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(text: &str) -> String {
+        parse(text, Path::new("t.json")).unwrap_err().0
+    }
+
+    #[test]
+    fn defaults_are_filled_in() {
+        let p = parse(
+            r#"{"name": "t", "variants": [{"integrator": "mc"}, {"integrator": "bmc"}]}"#,
+            Path::new("t.json"),
+        )
+        .unwrap();
+        assert_eq!(p.spp, DEFAULT_SPP);
+        assert_eq!(p.repetitions, vec![DEFAULT_REPETITIONS; 4]);
+        assert_eq!((p.width, p.height, p.reference.spp), (256, 256, 3000));
+        assert_eq!(
+            p.variants[0],
+            VariantPlan {
+                label: "mc".into(),
+                kind: IntegratorKind::MC,
+                gps: 0,
+                rotate: false
+            }
+        );
+        assert_eq!(
+            p.variants[1],
+            VariantPlan {
+                label: "bmc".into(),
+                kind: IntegratorKind::BMC,
+                gps: 4,
+                rotate: true
+            }
+        );
+        assert!(p.model.is_some());
+    }
+
+    /// The experiment's form: `file: path: message`, with the value and what is accepted.
+    #[test]
+    fn errors_name_file_path_and_value() {
+        let base = r#""name": "t", "variants": [{"integrator": "mc"}]"#;
+        assert!(
+            err(&format!("{{{base}, \"colour\": 1}}"))
+                .starts_with("t.json: colour: unknown field `colour`, expected one of `name`, `seed`")
+        );
+        assert_eq!(
+            err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),
+            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp"
+        );
+        assert_eq!(
+            err(&format!("{{{base}, \"spp\": [20, 0]}}")),
+            "t.json: spp[1]: must be at least 1, got 0"
+        );
+        assert!(
+            err(&format!("{{{base}, \"repetitions\": [1, 2]}}"))
+                .starts_with("t.json: repetitions: has 2 entries; it needs one count")
+        );
+        assert_eq!(
+            err(r#"{"name": "t", "variants": [{"integrator": "mc", "gps": 2}]}"#),
+            "t.json: variants[0].gps: 2 is not used by integrator mc"
+        );
+        assert_eq!(
+            err(&format!("{{{base}, \"model\": {{\"noise\": -1}}}}")),
+            "t.json: model.noise: noise must be finite and >= 0, got -1"
+        );
+        assert!(
+            err(&format!(
+                "{{{base}, \"model\": {{\"kernel\": {{\"type\": \"sobolev\", \"s\": 3}}}}}}"
+            ))
+            .starts_with("t.json: model.kernel: sobolev kernel: s must be")
+        );
+        assert!(
+            err(&format!("{{{base}, \"model\": {{\"kernel\": \"sobolev\"}}}}"))
+                .starts_with("t.json: model.kernel:")
+        );
+        assert!(err(&format!("{{{base}, \"width\": 100000, \"height\": 100000}}")).contains("width/height"));
+        assert!(
+            err(&format!("{{{base}, \"env\": \"missing.hdr\"}}"))
+                .starts_with("t.json: env: --env missing.hdr: cannot read")
+        );
+        assert!(
+            err(&format!("{{{base}, \"reference\": {{\"spp\": 0}}}}")).starts_with("t.json: reference.spp:")
+        );
+        assert!(err(r#"{"variants": []}"#).starts_with("t.json: missing field `name`"));
+        assert_eq!(
+            err(r#"{"name": "t", "variants": []}"#),
+            "t.json: variants: must list at least one variant"
+        );
+        assert!(err(r#"{"name": "a/b", "variants": []}"#).starts_with("t.json: name: \"a/b\""));
+        assert!(err("{").starts_with("t.json: malformed JSON"));
+        assert!(
+            err(r#"{"name": "t", "variants": [{"integrator": "mc"}, {"integrator": "mc"}]}"#)
+                .contains("already the label of variants[0]")
+        );
+        assert!(err(r#"{"name": "t", "spp": [20000], "variants": [{"integrator": "bmc"}]}"#).contains("GiB"));
+        let long = "x".repeat(300);
+        assert!(
+            err(&format!(
+                r#"{{"name": "t", "variants": [{{"integrator": "mc", "label": "{long}"}}]}}"#
+            ))
+            .contains("labels are 1 to 100 printable characters")
+        );
+        assert!(
+            err(r#"{"name": "t", "estimators": [], "integrands": []}"#)
+                .contains("this is an experiment file")
+        );
+    }
+
+    #[test]
+    fn png_names_are_slugs() {
+        assert_eq!(
+            png_name("BMC 4 GP (no rotation)", 40),
+            "bmc-4-gp-no-rotation-40spp.png"
+        );
+        assert_eq!(png_name("MC", 20), "mc-20spp.png");
+    }
+}

@@ -1,0 +1,82 @@
+//! The table's reference image, cached as `<results>/cache/reference-<key>.exr` (with a `.json`
+//! describing it), `key` a hash of everything that determines it, so tables share it.
+
+use super::plan::TablePlan;
+use crate::io::write_atomic;
+use crate::render::image::Image;
+use crate::render::integrator::Integrator;
+use crate::render::renderer::Renderer;
+use crate::report::Reporter;
+use crate::sampling::Design;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Version of the scene definition; part of the reference cache key.
+pub const SCENE_VERSION: &str = "render-scene v1";
+
+/// `(key, description)`: the description lists everything that determines the reference image;
+/// the key is its 64-bit FNV-1a hash in hex.
+pub fn reference_key(plan: &TablePlan) -> (String, String) {
+    let description = serde_json::to_string_pretty(&serde_json::json!({
+        "scene": SCENE_VERSION,
+        "env": plan.env.key(),
+        "width": plan.width,
+        "height": plan.height,
+        "integrator": "mc",
+        "spp": plan.reference.spp,
+        "seed": plan.reference.seed,
+    }))
+    .expect("serialisable");
+    (
+        format!("{:016x}", crate::rng::label_id(&description)),
+        description,
+    )
+}
+
+/// Where the reference of `plan` is cached under `results`.
+pub fn cache_path(plan: &TablePlan, results: &Path) -> PathBuf {
+    let (key, _) = reference_key(plan);
+    results.join("cache").join(format!("reference-{key}.exr"))
+}
+
+/// The reference: read from the cache if present and sound, else rendered (MC, uniform) and
+/// cached. A damaged entry (unreadable, wrong size, non-finite pixels) is rendered again.
+pub fn reference(
+    plan: &TablePlan,
+    renderer: &Renderer,
+    results: &Path,
+    reporter: &dyn Reporter,
+) -> crate::Result<Image> {
+    let path = cache_path(plan, results);
+    if path.exists() {
+        match Image::read(&path, "reference cache") {
+            Ok(image) if (image.width, image.height) == (plan.width, plan.height) => {
+                reporter.note(&format!("render: reference from cache {}", path.display()));
+                return Ok(image);
+            }
+            Ok(_) => reporter.note(&format!(
+                "warning: {} has the wrong size; rendering it again",
+                path.display()
+            )),
+            Err(e) => reporter.note(&format!("warning: {e}; rendering it again")),
+        }
+    }
+    let start = Instant::now();
+    let integrator = Integrator::mc(Design::Uniform, plan.reference.spp);
+    reporter.start(
+        "rows (reference)",
+        (renderer.passes(&integrator) * plan.height) as u64,
+    );
+    let image = renderer.render(&integrator, plan.reference.seed, reporter);
+    reporter.finish();
+    write_atomic(&path, &image.to_exr()?)?;
+    write_atomic(&path.with_extension("json"), reference_key(plan).1.as_bytes())?;
+    reporter.note(&format!(
+        "render: reference (mc, {} spp) in {:.1} s → {}",
+        plan.reference.spp,
+        start.elapsed().as_secs_f64(),
+        path.display()
+    ));
+    // Use exactly what later tables will read back.
+    Image::read(&path, "reference cache").map_err(Into::into)
+}

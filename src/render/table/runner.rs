@@ -1,0 +1,101 @@
+//! Renders every variant × spp × repetition of a table against its reference.
+
+use super::plan::TablePlan;
+use crate::render::image::Image;
+use crate::render::integrator::Integrator;
+use crate::render::renderer::Renderer;
+use crate::report::{Reporter, Silent};
+use std::time::Instant;
+
+/// One render of the table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub variant: usize,
+    pub spp: usize,
+    pub repetition: usize,
+    pub seed: u64,
+    pub rmse: f64,
+    /// Wall-clock seconds (building the sets plus rendering); outside the stable outputs.
+    pub seconds: f64,
+}
+
+/// The seed of repetition `rep` at `spp`: the same for every variant (paired renders).
+pub fn render_seed(seed: u64, spp: usize, rep: usize) -> u64 {
+    crate::rng::mix(seed, &[spp as u64, rep as u64])
+}
+
+/// What the runner hands its caller as it goes: the first repetition's image of each cell (to
+/// save), and the rows so far after each round of variants (so an interrupted table keeps what
+/// it measured).
+pub trait TableSink {
+    fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()>;
+    fn round_done(&mut self, rows: &[Row]) -> crate::Result<()>;
+}
+
+/// Renders the table in spec order: spp, then repetition, then variant.
+pub fn run(
+    plan: &TablePlan,
+    renderer: &Renderer,
+    reference: &Image,
+    sink: &mut dyn TableSink,
+    reporter: &dyn Reporter,
+) -> crate::Result<Vec<Row>> {
+    let total: usize = plan.repetitions.iter().sum::<usize>() * plan.variants.len();
+    reporter.start("renders", total as u64);
+    let mut rows = Vec::with_capacity(total);
+    for (&spp, &reps) in plan.spp.iter().zip(&plan.repetitions) {
+        for rep in 0..reps {
+            let seed = render_seed(plan.seed, spp, rep);
+            for (v, variant) in plan.variants.iter().enumerate() {
+                reporter.working_on(&format!("{} {spp} spp #{rep}", variant.label));
+                let start = Instant::now();
+                let integrator = Integrator::build(
+                    variant.kind,
+                    spp,
+                    variant.gps,
+                    variant.rotate,
+                    plan.model.as_ref(),
+                    seed,
+                )?;
+                if rep == 0 {
+                    for line in numerical_warnings(&integrator) {
+                        reporter.note(&format!("warning: {} {spp} spp: {line}", variant.label));
+                    }
+                }
+                let image = renderer.render(&integrator, seed, &Silent);
+                let seconds = start.elapsed().as_secs_f64();
+                rows.push(Row {
+                    variant: v,
+                    spp,
+                    repetition: rep,
+                    seed,
+                    rmse: image.rmse(reference),
+                    seconds,
+                });
+                if rep == 0 {
+                    sink.first_image(v, spp, &image)?;
+                }
+                reporter.advance(1);
+            }
+            sink.round_done(&rows)?;
+        }
+    }
+    reporter.finish();
+    Ok(rows)
+}
+
+/// Each distinct numerical warning of an integrator's sample sets once, with its remedy.
+pub fn numerical_warnings(integrator: &Integrator) -> Vec<String> {
+    let mut seen: Vec<String> = Vec::new();
+    if let Some(sets) = &integrator.sets {
+        for (s, set) in sets.sets.iter().enumerate() {
+            for w in &set.weights.diagnostics.warnings {
+                let m = format!("sample set {s}: {}", w.message());
+                if !seen.iter().any(|x| x.ends_with(&w.message())) {
+                    seen.push(m);
+                }
+            }
+        }
+    }
+    seen
+}

@@ -1,0 +1,118 @@
+//! The render-table file, exactly as written in JSON (`deny_unknown_fields`). Nothing here is
+//! validated beyond types; [`super::plan`] turns a spec into a plan.
+//!
+//! ```json
+//! { "name": "render-table", "seed": 0, "width": 256, "height": 256, "env": "sky",
+//!   "spp": [20, 40, 60, 80], "repetitions": 10,
+//!   "reference": { "spp": 3000, "seed": 1 },
+//!   "model": { "kernel": { "type": "sobolev", "s": 1.4 }, "noise": 0.01, "kernel_mean": "exact" },
+//!   "variants": [ { "label": "MC", "integrator": "mc" },
+//!                 { "label": "BMC 4 GP", "integrator": "bmc", "gps": 4, "rotate": true } ] }
+//! ```
+
+use crate::model_spec::ModelSpec;
+use crate::render::integrator::IntegratorKind;
+use serde::{Deserialize, Serialize};
+
+/// A render table. See the README ("Tables") for every field.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableSpec {
+    /// Output folder name under the results folder: A–Z, a–z, 0–9, `-`, `_`.
+    pub name: String,
+    /// Master seed; default 0.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Image width in pixels; default 256.
+    #[serde(default)]
+    pub width: Option<u64>,
+    /// Image height in pixels; default 256.
+    #[serde(default)]
+    pub height: Option<u64>,
+    /// `sky`, `white` or an environment map file; default `sky`.
+    #[serde(default)]
+    pub env: Option<String>,
+    /// Samples per pixel; default `[20, 40, 60, 80]`.
+    #[serde(default)]
+    pub spp: Option<Vec<u64>>,
+    /// Renders per spp: one number, or one per `spp` entry; default 10.
+    #[serde(default)]
+    pub repetitions: Option<Repetitions>,
+    /// The MC reference; default 3000 spp.
+    #[serde(default)]
+    pub reference: Option<ReferenceSpec>,
+    /// The BMC model of the variants with weights; the experiments' fields.
+    #[serde(default)]
+    pub model: Option<ModelSpec>,
+    pub variants: Vec<VariantSpec>,
+}
+
+/// One row of the table.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct VariantSpec {
+    /// Row label; default the integrator's name.
+    #[serde(default)]
+    pub label: Option<String>,
+    /// One of [`IntegratorKind::all`] by name.
+    pub integrator: IntegratorKind,
+    /// Sample sets (integrators with weights only); default 4.
+    #[serde(default)]
+    pub gps: Option<u64>,
+    /// Rotate the set per pixel (integrators with weights only); default true.
+    #[serde(default)]
+    pub rotate: Option<bool>,
+}
+
+/// The MC reference image.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceSpec {
+    #[serde(default)]
+    pub spp: Option<u64>,
+    #[serde(default)]
+    pub seed: Option<u64>,
+}
+
+/// `10` (every spp) or `[80, 40, 26, 20]` (one per spp).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Repetitions {
+    All(u64),
+    PerSpp(Vec<u64>),
+}
+
+impl<'de> Deserialize<'de> for Repetitions {
+    /// By hand rather than `untagged`, whose error ("did not match any variant") hides what is
+    /// accepted.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::Number(n) if n.as_u64().is_some() => {
+                Ok(Repetitions::All(n.as_u64().expect("checked")))
+            }
+            serde_json::Value::Array(items) => items
+                .iter()
+                .map(|v| {
+                    v.as_u64()
+                        .ok_or_else(|| serde::de::Error::custom(format!("expected whole numbers, got {v}")))
+                })
+                .collect::<Result<_, _>>()
+                .map(Repetitions::PerSpp),
+            other => Err(serde::de::Error::custom(format!(
+                "expected a whole number or a list of them (one per spp), got {other}"
+            ))),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for IntegratorKind {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        IntegratorKind::from_name(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "unknown integrator {name:?}; expected one of {}",
+                IntegratorKind::names()
+            ))
+        })
+    }
+}

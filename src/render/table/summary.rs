@@ -1,0 +1,48 @@
+//! Per-cell statistics of the table: mean RMSE with its 95% Student-t interval.
+
+use super::plan::TablePlan;
+use super::runner::Row;
+
+/// Summary of one (variant, spp) cell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cell {
+    pub variant: usize,
+    pub spp: usize,
+    pub n: usize,
+    pub mean: f64,
+    pub sd: f64,
+    /// Half-width of the 95% interval `t_{0.975, n−1} · sd / √n` (NaN for `n = 1`).
+    pub half_width: f64,
+    /// Mean wall-clock seconds per render (building the sets plus rendering); not part of the
+    /// stable outputs.
+    pub seconds: f64,
+}
+
+/// Mean, standard deviation and 95% Student-t half-width of the RMSE per (variant, spp), in
+/// the order of the spec; a plain loop in row order.
+pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
+    use crate::stats::{mean, mean_ci95, sample_sd};
+    let mut cells = Vec::new();
+    for v in 0..plan.variants.len() {
+        for &spp in &plan.spp {
+            let cell: Vec<&Row> = rows.iter().filter(|r| r.variant == v && r.spp == spp).collect();
+            if cell.is_empty() {
+                continue;
+            }
+            let rmse: Vec<f64> = cell.iter().map(|r| r.rmse).collect();
+            let seconds: Vec<f64> = cell.iter().map(|r| r.seconds).collect();
+            // Both NaN for a single repetition, where neither is defined.
+            let (lo, hi) = mean_ci95(&rmse);
+            cells.push(Cell {
+                variant: v,
+                spp,
+                n: rmse.len(),
+                mean: mean(&rmse),
+                sd: sample_sd(&rmse),
+                half_width: 0.5 * (hi - lo),
+                seconds: mean(&seconds),
+            });
+        }
+    }
+    cells
+}
