@@ -30,8 +30,7 @@ pub struct RenderArgs {
                               "seed", "reference"]
     )]
     pub spec: Option<PathBuf>,
-    /// The estimator of each pixel's illumination integral: mc, mc-cos, bmc, bmcp.
-    #[arg(long, default_value = "bmc", value_parser = parse_integrator)]
+    #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
     pub integrator: IntegratorKind,
     /// Samples per pixel (hemisphere directions per estimate).
     #[arg(long, default_value_t = 40)]
@@ -82,6 +81,13 @@ pub struct RenderArgs {
 
 /// Error norm shown at full intensity by `--error-scale absolute` when `--error-max` is not given.
 pub const DEFAULT_ERROR_MAX: f64 = 0.1;
+
+fn integrator_help() -> String {
+    format!(
+        "The estimator of each pixel's illumination integral: {}",
+        IntegratorKind::names()
+    )
+}
 
 fn parse_integrator(name: &str) -> Result<IntegratorKind, String> {
     IntegratorKind::from_name(name).ok_or_else(|| {
