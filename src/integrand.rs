@@ -1,7 +1,56 @@
-//! Test integrands `f(ω) = cos^k θ` with their exact integrals (math.md §1).
+//! Integrands with their exact integrals (math.md §1): `cos^k θ` here, the rendering-like
+//! families (lobe, cap, Gaussian about a tilted axis) in [`family`], and [`Integrand`], the one
+//! type experiments use.
+
+pub mod family;
 
 use crate::geometry::Vec3;
+use family::AxisIntegrand;
 use std::f64::consts::TAU;
+
+/// An integrand of an experiment, with a name (a file name: `<name>.svg`) and its truth.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Integrand {
+    /// `cos^k θ`, named `cos<k>`.
+    Cos(CosPower),
+    /// A family integrand with its name.
+    Axis { name: String, f: AxisIntegrand },
+}
+
+impl Integrand {
+    /// The name in files and tables.
+    pub fn name(&self) -> String {
+        match self {
+            Integrand::Cos(c) => c.name(),
+            Integrand::Axis { name, .. } => name.clone(),
+        }
+    }
+
+    /// `f(ω)`.
+    #[inline]
+    pub fn value(&self, w: &Vec3) -> f64 {
+        match self {
+            Integrand::Cos(c) => c.value(w),
+            Integrand::Axis { f, .. } => f.value(w),
+        }
+    }
+
+    /// `I = ∫_H f dω`.
+    pub fn integral(&self) -> f64 {
+        match self {
+            Integrand::Cos(c) => c.integral(),
+            Integrand::Axis { f, .. } => f.integral(),
+        }
+    }
+
+    /// The oracle prior `c = I / (2π)` (math.md §1): the constant with the true integral.
+    pub fn constant_prior(&self) -> f64 {
+        match self {
+            Integrand::Cos(c) => c.constant_prior(),
+            Integrand::Axis { f, .. } => f.integral() / TAU,
+        }
+    }
+}
 
 /// `f(ω) = cos^k θ = ω_z^k` over the hemisphere around `+z`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -103,9 +103,7 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
     serde_json::json!({
         "name": plan.name,
         "title": plan.title,
-        "integrands": plan.integrands.iter().map(|f| serde_json::json!({
-            "name": f.name(), "truth": f.integral(), "analytic_prior": f.constant_prior()
-        })).collect::<Vec<_>>(),
+        "integrands": plan.integrands.iter().map(integrand_json).collect::<Vec<_>>(),
         "estimators": plan.estimators.iter().map(|e| {
             let mut v = serde_json::to_value(&e.settings).expect("settings serialize");
             v["label"] = serde_json::json!(e.label);
@@ -116,6 +114,26 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
         "seed": plan.seed,
         "checks": plan.checks,
     })
+}
+
+/// An integrand's name, truth and oracle prior, and for a family its definition.
+fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
+    let mut v = serde_json::json!({
+        "name": f.name(), "truth": f.integral(), "analytic_prior": f.constant_prior()
+    });
+    if let crate::integrand::Integrand::Axis { f: a, .. } = f {
+        use crate::integrand::family::Profile;
+        let (key, param) = match a.profile {
+            Profile::Lobe { exponent } => ("exponent", exponent),
+            Profile::Cap { half_angle } => ("half_angle", half_angle),
+            Profile::Gaussian { sharpness } => ("sharpness", sharpness),
+        };
+        v["type"] = a.profile.family().into();
+        v["axis"] = serde_json::json!([a.axis.x, a.axis.y, a.axis.z]);
+        v[key] = param.into();
+        v["cosine"] = a.cosine.into();
+    }
+    v
 }
 
 /// `manifest.json`: the plan and how the run went.

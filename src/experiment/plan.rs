@@ -4,7 +4,8 @@
 use super::spec::*;
 use crate::bmc::BmcModel;
 use crate::estimator::Method;
-use crate::integrand::CosPower;
+use crate::integrand::family::{AxisIntegrand, Profile};
+use crate::integrand::{CosPower, Integrand};
 use crate::model_spec::ResolvedModel;
 use crate::rule::MAX_POINTS;
 use crate::sampling::{Design, SetDesign};
@@ -23,7 +24,7 @@ pub const MAX_ROWS: u64 = 10_000_000;
 pub struct Plan {
     pub name: String,
     pub title: String,
-    pub integrands: Vec<CosPower>,
+    pub integrands: Vec<Integrand>,
     pub estimators: Vec<PlannedEstimator>,
     pub samples: Vec<usize>,
     pub trials: usize,
@@ -118,18 +119,17 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     if spec.integrands.is_empty() {
         return Err(err("integrands", "must name at least one integrand"));
     }
-    let mut integrands = Vec::new();
-    for (i, name) in spec.integrands.iter().enumerate() {
-        let f = CosPower::parse(name).ok_or_else(|| {
-            err(
-                format!("integrands[{i}]"),
-                format!("unknown integrand {name:?} (expected cos, cos2, cos3, …: cos<k> with k a whole number from 0 to 2147483647)"),
-            )
-        })?;
-        if integrands.contains(&f) {
+    let mut integrands: Vec<Integrand> = Vec::new();
+    for (i, f) in spec.integrands.iter().enumerate() {
+        let at = format!("integrands[{i}]");
+        let f = resolve_integrand(f).map_err(|m| err(&at, m))?;
+        if let Some(j) = integrands.iter().position(|g| g.name() == f.name()) {
             return Err(err(
-                format!("integrands[{i}]"),
-                format!("{name:?} is listed twice"),
+                &at,
+                format!(
+                    "the name {:?} is already used by integrands[{j}] (give each integrand its own \"name\")",
+                    f.name()
+                ),
             ));
         }
         integrands.push(f);
@@ -290,6 +290,97 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         models,
         designs,
     })
+}
+
+/// One integrand, validated, with its truth computed (and its default name filled in).
+fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
+    let (profile, name, axis, cosine) = match spec {
+        IntegrandSpec::Named(name) => {
+            return CosPower::parse(name).map(Integrand::Cos).ok_or_else(|| {
+                format!(
+                    "unknown integrand {name:?} (expected cos, cos2, cos3, …: cos<k> with k a whole number \
+                     from 0 to 2147483647, or an object with \"type\": lobe, cap or gaussian)"
+                )
+            });
+        }
+        IntegrandSpec::Family(FamilySpec::Lobe {
+            name,
+            axis,
+            exponent,
+            cosine,
+        }) => (Profile::Lobe { exponent: *exponent }, name, axis, *cosine),
+        IntegrandSpec::Family(FamilySpec::Cap {
+            name,
+            axis,
+            half_angle,
+            cosine,
+        }) => (
+            Profile::Cap {
+                half_angle: *half_angle,
+            },
+            name,
+            axis,
+            *cosine,
+        ),
+        IntegrandSpec::Family(FamilySpec::Gaussian {
+            name,
+            axis,
+            sharpness,
+            cosine,
+        }) => (
+            Profile::Gaussian {
+                sharpness: *sharpness,
+            },
+            name,
+            axis,
+            *cosine,
+        ),
+    };
+    let f = AxisIntegrand::new(profile, *axis, cosine)?;
+    let name = match name {
+        Some(n) => {
+            check_file_name(n).map_err(|m| format!("name: {m}"))?;
+            n.clone()
+        }
+        None => default_name(&f),
+    };
+    Ok(Integrand::Axis { name, f })
+}
+
+/// An integrand's name becomes a file name (`<name>.svg`): the experiment name's alphabet.
+fn check_file_name(name: &str) -> Result<(), String> {
+    let ok = !name.is_empty()
+        && name.len() <= 100
+        && !name.starts_with('.')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name:?} is not a usable file name (1 to 100 letters, digits, '-', '_', '.'; no leading '.')"
+        ))
+    }
+}
+
+/// `lobe8-tilt30`, `cap15-tilt45-cos`, `gaussian20-tilt0`: the family, its parameter, the axis's
+/// tilt from the normal in degrees (the azimuth does not change the integral) and `-cos` for
+/// `m = 1`.
+fn default_name(f: &AxisIntegrand) -> String {
+    let param = match f.profile {
+        Profile::Lobe { exponent } => exponent,
+        Profile::Cap { half_angle } => half_angle,
+        Profile::Gaussian { sharpness } => sharpness,
+    };
+    // To a tenth of a degree, without a trailing ".0" ([0.5, 0, 0.866] is 30.0007°: "30").
+    let tilt = format!("{:.1}", f.tilt_degrees());
+    let tilt = tilt.strip_suffix(".0").unwrap_or(&tilt);
+    format!(
+        "{}{param}-tilt{tilt}{}",
+        f.profile.family(),
+        if f.cosine { "-cos" } else { "" }
+    )
 }
 
 /// The experiment name becomes a folder: keep it to a safe alphabet.

@@ -16,8 +16,8 @@ pub struct ExperimentSpec {
     /// Plot title; defaults to the name.
     #[serde(default)]
     pub title: Option<String>,
-    /// Integrand names: `cos`, `cos2`, `cos3`, … (`cos<k>` for any k ≥ 0).
-    pub integrands: Vec<String>,
+    /// Integrands: names `cos`, `cos2`, `cos3`, … (`cos<k>` for any k ≥ 0) or family objects.
+    pub integrands: Vec<IntegrandSpec>,
     pub estimators: Vec<EstimatorSpec>,
     /// Sample counts N.
     pub samples: Vec<u64>,
@@ -122,4 +122,62 @@ pub struct CheckSpec {
     /// Level of the one-sided paired t-test; default 0.01.
     #[serde(default)]
     pub alpha: Option<f64>,
+}
+
+/// An integrand: a name (`"cos3"`) or a family object (`{"type": "lobe", …}`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum IntegrandSpec {
+    Named(String),
+    Family(FamilySpec),
+}
+
+impl<'de> Deserialize<'de> for IntegrandSpec {
+    /// By hand rather than `untagged`, whose error ("did not match any variant") hides what is
+    /// accepted and what was wrong inside the object.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::String(name) => Ok(IntegrandSpec::Named(name)),
+            v @ serde_json::Value::Object(_) => serde_json::from_value(v)
+                .map(IntegrandSpec::Family)
+                .map_err(D::Error::custom),
+            other => Err(D::Error::custom(format!(
+                "expected a name such as \"cos3\" or an object with a \"type\" (lobe, cap, gaussian), got {other}"
+            ))),
+        }
+    }
+}
+
+/// A rendering-like integrand about a tilted axis (math.md §1, "Rendering-like integrands").
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum FamilySpec {
+    /// `max(0, ω·a)^e · (ω·n)^m`.
+    Lobe {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        axis: [f64; 3],
+        exponent: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    /// `1[ω·a ≥ cos α] · (ω·n)^m`, `α = half_angle` in degrees.
+    Cap {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        axis: [f64; 3],
+        half_angle: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    /// `exp(λ (ω·a − 1)) · (ω·n)^m`, `λ = sharpness`.
+    Gaussian {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        axis: [f64; 3],
+        sharpness: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
 }
