@@ -211,11 +211,15 @@ impl BmcModel {
     }
 
     /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
-    /// `rng` is drawn from only in the MC mode.
+    /// `rng` is drawn from only in the MC modes: one `u64` for fresh directions per point
+    /// ([`crate::kernel_mean::kernel_means_mc_per_point`]), `2M` numbers for shared ones.
     pub fn kernel_means<R: rand::Rng + ?Sized>(&self, points: &[Vec3], rng: &mut R) -> Vec<f64> {
         match self.mode {
             crate::kernel_mean::KernelMeanMode::Exact => points.iter().map(|p| self.table.z(p.z)).collect(),
             crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => {
+                crate::kernel_mean::kernel_means_mc_per_point(&self.kernel, points, samples, rng)
+            }
+            crate::kernel_mean::KernelMeanMode::MonteCarloShared { samples } => {
                 let dirs = crate::sampling::Design::Uniform.sample_set(samples, rng);
                 crate::kernel_mean::kernel_means_mc(
                     &self.kernel,
