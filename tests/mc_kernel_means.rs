@@ -1,4 +1,5 @@
-//! The MC kernel-mean modes (math.md §4, "The thesis instead estimated each `z_i` by plain MC").
+//! The MC kernel-mean modes (math.md §4, "The thesis instead estimated each `z_i` by plain MC")
+//! and what their errors do to the posterior variance (math.md §7).
 //!
 //! * [`KernelMeanMode::MonteCarlo`] (the thesis): every `z_i` from its own `M` directions, so
 //!   the errors `ẑ_i − z_i` are independent, each with standard deviation `s_i/√M`,
@@ -9,7 +10,7 @@
 //! is used; every seed is fixed.
 
 use std::f64::consts::TAU;
-use workbench::bmc::{BmcModel, bmc_weights};
+use workbench::bmc::{BmcModel, NumericalWarning, bmc_weights};
 use workbench::geometry::Vec3;
 use workbench::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
 use workbench::kernel_mean::{KernelMeanMode, kernel_mean_exact, kernel_means_mc, kernel_means_mc_per_point};
@@ -222,4 +223,69 @@ fn mc_constructors_validate_m() {
         assert_eq!(make(7).unwrap().samples(), Some(7));
     }
     assert_eq!(KernelMeanMode::Exact.samples(), None);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Negative posterior variance (math.md §7).
+
+fn negative_variance_warnings(w: &workbench::bmc::BmcWeights) -> Vec<f64> {
+    w.diagnostics
+        .warnings
+        .iter()
+        .filter_map(|x| match x {
+            NumericalWarning::NegativePosteriorVariance { value } => Some(*value),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The thesis's setting (Sobolev s = 1.4, σ_n² = 0.01, M = 10 000) at N = 512: MC kernel means
+/// add `E[δᵀQ⁻¹δ] = tr(Q⁻¹ Cov δ) > 0` to `zᵀQ⁻¹z`, far more than the exact posterior variance
+/// (about 0.01 here), so `V̂ − ẑᵀQ⁻¹ẑ` comes out negative. Then the raw value stays in the
+/// diagnostics, the sd is 0 and the warning says so, naming the remedy. With exact kernel means
+/// at the same points the variance is positive and there is no such warning.
+#[test]
+fn negative_posterior_variance_is_clamped_and_warned() {
+    let kernel = sobolev();
+    let pts = Design::Uniform.sample_set(512, &mut stream(41, &[]));
+    let mut ws = SpdWorkspace::new();
+    for mode in [per_point(10_000), shared(10_000)] {
+        let model = BmcModel::new(kernel, 0.01, mode);
+        // Seed 43 gives a negative variance in both modes: −2.5 per point (about −2.3 for
+        // every seed), −0.15 shared (negative for about half of the seeds, spread ±0.1).
+        let w = model.weights(&pts, &mut stream(43, &[]), &mut ws).unwrap();
+        let d = &w.diagnostics;
+        assert!(d.posterior_variance < 0.0, "{mode:?}: {}", d.posterior_variance);
+        assert_eq!(
+            negative_variance_warnings(&w),
+            vec![d.posterior_variance],
+            "{mode:?}"
+        );
+        assert_eq!(d.posterior_variance_clamped(), 0.0);
+        assert_eq!(w.posterior_sd(), 0.0);
+        let message = d
+            .warnings
+            .iter()
+            .map(|x| x.message())
+            .collect::<Vec<_>>()
+            .join("\n");
+        assert!(
+            message.contains("is negative") && message.contains("\"kernel_mean\": \"exact\""),
+            "{message}"
+        );
+        let json = serde_json::to_value(&d.warnings).unwrap();
+        assert!(
+            json.as_array()
+                .unwrap()
+                .iter()
+                .any(|x| x["kind"] == "negative_posterior_variance"),
+            "{json}"
+        );
+    }
+    let exact = BmcModel::new(kernel, 0.01, KernelMeanMode::Exact)
+        .weights(&pts, &mut stream(43, &[]), &mut ws)
+        .unwrap();
+    assert!(exact.diagnostics.posterior_variance > 0.0);
+    assert!(negative_variance_warnings(&exact).is_empty());
+    assert_eq!(exact.posterior_sd(), exact.diagnostics.posterior_variance.sqrt());
 }
