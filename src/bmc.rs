@@ -20,6 +20,15 @@ pub enum NumericalWarning {
     Jitter { amount: f64 },
     /// The condition estimate of `Q` exceeds [`ILL_CONDITIONED`].
     IllConditioned { estimate: f64 },
+    /// `V̂ − zᵀ Q⁻¹ z` came out negative (`value`, kept raw in
+    /// [`Diagnostics::posterior_variance`]); it is reported as 0 (math.md §7: "clamp a negative
+    /// `Var₁` to 0 and count a warning"). A true posterior variance cannot be negative: with
+    /// exact `z` and `V̂` it is `≥ 0` up to rounding. It happens when the `z_i` are MC estimates
+    /// `ẑ = z + δ` (the thesis's mode) while `V̂` is exact: `ẑᵀQ⁻¹ẑ = zᵀQ⁻¹z + 2wᵀδ + δᵀQ⁻¹δ`,
+    /// and the last term is positive on average, `E = tr(Q⁻¹ Cov δ)`, and large because `Q⁻¹`
+    /// has eigenvalues up to `1/σ_n²` (`rule --n 512 --kernel-mean mc`: −2.3 with fresh
+    /// directions per point, −0.058 with one shared set).
+    NegativePosteriorVariance { value: f64 },
 }
 
 impl NumericalWarning {
@@ -33,6 +42,14 @@ impl NumericalWarning {
             NumericalWarning::IllConditioned { estimate } => format!(
                 "Q is ill-conditioned (condition estimate {estimate:.3e}); \
                  increase the noise σ_n² or use fewer points"
+            ),
+            // The words before " (" are the same for every value: experiment reports group
+            // warnings by them.
+            NumericalWarning::NegativePosteriorVariance { value } => format!(
+                "the posterior variance V̂ − zᵀQ⁻¹z is negative ({value:.3e}) and is reported as 0, \
+                 so the posterior sd and credible intervals mean nothing; MC kernel means cause \
+                 this: use the exact kernel mean (\"kernel_mean\": \"exact\", --kernel-mean exact), \
+                 or, if it is already exact, increase the noise σ_n²"
             ),
         }
     }
@@ -53,9 +70,18 @@ pub struct Diagnostics {
     pub condition_estimate: f64,
     /// `V̂`.
     pub prior_variance: f64,
-    /// `V̂ − zᵀ Q⁻¹ z`.
+    /// `V̂ − zᵀ Q⁻¹ z` as computed, so possibly negative (then a
+    /// [`NumericalWarning::NegativePosteriorVariance`] is among the warnings). Everything
+    /// reported as a variance or sd uses [`Diagnostics::posterior_variance_clamped`].
     pub posterior_variance: f64,
     pub warnings: Vec<NumericalWarning>,
+}
+
+impl Diagnostics {
+    /// The posterior variance as reported: `max(V̂ − zᵀ Q⁻¹ z, 0)` (math.md §7).
+    pub fn posterior_variance_clamped(&self) -> f64 {
+        self.posterior_variance.max(0.0)
+    }
 }
 
 /// BMC weights for a point set, with their diagnostics.
@@ -68,7 +94,9 @@ pub struct BmcWeights {
 impl BmcWeights {
     /// Posterior standard deviation of the integral (0 if rounding made the variance negative).
     pub fn posterior_sd(&self) -> f64 {
-        self.diagnostics.posterior_variance.max(0.0).sqrt()
+        // sqrt(max(V̂ − zᵀQ⁻¹z, 0)): 0 also when MC kernel means made the variance negative;
+        // a NegativePosteriorVariance warning then says so.
+        self.diagnostics.posterior_variance_clamped().sqrt()
     }
 }
 
@@ -144,6 +172,12 @@ pub fn bmc_weights(
             estimate: condition_estimate,
         });
     }
+    let posterior_variance = prior_variance - dot(z, &weights);
+    if posterior_variance < 0.0 {
+        warnings.push(NumericalWarning::NegativePosteriorVariance {
+            value: posterior_variance,
+        });
+    }
     let diagnostics = Diagnostics {
         n,
         weight_sum: weights.iter().sum(),
@@ -153,7 +187,7 @@ pub fn bmc_weights(
         jitter,
         condition_estimate,
         prior_variance,
-        posterior_variance: prior_variance - dot(z, &weights),
+        posterior_variance,
         warnings,
     };
     Ok(BmcWeights { weights, diagnostics })
@@ -200,11 +234,15 @@ impl BmcModel {
     }
 
     /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
-    /// `rng` is drawn from only in the MC mode.
+    /// `rng` is drawn from only in the MC modes: one `u64` for fresh directions per point
+    /// ([`crate::kernel_mean::kernel_means_mc_per_point`]), `2M` numbers for shared ones.
     pub fn kernel_means<R: rand::Rng + ?Sized>(&self, points: &[Vec3], rng: &mut R) -> Vec<f64> {
         match self.mode {
             crate::kernel_mean::KernelMeanMode::Exact => points.iter().map(|p| self.table.z(p.z)).collect(),
             crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => {
+                crate::kernel_mean::kernel_means_mc_per_point(&self.kernel, points, samples, rng)
+            }
+            crate::kernel_mean::KernelMeanMode::MonteCarloShared { samples } => {
                 let dirs = crate::sampling::Design::Uniform.sample_set(samples, rng);
                 crate::kernel_mean::kernel_means_mc(
                     &self.kernel,

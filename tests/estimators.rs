@@ -305,7 +305,9 @@ fn mc_kernel_mean_mode_converges_to_exact() {
         .collect();
     let sd = workbench::stats::sample_sd(&g);
     for m in [100, 10_000, 1_000_000] {
-        let model = BmcModel::new(kernel, 0.01, KernelMeanMode::MonteCarlo { samples: m });
+        // Shared directions: the standard error above is for δz_i from one direction set (the
+        // per-point mode's version is in tests/mc_kernel_means.rs).
+        let model = BmcModel::new(kernel, 0.01, KernelMeanMode::MonteCarloShared { samples: m });
         let w = model
             .weights(&pts, &mut stream(21, &[m as u64]), &mut SpdWorkspace::new())
             .unwrap();

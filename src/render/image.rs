@@ -85,6 +85,14 @@ impl Image {
             .decode()
             .map_err(|e| InputError::new(format!("{what} {name}: not a valid OpenEXR image: {e}")))?
             .into_rgb32f();
+        // A NaN or infinite pixel would turn every RMSE against this image into NaN/inf; a
+        // damaged reference must be an error (or, for the reference cache, a reason to render
+        // again), not a silently meaningless table.
+        if let Some(bad) = first_non_finite(img.width() as usize, img.as_raw()) {
+            return Err(InputError::new(format!(
+                "{what} {name}: {bad}; an image must hold finite values"
+            )));
+        }
         Ok(Image {
             width: img.width() as usize,
             height: img.height() as usize,
@@ -141,6 +149,15 @@ fn encode_png(buf: RgbImage) -> crate::Result<Vec<u8>> {
     buf.write_to(&mut out, ImageFormat::Png)
         .map_err(|e| crate::Error::Encode(format!("encoding PNG: {e}")))?;
     Ok(out.into_inner())
+}
+
+/// The first non-finite value of row-major RGB samples (`width` pixels a row), described as
+/// `pixel (x, y) channel g is NaN` (x from the left, y from the top, as image viewers count).
+fn first_non_finite(width: usize, samples: &[f32]) -> Option<String> {
+    let k = samples.iter().position(|v| !v.is_finite())?;
+    let (pixel, channel) = (k / 3, ["r", "g", "b"][k % 3]);
+    let (x, y) = (pixel % width, pixel / width);
+    Some(format!("pixel ({x}, {y}) channel {channel} is {}", samples[k]))
 }
 
 /// The sRGB transfer curve: `12.92 v` for `v ≤ 0.0031308`, else `1.055 v^(1/2.4) − 0.055`.
