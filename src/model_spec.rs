@@ -3,7 +3,7 @@
 //! (`model`) and the command line (`rule`, `render`).
 //!
 //! JSON: `"kernel": {"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`,
-//! `"noise": 0.01`, `"kernel_mean": "exact" | "mc"`, `"kernel_mean_samples": 10000`.
+//! `"noise": 0.01`, `"kernel_mean": "exact" | "mc" | "mc-shared"`, `"kernel_mean_samples": 10000`.
 
 use crate::bmc::BmcModel;
 use crate::kernel::{Kernel, Sobolev, SquaredExponential};
@@ -41,8 +41,12 @@ pub enum KernelSpec {
 pub enum KernelMeanName {
     /// The exact, tabulated `z(μ)` (math.md §4).
     Exact,
-    /// The thesis's plain MC estimate of each `z_i`.
+    /// The thesis's plain MC estimate of each `z_i`, with fresh directions per point.
     Mc,
+    /// Plain MC with one set of directions shared by every `z_i` of a weight set (this
+    /// workbench's earlier reading of the thesis; correlated errors, a higher floor).
+    #[serde(rename = "mc-shared")]
+    McShared,
 }
 
 impl KernelMeanName {
@@ -50,6 +54,7 @@ impl KernelMeanName {
         match self {
             KernelMeanName::Exact => "exact",
             KernelMeanName::Mc => "mc",
+            KernelMeanName::McShared => "mc-shared",
         }
     }
 }
@@ -154,16 +159,21 @@ impl ModelSpec {
                 if self.kernel_mean_samples.is_some() {
                     return Err(fail(
                         ModelField::KernelMeanSamples,
-                        "is only used with \"kernel_mean\": \"mc\"".into(),
+                        "is only used with \"kernel_mean\": \"mc\" or \"mc-shared\"".into(),
                     ));
                 }
                 KernelMeanMode::Exact
             }
-            KernelMeanName::Mc => {
+            KernelMeanName::Mc | KernelMeanName::McShared => {
                 let m = self
                     .kernel_mean_samples
                     .unwrap_or(KernelMeanMode::THESIS_SAMPLES as u64);
-                KernelMeanMode::monte_carlo(m).map_err(|msg| fail(ModelField::KernelMeanSamples, msg))?
+                let mode = if kernel_mean == KernelMeanName::Mc {
+                    KernelMeanMode::monte_carlo(m)
+                } else {
+                    KernelMeanMode::monte_carlo_shared(m)
+                };
+                mode.map_err(|msg| fail(ModelField::KernelMeanSamples, msg))?
             }
         };
         Ok(ResolvedModel {
@@ -197,9 +207,6 @@ impl ResolvedModel {
 
     /// M for MC kernel means.
     pub fn samples(&self) -> Option<u64> {
-        match self.mode {
-            KernelMeanMode::Exact => None,
-            KernelMeanMode::MonteCarlo { samples } => Some(samples as u64),
-        }
+        self.mode.samples().map(|m| m as u64)
     }
 }

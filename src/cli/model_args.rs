@@ -28,10 +28,11 @@ pub struct ModelArgs {
     /// Observation noise σ_n² added to the diagonal of K [default: 0.01].
     #[arg(long, allow_negative_numbers = true)]
     noise: Option<f64>,
-    /// Kernel mean: exact (tabulated) or the thesis's plain MC estimate [default: exact].
-    #[arg(long, value_parser = ["exact", "mc"])]
+    /// Kernel mean: exact (tabulated), the thesis's plain MC estimate per point (mc), or MC with
+    /// one direction set shared by all points (mc-shared) [default: exact].
+    #[arg(long, value_parser = ["exact", "mc", "mc-shared"])]
     kernel_mean: Option<String>,
-    /// Uniform samples per kernel mean with `--kernel-mean mc` [default: 10000].
+    /// Uniform samples per kernel mean with `--kernel-mean mc` or `mc-shared` [default: 10000].
     #[arg(long)]
     kernel_mean_samples: Option<u64>,
 }
@@ -72,6 +73,7 @@ impl ModelArgs {
         };
         let kernel_mean = self.kernel_mean.as_deref().map(|m| match m {
             "mc" => KernelMeanName::Mc,
+            "mc-shared" => KernelMeanName::McShared,
             _ => KernelMeanName::Exact,
         });
         Ok(ModelSpec {
