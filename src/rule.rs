@@ -42,12 +42,18 @@ pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> crate::Resu
     Ok(model.weights(points, &mut rng, &mut SpdWorkspace::new())?)
 }
 
-/// Reads a CSV with header `x,y,z` (or a rule's `x,y,z,weight`, weights ignored) of unit vectors (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`.
+/// Largest points file read: [`MAX_POINTS`] rows of four shortest round-trip numbers take
+/// about 1.5 MiB, so anything near this is not a points file (and is not read into memory).
+pub const MAX_POINTS_FILE_BYTES: u64 = 16 << 20;
+
+/// Reads a CSV with header `x,y,z` (or a rule's `x,y,z,weight`, weights ignored) of unit vectors
+/// (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`. The file must be UTF-8 (a byte-order mark is accepted);
+/// errors name the file and the line.
 pub fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, InputError> {
     let name = path.display();
-    let text =
-        std::fs::read_to_string(path).map_err(|e| InputError::new(format!("{name}: cannot read: {e}")))?;
-    parse_points_csv(&text).map_err(|m| InputError::new(format!("{name}: {m}")))
+    let in_file = |m: String| InputError::new(format!("{name}: {m}"));
+    let text = crate::json::read_text(path, MAX_POINTS_FILE_BYTES, "points files").map_err(in_file)?;
+    parse_points_csv(&text).map_err(in_file)
 }
 
 /// Parses the text of a points CSV; errors name the line and the value.
@@ -154,11 +160,39 @@ mod tests {
             ("x,y\n1,0\n", "header"),
             ("x,y,z\n0,zero,1\n", "`zero`"),
             ("x,y,z\n", "no points"),
+            ("\u{feff}x,y,z\n0,0,1\n0,1,1\n", "line 3"),
         ];
         for (text, needle) in cases {
             let e = parse_points_csv(text).unwrap_err();
             assert!(e.contains(needle), "{text:?}: {e}");
         }
+    }
+
+    /// Spreadsheet programs on Windows start CSV files with a byte-order mark.
+    #[test]
+    fn a_byte_order_mark_is_accepted() {
+        let points = parse_points_csv("\u{feff}x,y,z\n0,0,1\n").unwrap();
+        assert_eq!(points.len(), 1);
+        assert_eq!((points[0].x, points[0].y, points[0].z), (0.0, 0.0, 1.0));
+    }
+
+    /// A byte that is not UTF-8 is reported with its line, as every other bad value is.
+    #[test]
+    fn a_non_utf8_byte_names_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("points.csv");
+        std::fs::write(&path, b"x,y,z\n0,0,1\n0,\xff,1\n").unwrap();
+        assert_eq!(
+            read_points_csv(&path).unwrap_err().to_string(),
+            format!(
+                "{}: line 3, column 3: byte 0xFF is not UTF-8 text; save the file as UTF-8",
+                path.display()
+            )
+        );
+        assert_eq!(
+            read_points_csv(dir.path()).unwrap_err().to_string(),
+            format!("{}: is a folder, not a file", dir.path().display())
+        );
     }
 
     #[test]

@@ -72,7 +72,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
-    let text = std::fs::read_to_string(&args.file).unwrap_or_default();
+    let text = workbench::json::read_spec(&args.file).unwrap_or_default();
     match workbench::json::spec_kind(&text) {
         Some(SpecKind::RenderTable) => {
             let plan = workbench::render::table::load(&args.file)?;

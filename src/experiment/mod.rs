@@ -30,8 +30,7 @@ pub struct Overrides {
 /// Reads, applies overrides, validates. Errors are [`InputError`]s naming the file.
 pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, InputError> {
     let file = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).map_err(|e| InputError::new(format!("{file}: cannot read: {e}")))?;
+    let text = crate::json::read_spec(path)?;
     let mut spec = plan::parse(&text).map_err(|m| InputError::new(format!("{file}: {m}")))?;
     if let Some(t) = overrides.trials {
         if t == 0 {

@@ -12,9 +12,16 @@ use crate::sampling::{Design, SetDesign};
 use serde::Serialize;
 use std::sync::Arc;
 
-/// Largest N for estimators without weights (MC): the sample set and values of one trial
-/// take 32 bytes per point and per worker thread.
-pub const MAX_MC_POINTS: u64 = 10_000_000;
+/// Largest number of points one unit of work (one N and trial) draws across all designs in use:
+/// each design draws its own set of N points, and each set and its integrand values take
+/// [`BYTES_PER_POINT`] per worker thread, so this keeps a thread under 0.3 GiB. With one design
+/// it is the largest N (for MC; BMC's own limit is far lower).
+pub const MAX_UNIT_POINTS: u64 = 10_000_000;
+/// Memory per drawn point in a unit of work: the direction (3 × f64) and one integrand value.
+pub const BYTES_PER_POINT: u64 = 32;
+/// Longest experiment name: it names the output folder, and file systems limit a name to 255
+/// bytes.
+pub const MAX_NAME: usize = 100;
 /// Largest number of rows in `trials.csv`: a run holds about 450 bytes per row in memory
 /// (results and the CSV text), so this keeps a run under ~5 GB.
 pub const MAX_ROWS: u64 = 10_000_000;
@@ -205,17 +212,28 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ),
         ));
     }
-    if max_n > MAX_MC_POINTS {
+    // Every design in use draws its own N points in each unit (runner::run_unit), so the bound
+    // is on N times the number of designs, not on N.
+    let design_count = designs.len() as u64;
+    if max_n.saturating_mul(design_count) > MAX_UNIT_POINTS {
         let i = spec
             .samples
             .iter()
             .position(|&n| n == max_n)
             .expect("max is in the list");
+        let gib = (BYTES_PER_POINT * design_count) as f64 * max_n as f64 / (1u64 << 30) as f64;
+        let designs_text = if design_count == 1 {
+            "1 design".to_string()
+        } else {
+            format!("{design_count} designs")
+        };
         return Err(err(
             format!("samples[{i}]"),
             format!(
-                "N = {max_n} would need {:.1} GiB per worker thread for the sample set; the limit is {MAX_MC_POINTS}",
-                32.0 * max_n as f64 / (1u64 << 30) as f64
+                "N = {max_n} with {designs_text} would need {gib:.1} GiB per worker thread for the sample sets \
+                 and their values ({BYTES_PER_POINT} bytes per point per design); the limit is {MAX_UNIT_POINTS} \
+                 points per trial across designs, so N ≤ {} here",
+                MAX_UNIT_POINTS / design_count
             ),
         ));
     }
@@ -350,7 +368,7 @@ fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
 /// An integrand's name becomes a file name (`<name>.svg`): the experiment name's alphabet.
 fn check_file_name(name: &str) -> Result<(), String> {
     let ok = !name.is_empty()
-        && name.len() <= 100
+        && name.len() <= MAX_NAME
         && !name.starts_with('.')
         && name
             .chars()
@@ -359,7 +377,7 @@ fn check_file_name(name: &str) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "{name:?} is not a usable file name (1 to 100 letters, digits, '-', '_', '.'; no leading '.')"
+            "{name:?} is not a usable file name (1 to {MAX_NAME} letters, digits, '-', '_', '.'; no leading '.')"
         ))
     }
 }
@@ -383,24 +401,34 @@ fn default_name(f: &AxisIntegrand) -> String {
     )
 }
 
-/// The experiment name becomes a folder: keep it to a safe alphabet.
+/// The experiment name becomes a folder: keep it to a safe alphabet and length.
 fn check_name(name: &str) -> Result<(), String> {
     let ok = !name.is_empty()
-        && name.len() <= 100
         && !name.starts_with('.')
         && name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
-    if ok {
-        Ok(())
-    } else {
-        Err(err(
+    if !ok {
+        return Err(err(
             "name",
             format!(
                 "{name:?} is not a safe folder name (use letters, digits, '-', '_', '.'; no '/', no leading '.')"
             ),
-        ))
+        ));
     }
+    // After the alphabet check, so bytes are characters.
+    if name.len() > MAX_NAME {
+        // The first characters identify the name; all of a long one would swamp the line.
+        return Err(err(
+            "name",
+            format!(
+                "\"{}…\" is {} characters long; names are limited to {MAX_NAME} characters",
+                &name[..20],
+                name.len()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// One estimator's options, checked against what its method takes: options a method does not

@@ -20,7 +20,7 @@ pub enum Environment {
 }
 
 impl Environment {
-    /// `sky`, `white`, or the path of a Radiance `.hdr` / OpenEXR `.exr` map.
+    /// `sky`, `white`, or the path of a Radiance `.hdr` / OpenEXR map (whatever its name).
     pub fn from_arg(arg: &str) -> Result<Self, InputError> {
         match arg {
             "sky" => Ok(Environment::Sky),
@@ -82,23 +82,17 @@ pub struct EnvMap {
 }
 
 impl EnvMap {
-    /// Reads a Radiance `.hdr` or OpenEXR map; unreadable or malformed files are [`InputError`]s
-    /// naming the file.
+    /// Reads a Radiance `.hdr` or OpenEXR map, recognised by content ([`sniff_hdr_format`]);
+    /// other formats, unreadable and malformed files are [`InputError`]s naming the file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let name = path.display();
         let bytes = std::fs::read(path)
             .map_err(|e| InputError::new(format!("--env {name}: cannot read the environment map: {e}")))?;
-        let img = ::image::ImageReader::new(std::io::Cursor::new(&bytes))
-            .with_guessed_format()
-            .map_err(|e| InputError::new(format!("--env {name}: {e}")))?
-            .decode()
-            .map_err(|e| {
-                InputError::new(format!(
-                    "--env {name}: not a valid Radiance .hdr or OpenEXR image ({e}); \
-                     use `sky`, `white` or an equirectangular .hdr/.exr file"
-                ))
-            })?
-            .into_rgb32f();
+        let img = decode_hdr_image(&bytes).map_err(|m| {
+            InputError::new(format!(
+                "--env {name}: {m}; use `sky`, `white` or an equirectangular .hdr/.exr file"
+            ))
+        })?;
         let (w, h) = (img.width() as usize, img.height() as usize);
         if w < 1 || h < 2 {
             return Err(InputError::new(format!(
@@ -167,9 +161,172 @@ impl EnvMap {
     }
 }
 
+/// A file format that holds linear radiance: the formats accepted for environment maps and
+/// `--reference` images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HdrFormat {
+    /// Radiance RGBE (`.hdr`, `.pic`), starting with `#?RADIANCE` or `#?RGBE`.
+    Radiance,
+    /// OpenEXR, starting with the magic number `76 2f 31 01`.
+    OpenExr,
+}
+
+impl HdrFormat {
+    /// `Radiance .hdr` or `OpenEXR`, for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            HdrFormat::Radiance => "Radiance .hdr",
+            HdrFormat::OpenExr => "OpenEXR",
+        }
+    }
+}
+
+/// A file in none of the [`HdrFormat`]s. `found` says what it is instead: `a PNG image`,
+/// `empty`, `of an unknown format (starting with bytes 00 01 02 03)`, ….
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnsupportedFormat {
+    pub found: String,
+}
+
+impl std::fmt::Display for UnsupportedFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the file is {}, not a Radiance .hdr or OpenEXR image (recognised by content, not by name)",
+            self.found
+        )
+    }
+}
+
+/// The format of an image file from its first bytes, never from its name: an 8-bit picture
+/// (PNG, JPEG) renamed `.hdr`, or decoded because the decoder accepts it, would be taken as
+/// linear radiance and silently give wrong results.
+pub fn sniff_hdr_format(bytes: &[u8]) -> Result<HdrFormat, UnsupportedFormat> {
+    if bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE") {
+        return Ok(HdrFormat::Radiance);
+    }
+    if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        return Ok(HdrFormat::OpenExr);
+    }
+    let found = |s: &str| Err(UnsupportedFormat { found: s.into() });
+    let known: &[(&[u8], &str)] = &[
+        (b"\x89PNG\r\n\x1a\n", "a PNG image"),
+        (b"\xff\xd8\xff", "a JPEG image"),
+        (b"GIF87a", "a GIF image"),
+        (b"GIF89a", "a GIF image"),
+        (b"II*\0", "a TIFF image"),
+        (b"MM\0*", "a TIFF image"),
+        (b"\xff\x0a", "a JPEG XL image"),
+        (b"\0\0\0\x0cJXL \r\n\x87\n", "a JPEG XL image"),
+        (b"qoif", "a QOI image"),
+        (b"farbfeld", "a farbfeld image"),
+        (b"DDS ", "a DDS texture"),
+        (b"8BPS", "a Photoshop image"),
+        (b"PF\n", "a PFM image"),
+        (b"Pf\n", "a PFM image"),
+        (b"\0\0\x01\0", "an ICO image"),
+        (b"%PDF", "a PDF document"),
+        (b"PK\x03\x04", "a ZIP archive"),
+        (b"\x1f\x8b", "a gzip archive"),
+        (b"BM", "a BMP image"),
+    ];
+    if let Some((_, name)) = known.iter().find(|(magic, _)| bytes.starts_with(magic)) {
+        return found(name);
+    }
+    if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
+        return found("a WebP image");
+    }
+    if bytes.len() >= 12 && &bytes[4..8] == b"ftyp" {
+        return found(match &bytes[8..12] {
+            b"avif" | b"avis" => "an AVIF image",
+            b"heic" | b"heix" | b"mif1" | b"msf1" => "a HEIF image",
+            _ => "an ISO media file (MP4, MOV, …)",
+        });
+    }
+    // Netpbm: `P1` … `P7` and a whitespace byte.
+    if bytes.len() >= 3
+        && bytes[0] == b'P'
+        && (b'1'..=b'7').contains(&bytes[1])
+        && bytes[2].is_ascii_whitespace()
+    {
+        return found("a Netpbm (PBM/PGM/PPM/PAM) image");
+    }
+    if bytes.is_empty() {
+        return found("empty");
+    }
+    let head = &bytes[..bytes.len().min(64)];
+    if head
+        .iter()
+        .all(|&b| b.is_ascii_graphic() || b.is_ascii_whitespace())
+    {
+        return found("text");
+    }
+    let first: Vec<String> = bytes.iter().take(4).map(|b| format!("{b:02x}")).collect();
+    Err(UnsupportedFormat {
+        found: format!("of an unknown format (starting with bytes {})", first.join(" ")),
+    })
+}
+
+/// Decodes a Radiance `.hdr` or OpenEXR image (recognised by [`sniff_hdr_format`]) to linear
+/// RGB. Errors (without the file name, which the caller adds) say what the file is instead, or
+/// why it is not a valid image of its format.
+pub fn decode_hdr_image(bytes: &[u8]) -> Result<::image::Rgb32FImage, String> {
+    let format = sniff_hdr_format(bytes).map_err(|e| e.to_string())?;
+    let decoded = match format {
+        // The decoder checks for `#?RADIANCE`; `#?RGBE` files (the other signature writers
+        // use) are the same format, so they are decoded with the signature replaced.
+        HdrFormat::Radiance if bytes.starts_with(b"#?RGBE") => {
+            let mut renamed = b"#?RADIANCE".to_vec();
+            renamed.extend_from_slice(&bytes[b"#?RGBE".len()..]);
+            decode_as(&renamed, ::image::ImageFormat::Hdr)
+        }
+        HdrFormat::Radiance => decode_as(bytes, ::image::ImageFormat::Hdr),
+        HdrFormat::OpenExr => decode_as(bytes, ::image::ImageFormat::OpenExr),
+    };
+    decoded.map_err(|e| format!("not a valid {} image ({e})", format.name()))
+}
+
+fn decode_as(bytes: &[u8], format: ::image::ImageFormat) -> ::image::ImageResult<::image::Rgb32FImage> {
+    ::image::ImageReader::with_format(std::io::Cursor::new(bytes), format)
+        .decode()
+        .map(|img| img.into_rgb32f())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Formats are told apart by their first bytes, whatever the file is called.
+    #[test]
+    fn formats_are_sniffed_from_content() {
+        assert_eq!(sniff_hdr_format(b"#?RADIANCE\n"), Ok(HdrFormat::Radiance));
+        assert_eq!(sniff_hdr_format(b"#?RGBE\n"), Ok(HdrFormat::Radiance));
+        assert_eq!(
+            sniff_hdr_format(&[0x76, 0x2f, 0x31, 0x01, 2]),
+            Ok(HdrFormat::OpenExr)
+        );
+        let found = |bytes: &[u8]| sniff_hdr_format(bytes).unwrap_err().found;
+        assert_eq!(found(b"\x89PNG\r\n\x1a\n\0\0"), "a PNG image");
+        assert_eq!(found(b"\xff\xd8\xff\xe0\0\x10JFIF"), "a JPEG image");
+        assert_eq!(found(b"RIFF\0\0\0\0WEBPVP8 "), "a WebP image");
+        assert_eq!(found(b"P6\n4 4\n255\n"), "a Netpbm (PBM/PGM/PPM/PAM) image");
+        assert_eq!(found(b"PF\n4 4\n-1\n"), "a PFM image");
+        assert_eq!(found(b"{\"name\": \"x\"}"), "text");
+        assert_eq!(found(b""), "empty");
+        // `#?` alone is not enough: only the two Radiance signatures are.
+        assert_eq!(found(b"#?XYZE\n"), "text");
+        assert_eq!(
+            found(&[0, 1, 2, 3, 0xfe]),
+            "of an unknown format (starting with bytes 00 01 02 03)"
+        );
+        assert_eq!(
+            UnsupportedFormat {
+                found: "a PNG image".into()
+            }
+            .to_string(),
+            "the file is a PNG image, not a Radiance .hdr or OpenEXR image (recognised by content, not by name)"
+        );
+    }
 
     #[test]
     fn sky_matches_the_definition() {

@@ -79,12 +79,9 @@ impl Image {
         let name = path.display();
         let bytes =
             std::fs::read(path).map_err(|e| InputError::new(format!("{what} {name}: cannot read: {e}")))?;
-        let img = ::image::ImageReader::new(Cursor::new(bytes))
-            .with_guessed_format()
-            .map_err(|e| InputError::new(format!("{what} {name}: {e}")))?
-            .decode()
-            .map_err(|e| InputError::new(format!("{what} {name}: not a valid OpenEXR image: {e}")))?
-            .into_rgb32f();
+        // Recognised by content: an 8-bit PNG is not linear radiance, whatever its name.
+        let img = crate::render::env::decode_hdr_image(&bytes)
+            .map_err(|m| InputError::new(format!("{what} {name}: {m}")))?;
         // A NaN or infinite pixel would turn every RMSE against this image into NaN/inf; a
         // damaged reference must be an error (or, for the reference cache, a reason to render
         // again), not a silently meaningless table.

@@ -66,9 +66,7 @@ const REFERENCE_SEED: u64 = 0x2ef;
 
 /// Reads and validates `path`.
 pub fn load(path: &Path) -> Result<TablePlan, InputError> {
-    let file = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).map_err(|e| InputError::new(format!("{file}: cannot read: {e}")))?;
+    let text = crate::json::read_spec(path)?;
     parse(&text, path)
 }
 
