@@ -1,67 +1,169 @@
-//! The one place that writes result files: atomically, so a crash never leaves half a file.
+//! The one place that writes result files: atomically, so a crash never leaves half a file, with
+//! the permissions the user's umask asks for, and never over one of the command's inputs.
+//!
+//! Sets of files that belong together (a run's folder, an image and its PNGs) are in
+//! [`crate::output_set`]; this module holds the pieces: staging one file, resolving where a
+//! path really points, and cleaning what killed writers left behind.
 
 use crate::error::{Error, InputError, Result};
+use std::ffi::{OsStr, OsString};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
+
+/// Every hidden file or folder this crate creates starts with this. Temporary files and staging
+/// folders go on with the writer's pid and `-` (`.workbench-1234-…`), so a later run can tell a
+/// dead writer's leftovers from a live writer's work ([`sweep_stale`]); lock files go on with
+/// `lock-` ([`LOCK_PREFIX`]).
+pub const HIDDEN_PREFIX: &str = ".workbench-";
+
+/// Lock files are `.workbench-lock-<name of what they guard>`, beside it.
+pub const LOCK_PREFIX: &str = ".workbench-lock-";
+
+/// The longest output name (file or folder) accepted, in bytes: file systems allow 255, and the
+/// hidden names made from it (lock file, staging folder) add up to 30.
+pub const MAX_NAME_BYTES: usize = 200;
 
 /// Writes `bytes` to `path` by way of a temporary file in the same folder and a rename.
 ///
 /// A path that exists but is not a regular file (`/dev/null`, a named pipe, `/dev/stdout`) is
 /// written to directly: renaming over it would replace the device. A symbolic link is followed,
-/// and its target replaced atomically, so the link survives.
+/// and its target replaced atomically, so the link survives. The new file gets the permissions
+/// the umask gives any new file (0644 under the usual 022).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_following(path, bytes, 0)
+    stage(path, bytes)?.persist()
 }
 
-fn write_atomic_following(path: &Path, bytes: &[u8], links: u32) -> Result<()> {
-    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
-        if links >= 40 {
-            return Err(
-                InputError::new(format!("{}: too many levels of symbolic links", path.display())).into(),
-            );
-        }
-        let target = std::fs::read_link(path)
-            .map_err(|e| Error::io(format!("reading the link {}", path.display()), e))?;
-        let target = match path.parent() {
-            Some(dir) if target.is_relative() => dir.join(target),
-            _ => target,
-        };
-        return write_atomic_following(&target, bytes, links + 1);
+/// A file written completely and synced to disk under a temporary name beside its target,
+/// waiting for [`Staged::persist`] to rename it into place. Dropped unpersisted, the temporary
+/// file is removed: a failed command leaves the target as it was.
+pub struct Staged {
+    kind: StagedKind,
+}
+
+enum StagedKind {
+    Temp {
+        tmp: tempfile::NamedTempFile,
+        target: PathBuf,
+    },
+    /// A device or pipe: written at [`Staged::persist`], not before, so that nothing of a set
+    /// is touched until all of it is ready.
+    Direct { target: PathBuf, bytes: Vec<u8> },
+}
+
+/// Writes `bytes` under a temporary name beside `path` (following symbolic links, as
+/// [`write_atomic`] does), creating the folder if needed. Nothing at `path` changes yet.
+pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged> {
+    let target = follow_links(path)?;
+    if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
+        return Ok(Staged {
+            kind: StagedKind::Direct {
+                target,
+                bytes: bytes.to_vec(),
+            },
+        });
     }
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
-        let mut f = std::fs::OpenOptions::new()
-            .write(true)
-            .open(path)
-            .map_err(|e| Error::io(format!("opening {}", path.display()), e))?;
-        return f
-            .write_all(bytes)
-            .map_err(|e| Error::io(format!("writing {}", path.display()), e));
-    }
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = parent_or_dot(&target);
     std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating folder {}", dir.display()), e))?;
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".workbench-")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(format!("creating a temporary file in {}", dir.display()), e))?;
-    tmp.write_all(bytes)
-        .map_err(|e| Error::io(format!("writing {}", path.display()), e))?;
-    // Temporary files are created 0600; results are ordinary files (0644 before the umask).
+    sweep_stale(dir);
+    let prefix = format!("{HIDDEN_PREFIX}{}-", std::process::id());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // Temporary files are created 0600; results are ordinary new files: 0666 requested, cut by
+    // the umask when the file is created, as for any tool's output.
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        tmp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))
-            .map_err(|e| Error::io(format!("setting permissions of {}", path.display()), e))?;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
+    let mut tmp = builder
+        .tempfile_in(dir)
+        .map_err(|e| Error::io(format!("creating a temporary file in {}", dir.display()), e))?;
+    write_all_checked(tmp.as_file_mut(), &target, bytes)
+        .map_err(|e| Error::io(format!("writing {}", path.display()), e))?;
     tmp.as_file()
         .sync_all()
         .map_err(|e| Error::io(format!("syncing {}", path.display()), e))?;
-    tmp.persist(path)
-        .map_err(|e| Error::io(format!("renaming into {}", path.display()), e.error))?;
-    Ok(())
+    Ok(Staged {
+        kind: StagedKind::Temp { tmp, target },
+    })
+}
+
+impl Staged {
+    /// Renames the staged file into place (one atomic step), or writes a device.
+    pub fn persist(self) -> Result<()> {
+        match self.kind {
+            StagedKind::Temp { tmp, target } => {
+                tmp.persist(&target)
+                    .map_err(|e| Error::io(format!("renaming into {}", target.display()), e.error))?;
+                Ok(())
+            }
+            StagedKind::Direct { target, bytes } => {
+                let mut f = std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(&target)
+                    .map_err(|e| Error::io(format!("opening {}", target.display()), e))?;
+                f.write_all(&bytes)
+                    .map_err(|e| Error::io(format!("writing {}", target.display()), e))
+            }
+        }
+    }
+
+    /// Where the file will be.
+    pub fn target(&self) -> &Path {
+        match &self.kind {
+            StagedKind::Temp { target, .. } | StagedKind::Direct { target, .. } => target,
+        }
+    }
+}
+
+/// `path` with every symbolic link in its last component followed (a link to a link too).
+fn follow_links(path: &Path) -> Result<PathBuf> {
+    let mut path = path.to_path_buf();
+    for _ in 0..40 {
+        if !std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Ok(path);
+        }
+        let target = std::fs::read_link(&path)
+            .map_err(|e| Error::io(format!("reading the link {}", path.display()), e))?;
+        path = match path.parent() {
+            Some(dir) if target.is_relative() => dir.join(target),
+            _ => target,
+        };
+    }
+    Err(InputError::new(format!("{}: too many levels of symbolic links", path.display())).into())
+}
+
+fn parent_or_dot(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Writes `bytes` to `file`, meant for `target`, honouring [`injected_failure`] halfway.
+pub(crate) fn write_all_checked(
+    file: &mut std::fs::File,
+    target: &Path,
+    bytes: &[u8],
+) -> std::io::Result<()> {
+    let half = bytes.len() / 2;
+    file.write_all(&bytes[..half])?;
+    injected_failure(target)?;
+    file.write_all(&bytes[half..])
+}
+
+/// Test support: when the environment variable `WORKBENCH_TEST_FAIL_WRITE` names the file being
+/// written (its last component, e.g. `summary.csv`), the write fails halfway as on a full disk.
+/// It lets the tests drive every "a write failed partway through a command" path through the
+/// real binary; nobody sets it otherwise.
+pub(crate) fn injected_failure(target: &Path) -> std::io::Result<()> {
+    match std::env::var_os("WORKBENCH_TEST_FAIL_WRITE") {
+        Some(name) if target.file_name() == Some(name.as_os_str()) => Err(std::io::Error::new(
+            std::io::ErrorKind::StorageFull,
+            "No space left on device (injected by WORKBENCH_TEST_FAIL_WRITE)",
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// Creates `dir` if needed and checks that files can be created in it, so that an unwritable
@@ -70,6 +172,183 @@ pub fn check_writable_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
     tempfile::tempfile_in(dir).map_err(|e| Error::io(format!("{} is not writable", dir.display()), e))?;
     Ok(())
+}
+
+/// Refuses an output name longer than [`MAX_NAME_BYTES`] before any work, instead of failing
+/// when the file is finally written.
+pub fn check_name_length(flag: &str, path: &Path) -> Result<(), InputError> {
+    let len = path.file_name().map_or(0, |n| n.len());
+    if len > MAX_NAME_BYTES {
+        return Err(InputError::new(format!(
+            "{flag} {}: the name is {len} bytes long; at most {MAX_NAME_BYTES} are supported, use a shorter one",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Where `path` really points, whether or not it exists yet: made absolute, then resolved one
+/// component at a time — symbolic links followed (dangling ones too, to the path they name),
+/// `.` dropped and `..` taken as the parent of what is resolved so far. Past the longest
+/// existing prefix this is lexical, which is what writing the path will do: the writer creates
+/// the missing folders, after which `absent/..` is the folder `absent` sits in.
+///
+/// Two paths that resolve alike name one file, so comparing resolved paths catches an output
+/// that would replace an input however it is spelled.
+pub fn resolve(path: &Path) -> std::io::Result<PathBuf> {
+    let absolute = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()?.join(path)
+    };
+    let mut resolved = PathBuf::new();
+    // Components still to resolve, the next one last.
+    let mut pending: Vec<OsString> = Vec::new();
+    for c in absolute.components() {
+        match c {
+            Component::Prefix(_) | Component::RootDir => resolved.push(c.as_os_str()),
+            _ => pending.push(c.as_os_str().to_os_string()),
+        }
+    }
+    pending.reverse();
+    let mut links = 0;
+    while let Some(name) = pending.pop() {
+        if name == "." {
+            continue;
+        }
+        if name == ".." {
+            resolved.pop();
+            continue;
+        }
+        let candidate = resolved.join(&name);
+        match std::fs::symlink_metadata(&candidate) {
+            Ok(m) if m.file_type().is_symlink() => {
+                links += 1;
+                if links > 40 {
+                    return Err(std::io::Error::other(format!(
+                        "{}: too many levels of symbolic links",
+                        path.display()
+                    )));
+                }
+                let target = std::fs::read_link(&candidate)?;
+                if target.is_absolute() {
+                    resolved = PathBuf::new();
+                }
+                let mut parts: Vec<OsString> = Vec::new();
+                for c in target.components() {
+                    match c {
+                        Component::Prefix(_) | Component::RootDir => resolved.push(c.as_os_str()),
+                        _ => parts.push(c.as_os_str().to_os_string()),
+                    }
+                }
+                pending.extend(parts.into_iter().rev());
+            }
+            _ => resolved = candidate,
+        }
+    }
+    Ok(resolved)
+}
+
+/// Whether `a` and `b` name one file: the same resolved path, or (hard links) the same file on
+/// disk.
+fn same_file(a: &Path, b: &Path) -> bool {
+    if let (Ok(ra), Ok(rb)) = (resolve(a), resolve(b))
+        && ra == rb
+    {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return ma.dev() == mb.dev() && ma.ino() == mb.ino();
+        }
+    }
+    false
+}
+
+/// Refuses an output that is one of the inputs or another output (`(flag, path)` pairs), so
+/// that a run never destroys what it reads or writes one result over another. Paths are
+/// compared where they really point ([`resolve`]), so `absent/../p.csv`, `./p.csv`, a link to
+/// `p.csv` (dangling or not) and a hard link all count as `p.csv`.
+pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), InputError> {
+    for (i, (flag, out)) in outputs.iter().enumerate() {
+        if let Some((other, path)) = inputs.iter().find(|(_, p)| same_file(out, p)) {
+            return Err(InputError::new(format!(
+                "{flag} {}: would overwrite {other} {}; choose another {}",
+                out.display(),
+                path.display(),
+                flag.split(' ').next().unwrap_or(flag)
+            )));
+        }
+        if let Some((other, path)) = outputs[..i].iter().find(|(_, p)| same_file(out, p)) {
+            return Err(InputError::new(format!(
+                "{flag} {}: is the same file as {other} {}; give each output its own name",
+                out.display(),
+                path.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether process `pid` may still be running. Only Linux can say no (`/proc/<pid>` is
+/// absent); elsewhere, or without `/proc`, every process is taken as alive, so nothing of a
+/// live writer is ever removed.
+pub fn pid_alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    #[cfg(target_os = "linux")]
+    {
+        if Path::new("/proc/self").exists() {
+            return Path::new("/proc").join(pid.to_string()).exists();
+        }
+    }
+    true
+}
+
+/// The pid in one of our hidden names, `.workbench-<pid>-…`.
+pub fn hidden_name_pid(name: &OsStr) -> Option<u32> {
+    let rest = name.to_str()?.strip_prefix(HIDDEN_PREFIX)?;
+    let (pid, _) = rest.split_once('-')?;
+    if pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// Removes from `dir` what killed writers left: our temporary files and staging folders whose
+/// process is gone, and lock files nobody holds. Best effort and silent: a leftover that cannot
+/// be removed now is tried again next time, and never blocks the command.
+pub fn sweep_stale(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let path = entry.path();
+        if let Some(pid) = hidden_name_pid(&name) {
+            if !pid_alive(pid) {
+                remove_any(&path);
+            }
+        } else if name.to_str().is_some_and(|n| n.starts_with(LOCK_PREFIX)) {
+            crate::output_set::remove_if_unlocked(&path);
+        }
+    }
+}
+
+/// Removes a file or a whole folder (never following a link out of it).
+pub(crate) fn remove_any(path: &Path) {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => {
+            let _ = std::fs::remove_dir_all(path);
+        }
+        Ok(_) => {
+            let _ = std::fs::remove_file(path);
+        }
+        Err(_) => {}
+    }
 }
 
 #[cfg(all(test, unix))]
@@ -113,37 +392,51 @@ mod tests {
         assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
         assert_eq!(reader.join().unwrap(), b"through the pipe\n");
     }
-}
 
-/// Where `path` points, for comparing paths that may not exist yet: the canonical form of an
-/// existing path, else the canonical parent folder joined with the file name.
-fn identity(path: &Path) -> Option<std::path::PathBuf> {
-    if let Ok(p) = std::fs::canonicalize(path) {
-        return Some(p);
-    }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    Some(std::fs::canonicalize(parent).ok()?.join(path.file_name()?))
-}
+    /// The cases `check_distinct` used to miss: a missing folder followed by `..`, and links
+    /// that dangle.
+    #[test]
+    fn output_overwrites_input_resolution_sees_through_absent_folders_and_dangling_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().canonicalize().unwrap();
+        std::fs::write(d.join("p.csv"), "x").unwrap();
+        assert_eq!(resolve(&d.join("absent/../p.csv")).unwrap(), d.join("p.csv"));
+        assert_eq!(resolve(&d.join("absent/x/../../p.csv")).unwrap(), d.join("p.csv"));
+        assert_eq!(resolve(&d.join("./absent/./y")).unwrap(), d.join("absent/y"));
+        // A dangling link resolves to the path it names; a link inside the path is followed
+        // before the `..` after it is applied.
+        std::os::unix::fs::symlink("sub/s.json", d.join("dangling")).unwrap();
+        assert_eq!(resolve(&d.join("dangling")).unwrap(), d.join("sub/s.json"));
+        std::fs::create_dir_all(d.join("a/b")).unwrap();
+        std::os::unix::fs::symlink(d.join("a/b"), d.join("ab")).unwrap();
+        assert_eq!(resolve(&d.join("ab/../p.csv")).unwrap(), d.join("a/p.csv"));
+        // A loop is an error, not a hang.
+        std::os::unix::fs::symlink("loop2", d.join("loop1")).unwrap();
+        std::os::unix::fs::symlink("loop1", d.join("loop2")).unwrap();
+        assert!(resolve(&d.join("loop1")).is_err());
 
-/// Refuses an output that is one of the inputs or another output (`(flag, path)` pairs), so
-/// that a run never destroys what it reads or writes one result over another.
-pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), InputError> {
-    for (i, (flag, out)) in outputs.iter().enumerate() {
-        let Some(id) = identity(out) else { continue };
-        let clash = inputs
-            .iter()
-            .map(|(f, p)| (f, p, "would overwrite"))
-            .chain(outputs[..i].iter().map(|(f, p)| (f, p, "is the same file as")))
-            .find(|(_, p, _)| identity(p).as_ref() == Some(&id));
-        if let Some((other, _, verb)) = clash {
-            return Err(InputError::new(format!(
-                "{flag} {}: {verb} {other}",
-                out.display()
-            )));
-        }
+        let p = d.join("p.csv");
+        let sneaky = d.join("absent/../p.csv");
+        let e = check_distinct(&[("--out", &sneaky)], &[("--points", &p)]).unwrap_err();
+        assert!(e.0.contains("would overwrite --points"), "{e}");
+        let link = d.join("dangling");
+        let summary = d.join("sub/s.json");
+        let e = check_distinct(&[("--summary", &summary), ("--out", &link)], &[]).unwrap_err();
+        assert!(
+            e.0.contains("--out") && e.0.contains("is the same file as --summary"),
+            "{e}"
+        );
+        std::fs::hard_link(&p, d.join("hard.csv")).unwrap();
+        assert!(check_distinct(&[("--out", &d.join("hard.csv"))], &[("--points", &p)]).is_err());
+        assert!(check_distinct(&[("--out", &d.join("q.csv"))], &[("--points", &p)]).is_ok());
     }
-    Ok(())
+
+    #[test]
+    fn hidden_names_carry_the_writer_pid() {
+        assert_eq!(hidden_name_pid(OsStr::new(".workbench-123-abc.tmp")), Some(123));
+        assert_eq!(hidden_name_pid(OsStr::new(".workbench-123-staging-x")), Some(123));
+        assert_eq!(hidden_name_pid(OsStr::new(".workbench-lock-x")), None);
+        assert_eq!(hidden_name_pid(OsStr::new(".workbench-Ab3x9q")), None);
+        assert_eq!(hidden_name_pid(OsStr::new("workbench-1-x")), None);
+    }
 }

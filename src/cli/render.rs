@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use workbench::error::InputError;
-use workbench::io::write_atomic;
+use workbench::output_set::FileSet;
 use workbench::render::image::{ColourMap, ErrorScale, Image};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::{Environment, Integrator, Renderer, check_size};
@@ -131,13 +131,12 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `x.exr` → `x<suffix>.png`.
+/// `x.exr` → `x<suffix>.png`, keeping the stem's bytes as they are (a name need not be UTF-8).
 pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
-    let stem = out
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    out.with_file_name(format!("{stem}{suffix}.png"))
+    let mut name = out.file_stem().unwrap_or_default().to_os_string();
+    name.push(suffix);
+    name.push(".png");
+    out.with_file_name(name)
 }
 
 fn single(args: &RenderArgs) -> anyhow::Result<()> {
@@ -193,10 +192,13 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     // Never write over an input (the reference, an environment map) or one output over another.
     let png = sibling_png(out, "");
     let error_png = sibling_png(out, "-error");
-    let mut outputs: Vec<(&str, &std::path::Path)> = vec![("--out", out), ("--out (its PNG)", &png)];
-    if args.reference.is_some() {
-        outputs.push(("--out (its error image)", &error_png));
-    }
+    // The error image is written with --reference and removed without it (an earlier one would
+    // describe another image), so it is an output either way.
+    let outputs: Vec<(&str, &std::path::Path)> = vec![
+        ("--out", out),
+        ("--out (its PNG)", &png),
+        ("--out (its error image)", &error_png),
+    ];
     let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
     if let Some(r) = &args.reference {
         inputs.push(("--reference", r));
@@ -205,6 +207,9 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         inputs.push(("--env", std::path::Path::new(&args.env)));
     }
     workbench::io::check_distinct(&outputs, &inputs)?;
+    for (flag, path) in &outputs {
+        workbench::io::check_name_length(flag, path)?;
+    }
     let env = Environment::from_arg(&args.env)?;
     // Fail on an unwritable output folder now, not after the render.
     let dir = match out.parent() {
@@ -231,6 +236,8 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         };
         probe.check_same_size(r, "--reference")?;
     }
+    // The image and its PNGs are one set: no other command may write them meanwhile.
+    let mut files = FileSet::lock(&outputs, "use another --out")?;
 
     let model_seconds = model_start.elapsed().as_secs_f64();
     let start = Instant::now();
@@ -252,9 +259,24 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     bar.finish();
     let seconds = start.elapsed().as_secs_f64();
 
-    write_atomic(out, &image.to_exr()?)?;
-    let png = sibling_png(out, "");
-    write_atomic(&png, &image.to_png()?)?;
+    // Every file is written in full before any replaces its predecessor, so a failure (a full
+    // disk) leaves the earlier image and PNGs together, as they were.
+    files.stage(out, &image.to_exr()?)?;
+    files.stage(&png, &image.to_png()?)?;
+    match &reference {
+        Some(r) => files.stage(
+            &error_png,
+            &image.error_png(r, error_scale, error_max, error_colours)?,
+        )?,
+        // An error image of an earlier render would describe another image.
+        None => files.remove_stale(&error_png),
+    }
+    for removed in files.commit()? {
+        status!(
+            "render: removed {} (an earlier render's error image; this one has no --reference)",
+            removed.display()
+        );
+    }
     status!(
         "render: {} {} spp, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
@@ -266,10 +288,8 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         png.display()
     );
     if let Some(r) = &reference {
-        let err = sibling_png(out, "-error");
-        write_atomic(&err, &image.error_png(r, error_scale, error_max, error_colours)?)?;
         stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
-        status!("render: error image → {}", err.display());
+        status!("render: error image → {}", error_png.display());
     }
     Ok(())
 }

@@ -4,7 +4,7 @@ use super::model_args::ModelArgs;
 use super::output::{status, stdout};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use workbench::io::write_atomic;
+use workbench::output_set::FileSet;
 use workbench::sampling::SetDesign;
 
 #[derive(clap::Args, Debug)]
@@ -71,14 +71,17 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     workbench::rule::check_point_count(points.len(), "--points")?;
     let resolved = args.model.resolve()?;
     let model = args.model.build()?;
+    // The rule and its summary are one set: both are written in full before either replaces an
+    // earlier file, and no other command may write them meanwhile. Taken once the input is
+    // known to be good, so that bad input leaves no trace.
+    let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
     let weights = workbench::rule::compute_rule(&points, &model, args.seed)?;
     for w in &weights.diagnostics.warnings {
         status!("warning: {}", w.message());
     }
     let csv = workbench::rule::rule_csv(&points, &weights.weights);
-    match &args.out {
-        Some(path) => write_atomic(path, &csv)?,
-        None => stdout(std::str::from_utf8(&csv).expect("the CSV is ASCII"))?,
+    if let Some(path) = &args.out {
+        files.stage(path, &csv)?;
     }
     if let Some(path) = &args.summary {
         // Everything needed to make the same rule again.
@@ -97,7 +100,11 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         }
         let mut bytes = serde_json::to_vec_pretty(&summary)?;
         bytes.push(b'\n');
-        write_atomic(path, &bytes)?;
+        files.stage(path, &bytes)?;
+    }
+    files.commit()?;
+    if args.out.is_none() {
+        stdout(std::str::from_utf8(&csv).expect("the CSV is ASCII"))?;
     }
     let d = &weights.diagnostics;
     status!(

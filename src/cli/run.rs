@@ -46,6 +46,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         out: args.out,
         trials: args.trials,
         threads: args.threads,
+        spec: Some(args.file.clone()),
     };
     let plan = ex::load_plan(&args.file, &overrides)?;
     for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {

@@ -14,7 +14,7 @@ pub mod text;
 pub use text::{describe, format_report};
 
 use crate::error::InputError;
-use crate::io::write_atomic;
+use crate::output_set::ResultFolder;
 use crate::report::Reporter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -25,6 +25,9 @@ pub struct Overrides {
     pub out: Option<PathBuf>,
     pub trials: Option<u64>,
     pub threads: Option<usize>,
+    /// The experiment file itself, so that the outputs can never replace it (`run
+    /// D/manifest.json --out D`).
+    pub spec: Option<PathBuf>,
 }
 
 /// Reads, applies overrides, validates. Errors are [`InputError`]s naming the file.
@@ -60,6 +63,11 @@ pub struct RunReport {
 }
 
 /// Runs a validated plan and writes every output under the output folder.
+///
+/// The folder holds one run: its files are built in a staging folder beside it and replace the
+/// old folder as a whole once all are written ([`ResultFolder`]), so a run that fails (a full
+/// disk) or is killed leaves the earlier results as they were, and a run never leaves another
+/// run's files beside its own. Everything that can be refused is refused before the trials.
 pub fn run_plan(
     plan: &plan::Plan,
     overrides: &Overrides,
@@ -69,8 +77,16 @@ pub fn run_plan(
         .out
         .clone()
         .unwrap_or_else(|| Path::new("results").join(&plan.name));
-    // Fail on an unwritable folder now, not after the run.
-    crate::io::check_writable_dir(&out_dir)?;
+    let what = match &overrides.out {
+        Some(out) => format!("--out {}", out.display()),
+        None => out_dir.display().to_string(),
+    };
+    let inputs: Vec<(&str, &Path)> = overrides
+        .spec
+        .iter()
+        .map(|p| ("the experiment file", p.as_path()))
+        .collect();
+    let mut folder = ResultFolder::prepare(&out_dir, &what, "use another --out", &inputs)?;
 
     let pool = crate::threads::pool(overrides.threads)?;
     let threads = pool.current_num_threads();
@@ -88,20 +104,32 @@ pub fn run_plan(
         .map(|c| summary::evaluate_check(plan, &results, c))
         .collect();
 
-    write_atomic(&out_dir.join("trials.csv"), &export::trials_csv(plan, &results))?;
-    write_atomic(&out_dir.join("summary.csv"), &export::summary_csv(plan, &cells))?;
+    folder.write(
+        "trials.csv",
+        "one row per (integrand, estimator, n, trial)",
+        &export::trials_csv(plan, &results),
+    )?;
+    folder.write(
+        "summary.csv",
+        "one row per (integrand, estimator, n)",
+        &export::summary_csv(plan, &cells),
+    )?;
     for (fi, f) in plan.integrands.iter().enumerate() {
         let svg = plot::error_plot_svg(plan, &cells, fi)?;
-        write_atomic(&out_dir.join(format!("{}.svg", f.name())), svg.as_bytes())?;
+        folder.write(
+            &format!("{}.svg", f.name()),
+            &format!("absolute error against n for {}, every estimator", f.name()),
+            svg.as_bytes(),
+        )?;
     }
-    write_atomic(
-        &out_dir.join("manifest.json"),
-        &export::manifest_json(plan, &checks),
-    )?;
-    write_atomic(
-        &out_dir.join("timings.json"),
+    folder.write(
+        "timings.json",
+        "wall-clock seconds and threads of the run (machine-dependent; not committed)",
         &export::timings_json(threads, wall_seconds),
     )?;
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&export::manifest_json(plan, &checks)).expect("the manifest is JSON");
+    folder.commit(manifest)?;
 
     let mut warnings: Vec<(String, usize)> = Vec::new();
     for u in &results.units {

@@ -2,14 +2,19 @@
 //! rendered and compared with a cached reference.
 //!
 //! spec (JSON) → [`plan::TablePlan`] (validated) → [`runner::run`] → [`summary`] →
-//! [`export`] / [`plot`] (pure) → one atomic write per file, under `<results>/<name>/`:
+//! [`export`] / [`plot`] (pure) → one set of files, under `<results>/<name>/`, that replaces
+//! the folder as a whole when the table is done ([`ResultFolder`]):
 //!
-//! - `rmse.csv` — stable raw data, one row per render (re-written after every round);
+//! - `rmse.csv` — stable raw data, one row per render;
 //! - `table.csv`, `table.md` — mean RMSE with its 95% Student-t interval;
 //! - `rmse_vs_spp.svg` — mean RMSE against spp, log–log, with the intervals;
 //! - `<variant>-<spp>spp.png` — the first repetition of each cell, tone-mapped;
-//! - `reference.png`, `manifest.json`;
+//! - `reference.png`, `manifest.json` (which lists every file of the set);
 //! - `timings.csv`, `timings.md` — wall-clock seconds (machine-dependent; not committed).
+//!
+//! While the table runs, `rmse.partial.csv` in the folder holds the rows of every finished
+//! round, so an interrupted table keeps what it measured; the finished table's folder does not
+//! have it.
 
 pub mod export;
 pub mod plan;
@@ -24,7 +29,7 @@ pub use reference::{SCENE_VERSION, reference_key};
 pub use runner::{Row, render_seed};
 pub use summary::Cell;
 
-use crate::io::write_atomic;
+use crate::output_set::ResultFolder;
 use crate::render::image::Image;
 use crate::render::renderer::Renderer;
 use crate::report::Reporter;
@@ -46,31 +51,75 @@ pub fn output_dir(results: &Path, plan: &TablePlan) -> PathBuf {
 }
 
 /// Runs the table and writes its outputs under `results/<name>/` (the reference cache under
-/// `results/cache/`).
+/// `results/cache/`). Everything that can be refused is refused before the first render; the
+/// folder changes only when every output is written (apart from `rmse.partial.csv`).
 pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::Result<TableReport> {
     let out = output_dir(results, plan);
-    // Fail on an unwritable folder now, not after the renders.
-    crate::io::check_writable_dir(&out)?;
+    let cache = reference::cache_path(plan, results);
+    let mut inputs: Vec<(&str, &Path)> = vec![
+        ("the render-table file", &plan.file),
+        ("the reference cache", &cache),
+    ];
+    if !matches!(plan.env_arg.as_str(), "sky" | "white") {
+        inputs.push(("the environment map", Path::new(&plan.env_arg)));
+    }
+    let mut folder = ResultFolder::prepare(
+        &out,
+        &out.display().to_string(),
+        "use another --results-dir (or another \"name\" in the spec)",
+        &inputs,
+    )?;
+    if !cache.exists() {
+        // The reference is written there after it is rendered: fail now, not then.
+        crate::io::check_writable_dir(cache.parent().unwrap_or(results))?;
+    }
     let renderer = Renderer::new(plan.width, plan.height, plan.env.clone());
 
     let reference = reference::reference(plan, &renderer, results, reporter)?;
-    write_atomic(&out.join("reference.png"), &reference.to_png()?)?;
-    write_atomic(&out.join("manifest.json"), &export::manifest(plan, results))?;
+    folder.write(
+        "reference.png",
+        "the reference image, tone-mapped",
+        &reference.to_png()?,
+    )?;
 
-    let mut sink = FileSink { plan, out: &out };
+    let mut sink = FileSink {
+        plan,
+        folder: &mut folder,
+    };
     let rows = runner::run(plan, &renderer, &reference, &mut sink, reporter)?;
 
     let cells = summary::summarise(plan, &rows);
-    write_atomic(&out.join("table.csv"), &export::table_csv(plan, &cells))?;
+    folder.write("rmse.csv", "one row per render", &export::rmse_csv(plan, &rows))?;
+    folder.write(
+        "table.csv",
+        "mean RMSE per (variant, spp) with its 95% Student-t interval",
+        &export::table_csv(plan, &cells),
+    )?;
     let table_md = export::table_md(plan, &cells);
-    write_atomic(&out.join("table.md"), table_md.as_bytes())?;
-    write_atomic(
-        &out.join("rmse_vs_spp.svg"),
+    folder.write(
+        "table.md",
+        "table.csv laid out like thesis Table 4.1",
+        table_md.as_bytes(),
+    )?;
+    folder.write(
+        "rmse_vs_spp.svg",
+        "mean RMSE against spp, log-log, with the intervals",
         plot::plot_svg(plan, &cells)?.as_bytes(),
     )?;
     let times_md = export::times_md(plan, &cells);
-    write_atomic(&out.join("timings.csv"), &export::timings_csv(plan, &rows))?;
-    write_atomic(&out.join("timings.md"), times_md.as_bytes())?;
+    folder.write(
+        "timings.csv",
+        "wall-clock seconds per render (machine-dependent; not committed)",
+        &export::timings_csv(plan, &rows),
+    )?;
+    folder.write(
+        "timings.md",
+        "mean seconds per image (machine-dependent; not committed)",
+        times_md.as_bytes(),
+    )?;
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
+    folder.commit(manifest)?;
     Ok(TableReport {
         out_dir: out,
         cells,
@@ -79,20 +128,26 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     })
 }
 
-/// Writes the first image of each cell and the rows so far, as the runner goes.
+/// Saves the first image of each cell (into the set) and the rows so far (into
+/// `rmse.partial.csv`, which outlives an interrupted table), as the runner goes.
 struct FileSink<'a> {
     plan: &'a TablePlan,
-    out: &'a Path,
+    folder: &'a mut ResultFolder,
 }
 
 impl runner::TableSink for FileSink<'_> {
     fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()> {
-        let name = png_name(&self.plan.variants[variant].label, spp);
-        write_atomic(&self.out.join(name), &image.to_png()?)
+        let label = &self.plan.variants[variant].label;
+        self.folder.write(
+            &png_name(label, spp),
+            &format!("the first render of {label} at {spp} spp, tone-mapped"),
+            &image.to_png()?,
+        )
     }
 
     fn round_done(&mut self, rows: &[Row]) -> crate::Result<()> {
-        write_atomic(&self.out.join("rmse.csv"), &export::rmse_csv(self.plan, rows))
+        self.folder
+            .write_partial("rmse.partial.csv", &export::rmse_csv(self.plan, rows))
     }
 }
 

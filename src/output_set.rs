@@ -1,0 +1,659 @@
+//! Outputs that belong together change together, or not at all.
+//!
+//! - [`ResultFolder`]: a run's or a table's folder (`results/<name>/`). Every file is written
+//!   into a hidden staging folder beside it, `.workbench-<pid>-staging-<name>/`, and the
+//!   finished set takes the folder's place in one step (`renameat2(RENAME_EXCHANGE)` on Linux;
+//!   elsewhere two renames, between which the folder is briefly absent). A reader sees the old
+//!   set or the new one, never a mix; a command that fails or is killed leaves the old set as it
+//!   was. So a folder holds exactly one run's files, listed in its `manifest.json`.
+//! - [`FileSet`]: outputs named one by one (an image and its PNGs, a rule and its summary).
+//!   Each is written completely under a temporary name beside it before any is renamed into
+//!   place, so a failed write (a full disk) changes none of them.
+//!
+//! Both hold a [`Lock`] on what they write, so two commands writing the same outputs cannot
+//! interleave, and clear what killed commands left behind ([`crate::io::sweep_stale`]).
+
+use crate::error::{Error, InputError, Result};
+use crate::io::{HIDDEN_PREFIX, LOCK_PREFIX, MAX_NAME_BYTES, Staged, hidden_name_pid, remove_any, resolve};
+use std::collections::{BTreeMap, BTreeSet};
+use std::ffi::{OsStr, OsString};
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The manifest of a result folder: the last file written, listing every file of the set.
+pub const MANIFEST: &str = "manifest.json";
+
+/// Files a command may write into its result folder while it runs (outside the staging folder),
+/// so that an interrupted command keeps what it measured. They are never part of a finished
+/// set: the next successful run replaces the folder, and them with it.
+pub const PARTIAL_FILES: &[&str] = &["rmse.partial.csv"];
+
+/// An exclusive claim on an output path, held as an advisory lock (`flock`) on
+/// `.workbench-lock-<name>` beside it. The kernel drops the lock when its process ends, however
+/// it ends, so a lock left by a killed command is simply taken over; the file (which holds the
+/// holder's pid, for the message) is removed when the lock is released, or swept later.
+pub struct Lock {
+    path: PathBuf,
+    _file: File,
+    /// False where the file system cannot lock files: the command then runs unguarded, and
+    /// must not treat other writers' staging folders as abandoned.
+    exclusive: bool,
+}
+
+impl Lock {
+    /// Locks `target` (a resolved path), or says who holds it: `what` names the output in
+    /// messages and `fix` says what else the user can do.
+    pub fn acquire(target: &Path, what: &str, fix: &str) -> Result<Lock> {
+        let dir = parent_or_dot(target);
+        std::fs::create_dir_all(dir)
+            .map_err(|e| Error::io(format!("creating folder {}", dir.display()), e))?;
+        let path = dir.join(hidden_name(LOCK_PREFIX, target.file_name().unwrap_or_default()));
+        // A releasing holder unlinks the file before unlocking it, so the file we lock may
+        // no longer be the one at `path`; then we try again with the new one.
+        for _ in 0..100 {
+            let mut file = OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(&path)
+                .map_err(|e| Error::io(format!("creating the lock file {}", path.display()), e))?;
+            match file.try_lock() {
+                Ok(()) if !same_inode(&file, &path) => continue,
+                Ok(()) => {
+                    // Only for the message a second command prints; the lock is the flock.
+                    let _ = file.set_len(0);
+                    let _ = write!(file, "{}", std::process::id());
+                    return Ok(Lock {
+                        path,
+                        _file: file,
+                        exclusive: true,
+                    });
+                }
+                Err(TryLockError::WouldBlock) => {
+                    let holder = std::fs::read_to_string(&path)
+                        .ok()
+                        .and_then(|s| s.trim().parse::<u32>().ok())
+                        .map_or(String::new(), |pid| format!(" (pid {pid})"));
+                    return Err(InputError::new(format!(
+                        "{what}: another workbench{holder} is writing it; wait for it to finish, or {fix}"
+                    ))
+                    .into());
+                }
+                Err(TryLockError::Error(e)) if locks_unsupported(&e) => {
+                    return Ok(Lock {
+                        path,
+                        _file: file,
+                        exclusive: false,
+                    });
+                }
+                Err(TryLockError::Error(e)) => {
+                    return Err(Error::io(format!("locking {}", path.display()), e));
+                }
+            }
+        }
+        Err(Error::io(
+            format!("locking {}", path.display()),
+            std::io::Error::other("the lock file kept being replaced"),
+        ))
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        // Unlinked while still locked; the file closes (and unlocks) right after.
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+fn locks_unsupported(e: &std::io::Error) -> bool {
+    const ENOLCK: i32 = 37;
+    e.kind() == std::io::ErrorKind::Unsupported || e.raw_os_error() == Some(ENOLCK)
+}
+
+/// Removes a lock file nobody holds (left by a killed command). A command that opened it
+/// just before finds, once it has locked it, that it is no longer at its path, and starts over.
+pub(crate) fn remove_if_unlocked(path: &Path) {
+    let Ok(file) = OpenOptions::new().read(true).open(path) else {
+        return;
+    };
+    if file.try_lock().is_ok() && same_inode(&file, path) {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// Whether `path` still names the open `file`.
+fn same_inode(file: &File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (file.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (file, path);
+        true
+    }
+}
+
+/// `prefix` followed by `name`, byte for byte (names need not be UTF-8).
+fn hidden_name(prefix: &str, name: &OsStr) -> OsString {
+    let mut s = OsString::from(prefix);
+    s.push(name);
+    s
+}
+
+fn parent_or_dot(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// A result folder being rebuilt: see the module documentation. Dropped without
+/// [`ResultFolder::commit`] (an error, a panic), it removes its staging folder and leaves the
+/// folder as it was, apart from [`PARTIAL_FILES`].
+pub struct ResultFolder {
+    /// The folder as the user named it, for messages.
+    shown: PathBuf,
+    /// Where it really is ([`resolve`]).
+    target: PathBuf,
+    staging: PathBuf,
+    /// Every file written so far, with what it holds (the manifest's `files`).
+    files: BTreeMap<String, String>,
+    lock: Option<Lock>,
+    /// Folders created to hold the result folder, removed again if nothing comes of it.
+    created: Vec<PathBuf>,
+    committed: bool,
+}
+
+impl ResultFolder {
+    /// Checks everything that can be checked before the work — the folder is a folder, its
+    /// name fits, no input lies inside it (it is replaced as a whole), nothing in it is foreign
+    /// to us, its parent is writable, no other command is writing it — then locks it, clears
+    /// what killed commands left beside it, and creates the staging folder.
+    ///
+    /// `what` names the folder in messages (`--out o`, `results/tiny`), `fix` says what else the
+    /// user can do (`use another --out`), and `inputs` are the command's input files
+    /// (`(description, path)`).
+    pub fn prepare(out: &Path, what: &str, fix: &str, inputs: &[(&str, &Path)]) -> Result<ResultFolder> {
+        let refuse =
+            |problem: String| -> Error { InputError::new(format!("{what}: {problem}; {fix}")).into() };
+        // The same, with a first remedy before the caller's.
+        let refuse_or = |problem: String, remedy: &str| -> Error {
+            InputError::new(format!("{what}: {problem}; {remedy}, or {fix}")).into()
+        };
+        let target = resolve(out).map_err(|e| Error::io(format!("resolving {}", out.display()), e))?;
+        let (Some(parent), Some(name)) = (target.parent(), target.file_name()) else {
+            return Err(refuse("cannot be replaced as a whole".into()));
+        };
+        let parent = parent.to_path_buf();
+        if name.len() > MAX_NAME_BYTES {
+            return Err(refuse(format!(
+                "the folder's name is {} bytes long, and at most {MAX_NAME_BYTES} are supported",
+                name.len()
+            )));
+        }
+        if std::fs::metadata(&target).is_ok_and(|m| !m.is_dir()) {
+            return Err(refuse("is a file, not a folder".into()));
+        }
+        for (label, input) in inputs {
+            if resolve(input).is_ok_and(|p| p.starts_with(&target)) {
+                return Err(refuse_or(
+                    format!("would replace {label} {}, which lies inside it", input.display()),
+                    "move that file elsewhere",
+                ));
+            }
+        }
+        if std::env::current_dir()
+            .and_then(|d| d.canonicalize())
+            .is_ok_and(|d| d.starts_with(&target))
+        {
+            return Err(refuse_or(
+                "is the current folder or holds it, and the results replace the folder as a whole".into(),
+                "run from another folder",
+            ));
+        }
+
+        let mut created = Vec::new();
+        let mut missing = parent.as_path();
+        while std::fs::symlink_metadata(missing).is_err() {
+            created.push(missing.to_path_buf());
+            match missing.parent() {
+                Some(p) => missing = p,
+                None => break,
+            }
+        }
+        created.reverse();
+        std::fs::create_dir_all(&parent)
+            .map_err(|e| Error::io(format!("creating folder {}", parent.display()), e))?;
+        let mut folder = ResultFolder {
+            shown: out.to_path_buf(),
+            staging: parent.join(staged_name("staging", name, std::process::id())),
+            target: target.clone(),
+            files: BTreeMap::new(),
+            lock: None,
+            created,
+            committed: false,
+        };
+        // From here on, dropping `folder` undoes what was done.
+        folder.lock = Some(Lock::acquire(&target, what, fix)?);
+        crate::io::sweep_stale(&parent);
+        if folder.lock.as_ref().is_some_and(|l| l.exclusive) {
+            // We hold the lock, so staging folders for this name are abandoned whoever made them.
+            for entry in std::fs::read_dir(&parent).into_iter().flatten().flatten() {
+                let n = entry.file_name();
+                if hidden_name_pid(&n).is_some_and(|pid| {
+                    n == staged_name("staging", name, pid) || n == staged_name("old", name, pid)
+                }) {
+                    remove_any(&entry.path());
+                }
+            }
+        }
+        crate::io::sweep_stale(&target);
+        if let Some(foreign) = unexplained(&target) {
+            return Err(refuse_or(
+                format!(
+                    "holds {foreign}, which no workbench manifest there lists, and the results replace the \
+                     folder as a whole"
+                ),
+                "move that elsewhere",
+            ));
+        }
+        std::fs::create_dir(&folder.staging)
+            .map_err(|e| Error::io(format!("creating folder {}", folder.staging.display()), e))?;
+        Ok(folder)
+    }
+
+    /// Writes one file of the set (into the staging folder), and what it holds for the
+    /// manifest.
+    pub fn write(&mut self, name: &str, description: &str, bytes: &[u8]) -> Result<()> {
+        assert!(is_plain_name(name), "{name:?} is not a plain file name");
+        let path = self.staging.join(name);
+        let written = File::create(&path).and_then(|mut f| {
+            crate::io::write_all_checked(&mut f, &path, bytes)?;
+            f.sync_all()
+        });
+        written.map_err(|e| {
+            Error::io(
+                format!(
+                    "writing {} ({} is left as it was)",
+                    self.shown.join(name).display(),
+                    self.shown.display()
+                ),
+                e,
+            )
+        })?;
+        self.files.insert(name.into(), description.into());
+        Ok(())
+    }
+
+    /// Writes one of [`PARTIAL_FILES`] straight into the folder (atomically), so that it
+    /// survives the command being interrupted.
+    pub fn write_partial(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
+        assert!(PARTIAL_FILES.contains(&name), "{name} is not a partial file");
+        crate::io::write_atomic(&self.target.join(name), bytes)
+    }
+
+    /// Writes the manifest, its `files` listing every file of the set (itself included), and
+    /// puts the set in the folder's place.
+    pub fn commit(mut self, mut manifest: serde_json::Value) -> Result<()> {
+        let mut files: serde_json::Map<String, serde_json::Value> = self
+            .files
+            .iter()
+            .map(|(k, v)| (k.clone(), serde_json::Value::from(v.as_str())))
+            .collect();
+        files.insert(
+            MANIFEST.into(),
+            "this file: what was run, and every file of the set".into(),
+        );
+        manifest["files"] = serde_json::Value::Object(files);
+        let mut bytes = serde_json::to_vec_pretty(&manifest).expect("a JSON value serialises");
+        bytes.push(b'\n');
+        self.write(MANIFEST, "", &bytes)?;
+        let sync_dir = |dir: &Path| {
+            File::open(dir)
+                .and_then(|d| d.sync_all())
+                .map_err(|e| Error::io(format!("syncing folder {}", dir.display()), e))
+        };
+        // The folder keeps its mode across the replacement (its files are new and get the
+        // umask's). Only now: a read-only mode would have stopped the writes.
+        if let Ok(m) = std::fs::metadata(&self.target) {
+            let _ = std::fs::set_permissions(&self.staging, m.permissions());
+        }
+        sync_dir(&self.staging)?;
+
+        // Another program may have put something in the folder while we worked; it would be
+        // lost with the old set, so keep the new set beside the folder instead.
+        if let Some(foreign) = unexplained(&self.target) {
+            let name = self.target.file_name().unwrap_or_default();
+            let mut kept = name.to_os_string();
+            kept.push(format!(".new-{}", std::process::id()));
+            let kept = parent_or_dot(&self.target).join(kept);
+            std::fs::rename(&self.staging, &kept).map_err(|e| {
+                Error::io(
+                    format!("renaming {} to {}", self.staging.display(), kept.display()),
+                    e,
+                )
+            })?;
+            return Err(InputError::new(format!(
+                "{}: {foreign} appeared in it during the run, so it was left as it was; the new results are in {}",
+                self.shown.display(),
+                kept.display()
+            ))
+            .into());
+        }
+        let old = parent_or_dot(&self.target).join(staged_name(
+            "old",
+            self.target.file_name().unwrap_or_default(),
+            std::process::id(),
+        ));
+        swap_into_place(&self.staging, &self.target, &old)
+            .map_err(|e| Error::io(format!("moving the new results into {}", self.shown.display()), e))?;
+        self.committed = true;
+        sync_dir(parent_or_dot(&self.target))
+    }
+}
+
+impl Drop for ResultFolder {
+    fn drop(&mut self) {
+        if self.committed {
+            return;
+        }
+        remove_any(&self.staging);
+        drop(self.lock.take());
+        for dir in self.created.iter().rev() {
+            // Only if empty: something else may have been put there meanwhile.
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+}
+
+/// `.workbench-<pid>-<role>-<name>`: a staging folder, or the old set on its way out.
+fn staged_name(role: &str, name: &OsStr, pid: u32) -> OsString {
+    hidden_name(&format!("{HIDDEN_PREFIX}{pid}-{role}-"), name)
+}
+
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty() && name != "." && name != ".." && !name.contains(['/', '\\', '\0'])
+}
+
+/// Puts `staging` where `target` is, in one step where the system can exchange two folders.
+fn swap_into_place(staging: &Path, target: &Path, old: &Path) -> std::io::Result<()> {
+    if std::fs::symlink_metadata(target).is_err() {
+        return std::fs::rename(staging, target);
+    }
+    match exchange(staging, target) {
+        Ok(()) => {
+            // `staging` now holds the old set.
+            remove_any(staging);
+            Ok(())
+        }
+        Err(_) => swap_by_two_renames(staging, target, old),
+    }
+}
+
+/// Where folders cannot be exchanged: the old folder steps aside, the new one steps in. In
+/// between, the folder is briefly absent (never mixed); if the second step fails, the first
+/// is undone.
+fn swap_by_two_renames(staging: &Path, target: &Path, old: &Path) -> std::io::Result<()> {
+    std::fs::rename(target, old)?;
+    if let Err(e) = std::fs::rename(staging, target) {
+        let _ = std::fs::rename(old, target);
+        return Err(e);
+    }
+    remove_any(old);
+    Ok(())
+}
+
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    use rustix::fs::{CWD, RenameFlags, renameat_with};
+    renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE).map_err(std::io::Error::from)
+}
+
+#[cfg(not(target_os = "linux"))]
+fn exchange(_: &Path, _: &Path) -> std::io::Result<()> {
+    Err(std::io::ErrorKind::Unsupported.into())
+}
+
+/// The names a manifest of ours accounts for, or `None` if `manifest` is not one of ours.
+/// Manifests written before they listed their files are read by what they describe: an
+/// experiment's plan names its integrands (one SVG each), a table's its variants and spp
+/// values (one PNG per pair).
+fn manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
+    if let Some(files) = manifest.get("files").and_then(|f| f.as_object())
+        && files.contains_key(MANIFEST)
+    {
+        return Some(files.keys().cloned().collect());
+    }
+    if manifest.get("workbench_version").is_some()
+        && let Some(integrands) = manifest.pointer("/plan/integrands").and_then(|i| i.as_array())
+    {
+        let mut names: Vec<String> = ["trials.csv", "summary.csv", "timings.json", MANIFEST]
+            .map(String::from)
+            .into();
+        for f in integrands {
+            names.push(format!("{}.svg", f.get("name")?.as_str()?));
+        }
+        return Some(names);
+    }
+    if manifest.get("scene").is_some()
+        && let (Some(variants), Some(spp)) = (
+            manifest.get("variants").and_then(|v| v.as_array()),
+            manifest.get("spp").and_then(|s| s.as_array()),
+        )
+    {
+        let mut names: Vec<String> = [
+            "reference.png",
+            "rmse.csv",
+            "table.csv",
+            "table.md",
+            "rmse_vs_spp.svg",
+            "timings.csv",
+            "timings.md",
+            MANIFEST,
+        ]
+        .map(String::from)
+        .into();
+        for v in variants {
+            let label = v.get("label")?.as_str()?;
+            for s in spp {
+                names.push(crate::render::table::png_name(label, s.as_u64()? as usize));
+            }
+        }
+        return Some(names);
+    }
+    None
+}
+
+/// What in `dir` is not ours, for the message ("notes.txt", "notes.txt, data/ and 2 more"),
+/// or `None` if everything is. Ours: the files the manifest lists, [`PARTIAL_FILES`], and our
+/// hidden files (`.workbench-…`).
+fn unexplained(dir: &Path) -> Option<String> {
+    let entries = std::fs::read_dir(dir).ok()?;
+    let listed: BTreeSet<String> = std::fs::read(dir.join(MANIFEST))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .and_then(|v| manifest_files(&v))
+        .map(|names| names.into_iter().filter(|n| is_plain_name(n)).collect())
+        .unwrap_or_default();
+    let mut foreign: Vec<String> = Vec::new();
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let is_file = entry.file_type().is_ok_and(|t| t.is_file());
+        let ours = name.to_str().is_some_and(|n| {
+            n.starts_with(HIDDEN_PREFIX) || (is_file && (listed.contains(n) || PARTIAL_FILES.contains(&n)))
+        });
+        if !ours {
+            let mut shown = name.to_string_lossy().into_owned();
+            if entry.file_type().is_ok_and(|t| t.is_dir()) {
+                shown.push('/');
+            }
+            foreign.push(shown);
+        }
+    }
+    foreign.sort();
+    match foreign.len() {
+        0 => None,
+        1 => Some(foreign[0].clone()),
+        2 => Some(format!("{} and {}", foreign[0], foreign[1])),
+        n => Some(format!("{}, {} and {} more", foreign[0], foreign[1], n - 2)),
+    }
+}
+
+/// Outputs named one by one, written as a set: see the module documentation.
+pub struct FileSet {
+    _locks: Vec<Lock>,
+    staged: Vec<Staged>,
+    stale: Vec<PathBuf>,
+}
+
+impl FileSet {
+    /// Locks every output (`(flag, path)`; devices such as `/dev/null` excepted), so that two
+    /// commands writing the same files cannot interleave their sets; `fix` ends the message
+    /// when one is busy. Checks every name's length first.
+    pub fn lock(outputs: &[(&str, &Path)], fix: &str) -> Result<FileSet> {
+        let mut locks = Vec::new();
+        let mut seen: Vec<PathBuf> = Vec::new();
+        for (flag, path) in outputs {
+            crate::io::check_name_length(flag, path)?;
+            let target = resolve(path).map_err(|e| Error::io(format!("resolving {}", path.display()), e))?;
+            if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) || seen.contains(&target) {
+                continue;
+            }
+            locks.push(Lock::acquire(
+                &target,
+                &format!("{flag} {}", path.display()),
+                fix,
+            )?);
+            crate::io::sweep_stale(parent_or_dot(&target));
+            seen.push(target);
+        }
+        Ok(FileSet {
+            _locks: locks,
+            staged: Vec::new(),
+            stale: Vec::new(),
+        })
+    }
+
+    /// Writes one output completely under a temporary name beside it; nothing visible changes
+    /// until [`FileSet::commit`].
+    pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
+        self.staged.push(crate::io::stage(path, bytes)?);
+        Ok(())
+    }
+
+    /// Marks a file this command would write but does not this time (an error image without
+    /// `--reference`): a leftover of an earlier command would describe another output.
+    pub fn remove_stale(&mut self, path: &Path) {
+        self.stale.push(path.to_path_buf());
+    }
+
+    /// Renames every staged file into place, in the order staged, then removes the stale ones;
+    /// returns those it removed.
+    pub fn commit(self) -> Result<Vec<PathBuf>> {
+        let FileSet {
+            _locks,
+            staged,
+            stale,
+        } = self;
+        for s in staged {
+            s.persist()?;
+        }
+        let mut removed = Vec::new();
+        for path in stale {
+            if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file()) {
+                std::fs::remove_file(&path)
+                    .map_err(|e| Error::io(format!("removing {}", path.display()), e))?;
+                removed.push(path);
+            }
+        }
+        Ok(removed)
+    }
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    fn listing(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn half_replaced_result_set_two_renames_swap_whole_folders() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for (f, text) in [("target", "old"), ("staging", "new")] {
+            std::fs::create_dir(d.join(f)).unwrap();
+            std::fs::write(d.join(f).join("a.csv"), text).unwrap();
+        }
+        std::fs::write(d.join("target/stale.svg"), "old").unwrap();
+        swap_by_two_renames(&d.join("staging"), &d.join("target"), &d.join("old")).unwrap();
+        assert_eq!(listing(d), ["target"]);
+        assert_eq!(listing(&d.join("target")), ["a.csv"]);
+        assert_eq!(std::fs::read_to_string(d.join("target/a.csv")).unwrap(), "new");
+    }
+
+    #[test]
+    fn results_folder_holds_one_run_lock_is_exclusive_and_released() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("x");
+        let lock = Lock::acquire(&target, "x", "use another --out").unwrap();
+        let e = Lock::acquire(&target, "x", "use another --out").err().unwrap();
+        let pid = std::process::id();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "x: another workbench (pid {pid}) is writing it; wait for it to finish, or use another --out"
+            )
+        );
+        // A sweep leaves a held lock alone.
+        crate::io::sweep_stale(dir.path());
+        assert!(dir.path().join(".workbench-lock-x").exists());
+        drop(lock);
+        assert_eq!(listing(dir.path()), Vec::<String>::new());
+        drop(Lock::acquire(&target, "x", "").unwrap());
+    }
+
+    #[test]
+    fn results_folder_holds_one_run_legacy_manifests_are_read_by_content() {
+        let experiment = serde_json::json!({
+            "workbench_version": "0.1.0",
+            "plan": {"integrands": [{"name": "cos3"}]},
+            "files": {"trials.csv": "…"},
+        });
+        let mut names = manifest_files(&experiment).unwrap();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "cos3.svg",
+                "manifest.json",
+                "summary.csv",
+                "timings.json",
+                "trials.csv"
+            ]
+        );
+        let table = serde_json::json!({
+            "scene": "render-scene v1", "spp": [4, 8],
+            "variants": [{"label": "BMC 2 GP"}],
+        });
+        assert!(
+            manifest_files(&table)
+                .unwrap()
+                .contains(&"bmc-2-gp-8spp.png".to_string())
+        );
+        assert!(manifest_files(&serde_json::json!({"files": {"a": "b"}})).is_none());
+    }
+}
