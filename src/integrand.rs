@@ -26,6 +26,14 @@ impl Integrand {
         }
     }
 
+    /// What the integrand is, for titles and legends: `cos³θ`, `Phong lobe e = 8, tilt 30°`.
+    pub fn display_name(&self) -> String {
+        match self {
+            Integrand::Cos(c) => c.display_name(),
+            Integrand::Axis { f, .. } => f.display_name(),
+        }
+    }
+
     /// `f(ω)`.
     #[inline]
     pub fn value(&self, w: &Vec3) -> f64 {
@@ -89,6 +97,25 @@ impl CosPower {
         }
     }
 
+    /// The name for people, as the formula: `1` (k = 0), `cos θ`, `cos²θ`, `cos³θ`, … with the
+    /// exponent in Unicode superscript digits for any k. File names keep [`CosPower::name`]
+    /// (`cos3.svg`), which is ASCII and what experiment files say.
+    pub fn display_name(&self) -> String {
+        const SUPERSCRIPT: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+        match self.k {
+            0 => "1".into(),
+            1 => "cos θ".into(),
+            k => {
+                let exponent: String = k
+                    .to_string()
+                    .bytes()
+                    .map(|d| SUPERSCRIPT[(d - b'0') as usize])
+                    .collect();
+                format!("cos{exponent}θ")
+            }
+        }
+    }
+
     /// `f(ω) = ω_z^k`.
     #[inline]
     pub fn value(&self, w: &Vec3) -> f64 {
@@ -133,6 +160,18 @@ mod tests {
         for k in 0..6 {
             assert_eq!(CosPower::parse(&CosPower::new(k).name()), Some(CosPower::new(k)));
         }
+    }
+
+    #[test]
+    fn display_names_use_superscripts() {
+        let names: Vec<String> = [0, 1, 2, 3, 4, 10, 1024]
+            .into_iter()
+            .map(|k| CosPower::new(k).display_name())
+            .collect();
+        assert_eq!(
+            names,
+            ["1", "cos θ", "cos²θ", "cos³θ", "cos⁴θ", "cos¹⁰θ", "cos¹⁰²⁴θ"]
+        );
     }
 
     /// The closed form against a midpoint rule in μ = cos θ (∫_H f dω = 2π ∫_0^1 μ^k dμ).

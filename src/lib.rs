@@ -17,6 +17,7 @@ pub mod kernel_mean;
 pub mod linalg;
 pub mod model_spec;
 pub mod output_set;
+pub mod plot_style;
 pub mod quadrature;
 pub mod render;
 pub mod report;

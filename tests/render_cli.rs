@@ -237,7 +237,16 @@ fn out_may_not_overwrite_the_reference() {
         d,
         &[
             &base[..],
-            &["--reference", "ref.exr", "--error-max", "0.5", "--out", "e.exr"],
+            &[
+                "--reference",
+                "ref.exr",
+                "--error-scale",
+                "normalised",
+                "--error-max",
+                "0.5",
+                "--out",
+                "e.exr",
+            ],
         ]
         .concat(),
     );

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
-use workbench::render::image::{ColourMap, ErrorScale, Image};
+use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::{Environment, Integrator, Renderer, check_size};
 use workbench::report::Reporter;
@@ -59,13 +59,17 @@ pub struct RenderArgs {
     /// Reference image (OpenEXR): print the RMSE and write the error image <out>-error.png.
     #[arg(long)]
     pub reference: Option<PathBuf>,
-    /// Error image scale: by the largest error, or absolute (by --error-max).
-    #[arg(long, requires = "reference", default_value = "normalised", value_parser = ["normalised", "absolute"])]
+    /// Error image scale: `absolute` maps the per-pixel error norm 0…--error-max onto the
+    /// colours (larger errors clamped), the same in every image, so that images can be compared;
+    /// `normalised` maps 0…the image's own largest error. Either way the PNG carries a colour bar
+    /// labelled with the scale, and the image's largest error is printed.
+    #[arg(long, requires = "reference", default_value = "absolute", value_parser = ["absolute", "normalised"])]
     pub error_scale: String,
-    /// Error norm shown at full intensity; only with `--error-scale absolute` [default: 0.1].
+    /// Error norm ‖render − reference‖₂ (linear RGB) at the top of the absolute scale; only with
+    /// `--error-scale absolute` [default: 0.25, which clamps about 5–10% of a 40-spp render's pixels].
     #[arg(long, requires = "reference")]
     pub error_max: Option<f64>,
-    /// Error image colours.
+    /// Error image colours: viridis (perceptually uniform) or grey (black = 0).
     #[arg(long, requires = "reference", default_value = "viridis", value_parser = ["viridis", "grey"])]
     pub error_colours: String,
     #[command(flatten)]
@@ -78,9 +82,6 @@ pub struct RenderArgs {
     #[arg(long, short)]
     pub quiet: bool,
 }
-
-/// Error norm shown at full intensity by `--error-scale absolute` when `--error-max` is not given.
-pub const DEFAULT_ERROR_MAX: f64 = 0.1;
 
 fn integrator_help() -> String {
     format!(
@@ -263,11 +264,12 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     // disk) leaves the earlier image and PNGs together, as they were.
     files.stage(out, &image.to_exr()?)?;
     files.stage(&png, &image.to_png()?)?;
-    match &reference {
-        Some(r) => files.stage(
-            &error_png,
-            &image.error_png(r, error_scale, error_max, error_colours)?,
-        )?,
+    let error_image = match &reference {
+        Some(r) => Some(image.error_png(r, error_scale, error_max, error_colours)?),
+        None => None,
+    };
+    match &error_image {
+        Some(e) => files.stage(&error_png, &e.png)?,
         // An error image of an earlier render would describe another image.
         None => files.remove_stale(&error_png),
     }
@@ -289,7 +291,27 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     );
     if let Some(r) = &reference {
         stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
-        status!("render: error image → {}", error_png.display());
+    }
+    if let Some(e) = &error_image {
+        let scale = match error_scale {
+            ErrorScale::Absolute if e.clamped > 0 => format!(
+                "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
+                short_number(e.scale_max),
+                e.clamped,
+                100.0 * e.clamped as f64 / (args.width * args.height) as f64
+            ),
+            ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
+            ErrorScale::Normalised => {
+                format!("scale 0–{}, the image's own maximum", short_number(e.scale_max))
+            }
+        };
+        status!(
+            "render: error image → {} (max error {} at pixel ({}, {}); {scale})",
+            error_png.display(),
+            short_number(e.max_error),
+            e.max_at.0,
+            e.max_at.1
+        );
     }
     Ok(())
 }

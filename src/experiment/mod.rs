@@ -4,6 +4,7 @@
 //! [`export`] / [`plot`] (pure) → one atomic write per file.
 
 pub mod export;
+pub mod fit;
 pub mod plan;
 pub mod plot;
 pub mod runner;

@@ -1,149 +1,349 @@
-//! One SVG per integrand: absolute error against N on log–log axes (plotters).
+//! One SVG per integrand: absolute error against N on log–log axes (plotters). Each estimator
+//! has its mean error (line and markers) and the 10–90% quantile band of its trials (light fill,
+//! dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]), or
+//! says that it is exact; a dashed N^(−1/2) guide goes through the MC series.
 
+use super::fit::{SeriesFit, fit_from, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::stats::log_log_slope;
+use crate::estimator::Method;
+use crate::plot_style::{self as style, LegendEntry, Swatch};
+use crate::sampling::{Design, SetDesign};
 use plotters::prelude::*;
 
-/// Okabe–Ito colours (distinguishable with colour-vision deficiencies).
-const PALETTE: [RGBColor; 6] = [
-    RGBColor(213, 94, 0),
-    RGBColor(0, 114, 178),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(230, 159, 0),
-    RGBColor(86, 180, 233),
-];
-
-/// Smallest error drawn: exact estimates (error 0) would have no place on a log axis.
-const FLOOR: f64 = 1e-16;
+/// Height of the chart (axes and plotting area), between the title block and the legend.
+const CHART_HEIGHT: u32 = 560;
+/// Width of the y label area; the plotting area's width follows from it.
+const Y_LABEL_AREA: u32 = 84;
+const MARGIN_LEFT: u32 = 16;
+const MARGIN_RIGHT: u32 = 28;
 
 /// The SVG for integrand `fi` as a string.
 pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<String> {
     draw(plan, cells, fi).map_err(|e| crate::Error::Encode(format!("drawing the error plot: {e}")))
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
-    let mine: Vec<&CellSummary> = cells.iter().filter(|c| c.integrand == fi).collect();
-    let (n_min, n_max) = (
-        *plan.samples.iter().min().expect("samples") as f64,
-        *plan.samples.iter().max().expect("samples") as f64,
-    );
-    let lo = mine
+/// The estimator the N^(−1/2) guide goes through: the first `mc` estimator on uniform i.i.d.
+/// points (the rate's textbook case), else the first `mc` one; `None` without MC.
+pub fn guide_estimator(plan: &Plan) -> Option<usize> {
+    let mc = |e: &&super::plan::PlannedEstimator| e.method == Method::Mc;
+    plan.estimators
         .iter()
-        .map(|c| c.q10_abs_error.max(FLOOR))
-        .fold(f64::INFINITY, f64::min);
-    let hi = mine
-        .iter()
-        .map(|c| c.q90_abs_error.max(c.mean_abs_error).max(FLOOR))
-        .fold(0.0, f64::max);
-    let integrand = plan.integrands[fi].name();
+        .position(|e| mc(&e) && e.design == SetDesign::Iid(Design::Uniform))
+        .or_else(|| plan.estimators.iter().position(|e| mc(&e)))
+}
 
+/// The legend text of a series labelled `label` with fit `fit`, e.g.
+/// `BMC: slope −1.52 ± 0.11 (N ≥ 64)` or `MC cosine: exact at every N`.
+pub fn fit_label(label: &str, fit: &SeriesFit) -> String {
+    let exact_note = |exact_at: &[usize]| match exact_at.len() {
+        0 => String::new(),
+        1..=3 => format!(
+            "; exact at N = {}",
+            exact_at
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        k => format!("; exact at {k} N"),
+    };
+    match fit {
+        SeriesFit::Exact => format!("{label}: exact at every N"),
+        SeriesFit::Slope { fit, exact_at } => {
+            let slope = style::signed(fit.slope, 2);
+            let body = match fit.ci95 {
+                Some((lo, hi)) => format!(
+                    "slope {slope} ± {} (N ≥ {})",
+                    style::signed(0.5 * (hi - lo), 2),
+                    fit.from_n
+                ),
+                None => format!("slope {slope} (N ≥ {}, {} points)", fit.from_n, fit.points),
+            };
+            format!("{label}: {body}{}", exact_note(exact_at))
+        }
+        SeriesFit::TooFew { from_n, exact_at } => format!(
+            "{label}: no slope (fewer than 2 nonzero means at N ≥ {from_n}){}",
+            exact_note(exact_at)
+        ),
+    }
+}
+
+/// Maximal runs of consecutive indices `i` (in `0..len`) with `keep(i)`.
+fn runs(len: usize, keep: impl Fn(usize) -> bool) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = None;
+    for i in 0..=len {
+        match (start, i < len && keep(i)) {
+            (None, true) => start = Some(i),
+            (Some(s), false) => {
+                out.push(s..i);
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
+    let integrand = &plan.integrands[fi];
+    let name = integrand.display_name();
+    let truth = integrand.integral();
+    let ok = |e: f64| is_fittable(e, truth);
+    let from_n = fit_from(&plan.samples);
+
+    // Each estimator's cells in N order, and what its points say about its rate.
+    let series: Vec<Vec<&CellSummary>> = (0..plan.estimators.len())
+        .map(|ei| {
+            let mut s: Vec<&CellSummary> = cells
+                .iter()
+                .filter(|c| c.integrand == fi && c.estimator == ei)
+                .collect();
+            s.sort_by_key(|c| c.n);
+            s
+        })
+        .collect();
+    let fits: Vec<SeriesFit> = series
+        .iter()
+        .map(|s| {
+            let points: Vec<(usize, f64)> = s.iter().map(|c| (c.n, c.mean_abs_error)).collect();
+            fit_series(&points, truth, from_n)
+        })
+        .collect();
+
+    let n_min = *plan.samples.iter().min().expect("samples") as f64;
+    let n_max = *plan.samples.iter().max().expect("samples") as f64;
+    // The guide ∝ N^(−1/2) through the MC series' mean error at its first N (with an error).
+    let guide = guide_estimator(plan).and_then(|ei| {
+        let c = series[ei].iter().find(|c| ok(c.mean_abs_error))?;
+        let a = c.mean_abs_error * (c.n as f64).sqrt();
+        Some((ei, vec![(n_min, a / n_min.sqrt()), (n_max, a / n_max.sqrt())]))
+    });
+
+    // Axis ranges from what is drawn: errors that can stand on a log axis, and the guide.
+    let drawn: Vec<f64> = series
+        .iter()
+        .flatten()
+        .flat_map(|c| [c.mean_abs_error, c.q10_abs_error, c.q90_abs_error])
+        .filter(|&e| ok(e))
+        .chain(guide.iter().flat_map(|g| g.1.iter().map(|p| p.1)))
+        .collect();
+    let (lo, hi) = if drawn.is_empty() {
+        // Nothing but exact series: an empty decade range; the legend says why.
+        (1e-3, 1.0)
+    } else {
+        (
+            drawn.iter().copied().fold(f64::INFINITY, f64::min),
+            drawn.iter().copied().fold(0.0, f64::max),
+        )
+    };
+    let (y0, y1) = if lo < hi {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        (lo / 3.0, hi * 3.0)
+    };
+    let (x0, x1) = if n_min < n_max {
+        (n_min / 1.25, n_max * 1.25)
+    } else {
+        (n_min / 2.0, n_max * 2.0)
+    };
+    let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
+    let x_ticks = style::count_ticks(&plan.samples, x0, x1, plot_px);
+    let y_ticks = style::log_ticks(y0, y1);
+    let decimal = style::decimal_axis(y0, y1);
+
+    let mut legend: Vec<LegendEntry> = plan
+        .estimators
+        .iter()
+        .zip(&fits)
+        .enumerate()
+        .map(|(ei, (e, fit))| LegendEntry {
+            swatch: Swatch::Series(ei),
+            text: fit_label(&e.label, fit),
+            wide: false,
+        })
+        .collect();
+    if let Some((ei, _)) = &guide {
+        legend.push(LegendEntry {
+            swatch: Swatch::Guide,
+            text: format!("∝ N^(−1/2) through {}", plan.estimators[*ei].label),
+            wide: false,
+        });
+    }
+    legend.push(LegendEntry {
+        swatch: Swatch::Band,
+        text: format!(
+            "band (light fill, dashed edges): 10–90% quantiles of |Î − I| over the {} trials; line: mean |Î − I|",
+            plan.trials
+        ),
+        wide: true,
+    });
+    let any_exact = fits.iter().any(|f| match f {
+        SeriesFit::Exact => true,
+        SeriesFit::Slope { exact_at, .. } | SeriesFit::TooFew { exact_at, .. } => !exact_at.is_empty(),
+    });
+    legend.push(LegendEntry {
+        swatch: Swatch::Text,
+        text: format!(
+            "slope: least-squares fit of ln(mean error) on ln N over N ≥ {from_n} (the upper half of the N grid), ± its 95% interval{}",
+            if any_exact {
+                "; exact: error 0 up to rounding (≤ 1e-12·I), not drawn"
+            } else {
+                ""
+            }
+        ),
+        wide: true,
+    });
+
+    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (960, 640)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
         root.fill(&WHITE)?;
-        let caption = format!("{} — {} ({} trials)", plan.title, integrand, plan.trials);
-        let mut chart = ChartBuilder::on(&root)
-            .caption(caption, ("sans-serif", 22))
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(80)
+        let (header, rest) = root.split_vertically(style::HEADER_HEIGHT);
+        let (chart_area, legend_area) = rest.split_vertically(CHART_HEIGHT);
+        style::draw_header(
+            &header,
+            &plan.title,
+            &format!(
+                "integrand {name}: ∫ {name} dω = {truth:.6} sr; {} trials per N",
+                plan.trials
+            ),
+        )?;
+        let mut chart = ChartBuilder::on(&chart_area)
+            .margin_left(MARGIN_LEFT)
+            .margin_right(MARGIN_RIGHT)
+            .margin_top(8)
+            .x_label_area_size(52)
+            .y_label_area_size(Y_LABEL_AREA)
             .build_cartesian_2d(
-                (n_min / 1.25..n_max * 1.25)
-                    .log_scale()
-                    .with_key_points(plan.samples.iter().map(|&n| n as f64).collect::<Vec<_>>()),
-                (lo / 2.0..hi * 2.0).log_scale(),
+                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
+                (y0..y1).log_scale().with_key_points(y_ticks.labelled.clone()),
             )?;
         chart
             .configure_mesh()
             .x_desc("number of samples N")
-            .y_desc(format!("absolute error |Î − I| of ∫ {integrand} dω  [sr]"))
-            .x_label_formatter(&|x| format!("{}", x.round()))
-            .y_label_formatter(&|y| format!("{y:.0e}"))
-            .axis_desc_style(("sans-serif", 17))
-            .label_style(("sans-serif", 14))
-            .light_line_style(WHITE.mix(0.0))
+            .y_desc(format!("absolute error |Î − I| of ∫ {name} dω  [sr]"))
+            .x_label_formatter(&|x| style::format_count(*x))
+            .y_label_formatter(&|y| style::format_tick(*y, decimal))
+            .axis_desc_style((style::FONT, style::AXIS_FONT))
+            .label_style((style::FONT, style::TICK_FONT))
+            .bold_line_style(BLACK.mix(0.08))
+            .light_line_style(TRANSPARENT)
+            .set_all_tick_mark_size(6)
             .draw()?;
+        let plot = chart.plotting_area().get_pixel_range();
+        let xs: Vec<i32> = x_ticks
+            .minor
+            .iter()
+            .map(|&x| chart.backend_coord(&(x, y0)).0)
+            .collect();
+        let ys: Vec<i32> = y_ticks
+            .minor
+            .iter()
+            .map(|&y| chart.backend_coord(&(x0, y)).1)
+            .collect();
+        style::draw_minor_ticks(&root, &plot, &xs, &ys)?;
 
-        for (ei, e) in plan.estimators.iter().enumerate() {
-            let color = PALETTE[ei % PALETTE.len()];
-            let row: Vec<&&CellSummary> = mine.iter().filter(|c| c.estimator == ei).collect();
-            let mut band: Vec<(f64, f64)> = row
-                .iter()
-                .map(|c| (c.n as f64, c.q90_abs_error.max(FLOOR)))
-                .collect();
-            band.extend(row.iter().rev().map(|c| (c.n as f64, c.q10_abs_error.max(FLOOR))));
-            chart.draw_series(std::iter::once(Polygon::new(band, color.mix(0.15).filled())))?;
-            let points: Vec<(f64, f64)> = row
-                .iter()
-                .map(|c| (c.n as f64, c.mean_abs_error.max(FLOOR)))
-                .collect();
-            let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
-            let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
-            let slope = if points.len() >= 2 {
-                log_log_slope(&xs, &ys)
-            } else {
-                f64::NAN
-            };
-            let label = format!("{} mean, 10–90% band (slope {slope:.2})", e.label);
-            let anno = chart
-                .draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))?
-                .label(label);
-            // The legend sample: the line with the estimator's marker in the middle.
-            let line = move |x: i32, y: i32| {
-                EmptyElement::at((x, y)) + PathElement::new(vec![(0, 0), (24, 0)], color.stroke_width(3))
-            };
-            // A distinct marker per estimator (six kinds), so the series stay apart in grey print.
-            let square_style = if ei % 6 == 4 {
-                color.filled()
-            } else {
-                color.stroke_width(2)
-            };
-            match ei % 6 {
-                0 => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 4, color.filled())),
-                1 => anno.legend(move |(x, y)| line(x, y) + TriangleMarker::new((12, 0), 6, color.filled())),
-                2 => anno.legend(move |(x, y)| line(x, y) + Cross::new((12, 0), 5, color.stroke_width(2))),
-                3 => anno.legend(move |(x, y)| line(x, y) + Circle::new((12, 0), 5, color.stroke_width(2))),
-                _ => anno.legend(move |(x, y)| line(x, y) + Rectangle::new([(8, -4), (16, 4)], square_style)),
-            };
-            match ei % 6 {
-                0 => chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, color.filled())))?,
-                1 => chart.draw_series(points.iter().map(|&p| TriangleMarker::new(p, 6, color.filled())))?,
-                2 => chart.draw_series(points.iter().map(|&p| Cross::new(p, 5, color.stroke_width(2))))?,
-                3 => chart.draw_series(points.iter().map(|&p| Circle::new(p, 5, color.stroke_width(2))))?,
-                _ => chart.draw_series(
-                    points
-                        .iter()
-                        .map(|&p| EmptyElement::at(p) + Rectangle::new([(-4, -4), (4, 4)], square_style)),
-                )?,
-            };
+        // Bands first, all of them, so that no band covers another series' line or markers.
+        // Light fills keep overlaps close to white; the dashed edges in the series' colour say
+        // whose band is whose.
+        for (ei, s) in series.iter().enumerate() {
+            let colour = style::colour(ei);
+            let edge = colour.mix(0.8).stroke_width(1);
+            for r in runs(s.len(), |i| ok(s[i].q90_abs_error)) {
+                let run = &s[r];
+                // A lower quantile of 0 (some trials exact) reaches below the axis: clamp to it.
+                let lower = |c: &CellSummary| if ok(c.q10_abs_error) { c.q10_abs_error } else { y0 };
+                let mut band: Vec<(f64, f64)> = run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
+                band.extend(run.iter().rev().map(|c| (c.n as f64, lower(c))));
+                chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.06).filled())))?;
+                let upper: Vec<(f64, f64)> = run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
+                chart.draw_series(DashedLineSeries::new(upper, 5, 4, edge))?;
+                for lr in runs(run.len(), |i| ok(run[i].q10_abs_error)) {
+                    let low: Vec<(f64, f64)> =
+                        run[lr].iter().map(|c| (c.n as f64, c.q10_abs_error)).collect();
+                    chart.draw_series(DashedLineSeries::new(low, 5, 4, edge))?;
+                }
+            }
         }
-
-        // Reference ∝ N^(−1/2), through the first estimator's mean error at the smallest N.
-        if let Some(first) = mine.iter().find(|c| c.estimator == 0 && c.n as f64 == n_min) {
-            let a = first.mean_abs_error.max(FLOOR) * n_min.sqrt();
-            let grey = RGBColor(110, 110, 110);
-            let line: Vec<(f64, f64)> = [n_min, n_max].iter().map(|&n| (n, a / n.sqrt())).collect();
-            chart
-                .draw_series(DashedLineSeries::new(line, 6, 4, grey.stroke_width(2)))?
-                .label("reference ∝ N^(−1/2)")
-                .legend(move |(x, y)| {
-                    // Dashed, as in the plot.
-                    EmptyElement::at((x, y))
-                        + PathElement::new(vec![(0, 0), (7, 0)], grey.stroke_width(2))
-                        + PathElement::new(vec![(11, 0), (18, 0)], grey.stroke_width(2))
-                        + PathElement::new(vec![(22, 0), (24, 0)], grey.stroke_width(2))
-                });
+        if let Some((_, line)) = &guide {
+            chart.draw_series(DashedLineSeries::new(
+                line.clone(),
+                8,
+                5,
+                style::GUIDE.stroke_width(2),
+            ))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font(("sans-serif", 15))
-            .draw()?;
+        for (ei, s) in series.iter().enumerate() {
+            let colour = style::colour(ei);
+            // Exact (or non-finite) means are gaps in the line, not points at an axis floor.
+            for r in runs(s.len(), |i| ok(s[i].mean_abs_error)) {
+                let line: Vec<(f64, f64)> = s[r].iter().map(|c| (c.n as f64, c.mean_abs_error)).collect();
+                chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
+            }
+            for c in s.iter().filter(|c| ok(c.mean_abs_error)) {
+                let at = chart.backend_coord(&(c.n as f64, c.mean_abs_error));
+                style::draw_marker(&root, ei, at, colour)?;
+            }
+        }
+        style::draw_legend(&legend_area, &legend)?;
         root.present()?;
     }
     Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::fit::SlopeFit;
+
+    #[test]
+    fn runs_split_at_gaps() {
+        let v = [1.0, 0.0, 2.0, 3.0, 0.0];
+        assert_eq!(runs(v.len(), |i| v[i] > 0.0), [0..1, 2..4]);
+        assert_eq!(runs(0, |_| true), []);
+    }
+
+    #[test]
+    fn labels_state_the_range_and_never_a_zero_slope_for_exact_series() {
+        let fit = SlopeFit {
+            slope: -1.5234,
+            ci95: Some((-1.6, -1.4)),
+            from_n: 64,
+            points: 4,
+        };
+        assert_eq!(
+            fit_label(
+                "BMC",
+                &SeriesFit::Slope {
+                    fit: fit.clone(),
+                    exact_at: vec![]
+                }
+            ),
+            "BMC: slope −1.52 ± 0.10 (N ≥ 64)"
+        );
+        assert_eq!(
+            fit_label(
+                "BMC",
+                &SeriesFit::Slope {
+                    fit,
+                    exact_at: vec![4, 8]
+                }
+            ),
+            "BMC: slope −1.52 ± 0.10 (N ≥ 64); exact at N = 4, 8"
+        );
+        assert_eq!(fit_label("MC cos", &SeriesFit::Exact), "MC cos: exact at every N");
+        assert!(
+            fit_label(
+                "X",
+                &SeriesFit::TooFew {
+                    from_n: 64,
+                    exact_at: vec![]
+                }
+            )
+            .contains("no slope")
+        );
+    }
 }

@@ -144,6 +144,19 @@ impl AxisIntegrand {
         self.truth
     }
 
+    /// `Phong lobe e = 8, tilt 30°`, `disc light 15°, tilt 45° × cos θ`, `spherical Gaussian
+    /// λ = 20, tilt 0°`.
+    pub fn display_name(&self) -> String {
+        let tilt = format!("{:.1}", self.tilt_degrees());
+        let tilt = tilt.strip_suffix(".0").unwrap_or(&tilt);
+        let what = match self.profile {
+            Profile::Lobe { exponent } => format!("Phong lobe e = {exponent}"),
+            Profile::Cap { half_angle } => format!("disc light {half_angle}°"),
+            Profile::Gaussian { sharpness } => format!("spherical Gaussian λ = {sharpness}"),
+        };
+        format!("{what}, tilt {tilt}°{}", if self.cosine { " × cos θ" } else { "" })
+    }
+
     /// The axis's angle from the normal, in degrees.
     pub fn tilt_degrees(&self) -> f64 {
         self.axis.z.clamp(-1.0, 1.0).acos().to_degrees()

@@ -19,10 +19,38 @@ pub struct Image {
 /// How an error image scales the per-pixel error norm to `[0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ErrorScale {
-    /// Divide by the largest error of the image.
+    /// Divide by the largest error of the image: shows where one image's error is, but the same
+    /// colour means different errors in different images.
     Normalised,
-    /// Divide by a fixed maximum (`--error-max`), so that images can be compared.
+    /// Divide by a fixed maximum (`--error-max`, default [`DEFAULT_ERROR_MAX`]), clamping larger
+    /// errors: the same error has the same colour in every image, so images can be compared.
     Absolute,
+}
+
+/// The error norm `‖a − b‖₂` (RGB, linear) at the top of the colour bar by default.
+///
+/// Chosen from the errors of the renders the workbench compares (256×256, `sky`, against a
+/// 3000-spp MC reference): at 40 spp — thesis Fig. 4.3 — 9.2% of MC's pixels and 5.4% of
+/// BMC's have errors above 0.25, at 80 spp 3.3% and 0.1%, at 20 spp 17% and 14%. So 0.25
+/// keeps the bulk of every such image inside the scale, where differences show, and clamps
+/// only the bright ground's worst pixels. 0.1 (about the per-channel RMSE) would clamp 30% and
+/// 24% at 40 spp and paint the whole ground plane in the top colour. A fixed default is what
+/// makes two images comparable: the same error has the same colour in both.
+pub const DEFAULT_ERROR_MAX: f64 = 0.25;
+
+/// An encoded error image and the numbers behind it, for the caller to report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ErrorImage {
+    /// The PNG: the error map with a colour bar on its right.
+    pub png: Vec<u8>,
+    /// The largest per-pixel error norm.
+    pub max_error: f64,
+    /// Its pixel `(x, y)` (the first in row order; row 0 at the top).
+    pub max_at: (usize, usize),
+    /// The error at the top of the colour bar (the image's own maximum when normalised).
+    pub scale_max: f64,
+    /// Pixels whose error exceeds `scale_max`, drawn in the top colour.
+    pub clamped: usize,
 }
 
 /// How an error image shows the scaled error.
@@ -115,29 +143,185 @@ impl Image {
             .collect()
     }
 
-    /// The error image (thesis Fig. 3.14): `e / max e` (normalised) or `e / max_error`
-    /// (absolute), clamped to `[0, 1]`, in grey or through viridis.
+    /// The error image (thesis Fig. 3.14): each pixel's error norm `e` as `e / max e`
+    /// (normalised) or `e / max_error` (absolute), clamped to `[0, 1]`, in grey or through
+    /// viridis, with a colour bar on the right labelled 0 and the top of the scale (followed by
+    /// `+` when pixels are clamped there), so that the colours can be read without the command
+    /// line that made them.
     pub fn error_png(
         &self,
         reference: &Image,
         scale: ErrorScale,
         max_error: f64,
         map: ColourMap,
-    ) -> crate::Result<Vec<u8>> {
+    ) -> crate::Result<ErrorImage> {
         let e = self.error_norms(reference);
+        let (max_i, max) = e
+            .iter()
+            .copied()
+            .enumerate()
+            .fold((0, 0.0), |best, (i, v)| if v > best.1 { (i, v) } else { best });
         let top = match scale {
-            ErrorScale::Normalised => e.iter().copied().fold(0.0, f64::max),
+            ErrorScale::Normalised => max,
             ErrorScale::Absolute => max_error,
         };
-        let buf = RgbImage::from_fn(self.width as u32, self.height as u32, |x, y| {
-            let v = e[y as usize * self.width + x as usize];
-            let t = if top > 0.0 { (v / top).clamp(0.0, 1.0) } else { 0.0 };
-            ::image::Rgb(match map {
-                ColourMap::Grey => [to_u8(t); 3],
-                ColourMap::Viridis => viridis(t),
-            })
+        let clamped = e.iter().filter(|&&v| v > top).count();
+        let colour = |t: f64| match map {
+            ColourMap::Grey => [to_u8(t); 3],
+            ColourMap::Viridis => viridis(t),
+        };
+        let mut label = short_number(top);
+        if clamped > 0 {
+            label.push('+');
+        }
+        let bar = ColourBar::new(self.height, &label);
+        let buf = RgbImage::from_fn((self.width + bar.width) as u32, self.height as u32, |x, y| {
+            let (x, y) = (x as usize, y as usize);
+            if x < self.width {
+                let v = e[y * self.width + x];
+                let t = if top > 0.0 { (v / top).clamp(0.0, 1.0) } else { 0.0 };
+                ::image::Rgb(colour(t))
+            } else {
+                ::image::Rgb(bar.pixel(x - self.width, y, &colour))
+            }
         });
-        encode_png(buf)
+        Ok(ErrorImage {
+            png: encode_png(buf)?,
+            max_error: max,
+            max_at: (max_i % self.width.max(1), max_i / self.width.max(1)),
+            scale_max: top,
+            clamped,
+        })
+    }
+}
+
+/// `v` with three significant digits and no trailing zeros (`0.1`, `0.213`, `0.0015`,
+/// `2.5e-5`): for the colour bar's label and the CLI's messages.
+pub fn short_number(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let trim = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    let magnitude = v.abs().log10().floor() as i32;
+    if (-4..6).contains(&magnitude) {
+        let decimals = (2 - magnitude).max(0) as usize;
+        trim(format!("{v:.decimals$}"))
+    } else {
+        let s = format!("{v:.2e}");
+        let (mantissa, exponent) = s.split_once('e').expect("{:e} has an exponent");
+        format!("{}e{exponent}", trim(mantissa.to_string()))
+    }
+}
+
+/// The colour bar strip right of an error image: white, with a vertical gradient from the
+/// colour of 0 (bottom) to that of 1 (top) and the labels `0` and the scale's top beside its
+/// ends, in a 5×7 bitmap font (the `image` crate draws no text).
+struct ColourBar {
+    /// Width of the whole strip in pixels.
+    width: usize,
+    height: usize,
+    /// Pixel scale of the font (each font pixel is `s × s`).
+    s: usize,
+    /// Columns of the gradient within the strip.
+    bar: std::ops::Range<usize>,
+    /// Rows of the gradient: its top row shows 1, its bottom row 0.
+    rows: std::ops::Range<usize>,
+    /// The top label; `None` if the image is too low for labels.
+    top_label: Option<String>,
+}
+
+impl ColourBar {
+    fn new(height: usize, top_label: &str) -> ColourBar {
+        // Font pixels grow with the image so the labels stay legible at a glance.
+        let s = (height / 96).clamp(1, 3);
+        let labelled = height >= 2 * (GLYPH_H * s + 2 * s) + 4;
+        let gap = 4 * s;
+        let bar = gap..gap + 10 * s;
+        let chars = top_label.chars().count().max(1);
+        let width = if labelled {
+            bar.end + 3 * s + chars * GLYPH_ADVANCE * s + 2 * s
+        } else {
+            bar.end + 2 * s
+        };
+        // The labels are centred on the ends of the gradient, so those sit half a glyph in.
+        let inset = if labelled {
+            (GLYPH_H * s).div_ceil(2) + s
+        } else {
+            0
+        };
+        ColourBar {
+            width,
+            height,
+            s,
+            bar,
+            rows: inset..height - inset,
+            top_label: labelled.then(|| top_label.to_string()),
+        }
+    }
+
+    /// The colour of strip pixel `(x, y)` given the colour map `colour` on `[0, 1]`.
+    fn pixel(&self, x: usize, y: usize, colour: &dyn Fn(f64) -> [u8; 3]) -> [u8; 3] {
+        if self.bar.contains(&x) && self.rows.contains(&y) {
+            let span = (self.rows.len() - 1).max(1) as f64;
+            return colour((self.rows.end - 1 - y) as f64 / span);
+        }
+        if let Some(top) = &self.top_label {
+            let x0 = self.bar.end + 3 * self.s;
+            let half = GLYPH_H * self.s / 2;
+            let top_y = self.rows.start.saturating_sub(half);
+            let bottom_y = (self.rows.end - 1).saturating_sub(half);
+            if glyph_pixel(top, x, y, x0, top_y, self.s) || glyph_pixel("0", x, y, x0, bottom_y, self.s) {
+                return [0, 0, 0];
+            }
+        }
+        debug_assert!(y < self.height);
+        [255, 255, 255]
+    }
+}
+
+const GLYPH_W: usize = 5;
+const GLYPH_H: usize = 7;
+const GLYPH_ADVANCE: usize = GLYPH_W + 1;
+
+/// Whether pixel `(x, y)` is ink of `text` drawn with its top-left corner at `(x0, y0)` in
+/// font pixels of `s × s`.
+fn glyph_pixel(text: &str, x: usize, y: usize, x0: usize, y0: usize, s: usize) -> bool {
+    if x < x0 || y < y0 || y >= y0 + GLYPH_H * s {
+        return false;
+    }
+    let (cx, cy) = ((x - x0) / s, (y - y0) / s);
+    let (index, col) = (cx / GLYPH_ADVANCE, cx % GLYPH_ADVANCE);
+    match text.chars().nth(index) {
+        Some(c) if col < GLYPH_W => glyph(c)[cy] >> (GLYPH_W - 1 - col) & 1 == 1,
+        _ => false,
+    }
+}
+
+/// Rows of a 5×7 glyph, most significant of the five bits on the left; unknown characters are
+/// blank (only digits, `.`, `e`, `-` and `+` are ever drawn).
+fn glyph(c: char) -> [u8; GLYPH_H] {
+    match c {
+        '0' => [0b01110, 0b10001, 0b10011, 0b10101, 0b11001, 0b10001, 0b01110],
+        '1' => [0b00100, 0b01100, 0b00100, 0b00100, 0b00100, 0b00100, 0b01110],
+        '2' => [0b01110, 0b10001, 0b00001, 0b00010, 0b00100, 0b01000, 0b11111],
+        '3' => [0b11111, 0b00010, 0b00100, 0b00010, 0b00001, 0b10001, 0b01110],
+        '4' => [0b00010, 0b00110, 0b01010, 0b10010, 0b11111, 0b00010, 0b00010],
+        '5' => [0b11111, 0b10000, 0b11110, 0b00001, 0b00001, 0b10001, 0b01110],
+        '6' => [0b00110, 0b01000, 0b10000, 0b11110, 0b10001, 0b10001, 0b01110],
+        '7' => [0b11111, 0b00001, 0b00010, 0b00100, 0b01000, 0b01000, 0b01000],
+        '8' => [0b01110, 0b10001, 0b10001, 0b01110, 0b10001, 0b10001, 0b01110],
+        '9' => [0b01110, 0b10001, 0b10001, 0b01111, 0b00001, 0b00010, 0b01100],
+        '.' => [0, 0, 0, 0, 0, 0b01100, 0b01100],
+        'e' => [0, 0, 0b01110, 0b10001, 0b11111, 0b10000, 0b01110],
+        '-' => [0, 0, 0, 0b11111, 0, 0, 0],
+        '+' => [0, 0b00100, 0b00100, 0b11111, 0b00100, 0b00100, 0],
+        _ => [0; GLYPH_H],
     }
 }
 
@@ -220,6 +404,125 @@ mod tests {
         let b = Image::read(&path, "--reference").unwrap();
         assert_eq!((b.width, b.height), (2, 1));
         assert!(a.rmse(&b) < 1e-7);
+    }
+
+    fn decode(png: &[u8]) -> RgbImage {
+        ::image::load_from_memory(png).unwrap().into_rgb8()
+    }
+
+    /// A 64×48 image whose error norm grows along x (row 0: 0 … 0.63), against black.
+    fn ramp(gain: f64) -> (Image, Image) {
+        let (w, h) = (64, 48);
+        let data = (0..w * h)
+            .map(|i| [gain * (i % w) as f64 / 100.0, 0.0, 0.0])
+            .collect();
+        (
+            Image {
+                width: w,
+                height: h,
+                data,
+            },
+            Image {
+                width: w,
+                height: h,
+                data: vec![[0.0; 3]; w * h],
+            },
+        )
+    }
+
+    #[test]
+    fn the_colour_bar_follows_the_map_and_is_labelled() {
+        let (a, b) = ramp(1.0);
+        for map in [ColourMap::Viridis, ColourMap::Grey] {
+            let e = a.error_png(&b, ErrorScale::Absolute, 0.25, map).unwrap();
+            let png = decode(&e.png);
+            assert!(png.width() as usize > a.width, "no strip");
+            assert_eq!(png.height() as usize, a.height);
+            let bar = ColourBar::new(a.height, "0.25+");
+            assert_eq!(png.width() as usize, a.width + bar.width);
+            let colour = |t: f64| match map {
+                ColourMap::Grey => [to_u8(t); 3],
+                ColourMap::Viridis => viridis(t),
+            };
+            // Every row of the gradient shows its value, 1 at the top to 0 at the bottom.
+            let x = (a.width + bar.bar.start + 1) as u32;
+            let (top, bottom) = (bar.rows.start, bar.rows.end - 1);
+            for y in top..=bottom {
+                let t = (bottom - y) as f64 / (bottom - top) as f64;
+                assert_eq!(png.get_pixel(x, y as u32).0, colour(t), "row {y}");
+            }
+            assert_eq!(png.get_pixel(x, top as u32).0, colour(1.0));
+            assert_eq!(png.get_pixel(x, bottom as u32).0, colour(0.0));
+            // Labels: black ink right of the bar, near its top and near its bottom.
+            let ink = |ys: std::ops::Range<usize>| {
+                ys.flat_map(|y| (a.width + bar.bar.end..png.width() as usize).map(move |x| (x, y)))
+                    .any(|(x, y)| png.get_pixel(x as u32, y as u32).0 == [0, 0, 0])
+            };
+            assert!(ink(0..top + 5) && ink(bottom - 4..a.height));
+            assert!(!ink(top + 10..bottom - 10), "ink between the labels");
+        }
+    }
+
+    #[test]
+    fn the_error_image_reports_its_maximum_and_what_it_clamped() {
+        let (a, b) = ramp(1.0);
+        let e = a
+            .error_png(&b, ErrorScale::Absolute, 0.25, ColourMap::Viridis)
+            .unwrap();
+        assert_eq!(e.max_at, (63, 0));
+        assert!((e.max_error - 0.63).abs() < 1e-12);
+        assert_eq!(e.scale_max, 0.25);
+        // Columns 26 … 63 (errors 0.26 … 0.63) of all 48 rows are above the scale.
+        assert_eq!(e.clamped, 38 * 48);
+        let n = a
+            .error_png(&b, ErrorScale::Normalised, 0.25, ColourMap::Viridis)
+            .unwrap();
+        assert_eq!((n.scale_max, n.clamped), (e.max_error, 0));
+    }
+
+    /// The point of the absolute default: the same error has the same colour in two images
+    /// with different largest errors — and not when each is normalised by its own maximum.
+    #[test]
+    fn a_common_scale_gives_the_same_error_the_same_colour() {
+        let (a1, b) = ramp(1.0);
+        let (a2, _) = ramp(0.5);
+        // Pixel x has error x/100 in the first image and x/200 in the second: error 0.1 is
+        // pixel 10 in one and pixel 20 in the other.
+        let colour_at = |img: &Image, x: u32, scale| {
+            let e = img
+                .error_png(&b, scale, DEFAULT_ERROR_MAX, ColourMap::Viridis)
+                .unwrap();
+            decode(&e.png).get_pixel(x, 5).0
+        };
+        assert_eq!(
+            colour_at(&a1, 10, ErrorScale::Absolute),
+            colour_at(&a2, 20, ErrorScale::Absolute)
+        );
+        assert_eq!(
+            colour_at(&a1, 10, ErrorScale::Absolute),
+            viridis(0.1 / DEFAULT_ERROR_MAX)
+        );
+        assert_ne!(
+            colour_at(&a1, 10, ErrorScale::Normalised),
+            colour_at(&a2, 20, ErrorScale::Normalised)
+        );
+    }
+
+    #[test]
+    fn short_numbers() {
+        let cases = [
+            (0.1, "0.1"),
+            (0.25, "0.25"),
+            (0.2134, "0.213"),
+            (0.0015, "0.0015"),
+            (1.67, "1.67"),
+            (12.0, "12"),
+            (2.5e-5, "2.5e-5"),
+            (0.0, "0"),
+        ];
+        for (v, s) in cases {
+            assert_eq!(short_number(v), s, "{v}");
+        }
     }
 
     #[test]

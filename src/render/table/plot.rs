@@ -1,129 +1,222 @@
-//! `rmse_vs_spp.svg`: mean RMSE against spp, log–log, one line per variant with its intervals.
+//! `rmse_vs_spp.svg`: mean RMSE against spp, log–log, one line per variant (distinct colour and
+//! marker) with its 95% intervals as bars, a dashed spp^(−1/2) guide through MC, and a legend
+//! below the chart that says what the bars and the reference are.
 
 use super::plan::TablePlan;
 use super::summary::Cell;
+use crate::estimator::Method;
+use crate::plot_style::{self as style, LegendEntry, Swatch};
+use crate::render::integrator::IntegratorKind;
+use plotters::prelude::*;
+
+/// Height of the chart (axes and plotting area), between the title block and the legend.
+const CHART_HEIGHT: u32 = 500;
+const Y_LABEL_AREA: u32 = 84;
+const MARGIN_LEFT: u32 = 16;
+const MARGIN_RIGHT: u32 = 28;
 
 /// Mean RMSE against spp, log–log, one line per variant, with the 95% intervals as bars.
 pub fn plot_svg(plan: &TablePlan, cells: &[Cell]) -> crate::Result<String> {
     draw(plan, cells).map_err(|e| crate::Error::Encode(format!("drawing the RMSE plot: {e}")))
 }
 
+/// The variant the spp^(−1/2) guide goes through: uniform MC, else any MC variant.
+fn guide_variant(plan: &TablePlan) -> Option<usize> {
+    plan.variants
+        .iter()
+        .position(|v| v.kind == IntegratorKind::MC)
+        .or_else(|| plan.variants.iter().position(|v| v.kind.method == Method::Mc))
+}
+
+/// The factor each variant's spp is drawn at: 1 ± k·step around the middle, the step 2%, less
+/// with many variants so that the spread stays within ±6%.
+fn dodge_factors(variants: usize) -> Vec<f64> {
+    let step = 0.02f64.min(0.12 / variants.max(1) as f64);
+    let middle = (variants as f64 - 1.0) / 2.0;
+    (0..variants).map(|v| 1.0 + step * (v as f64 - middle)).collect()
+}
+
+/// The caption's second line: what the RMSE is measured against.
+pub fn reference_caption(plan: &TablePlan) -> String {
+    format!(
+        "{}×{} renders against a reference rendered with uniform MC at {} spp (its own noise is in every RMSE)",
+        plan.width, plan.height, plan.reference.spp
+    )
+}
+
 fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::Error>> {
-    use plotters::coord::combinators::BindKeyPoints;
-    use plotters::prelude::*;
+    let finite_interval = |c: &Cell| c.half_width.is_finite() && c.mean - c.half_width > 0.0;
+    let ok = |y: f64| y.is_finite() && y > 0.0;
+    let per_variant: Vec<Vec<&Cell>> = (0..plan.variants.len())
+        .map(|v| {
+            let mut s: Vec<&Cell> = cells.iter().filter(|c| c.variant == v).collect();
+            s.sort_by_key(|c| c.spp);
+            s
+        })
+        .collect();
+    let x_min = *plan.spp.iter().min().expect("spp") as f64;
+    let x_max = *plan.spp.iter().max().expect("spp") as f64;
+    let dodge = dodge_factors(plan.variants.len());
+    // Drawn at the MC variant's shifted spp, so that it starts on MC's first point.
+    let guide = guide_variant(plan).and_then(|v| {
+        let c = per_variant[v].iter().find(|c| ok(c.mean))?;
+        let a = c.mean * (c.spp as f64).sqrt();
+        let d = dodge[v];
+        Some((
+            v,
+            vec![(x_min * d, a / x_min.sqrt()), (x_max * d, a / x_max.sqrt())],
+        ))
+    });
+    let drawn: Vec<f64> = cells
+        .iter()
+        .flat_map(|c| {
+            let mut v = vec![c.mean];
+            if finite_interval(c) {
+                v.extend([c.mean - c.half_width, c.mean + c.half_width]);
+            }
+            v
+        })
+        .filter(|&y| ok(y))
+        .chain(guide.iter().flat_map(|g| g.1.iter().map(|p| p.1)))
+        .collect();
+    let (lo, hi) = if drawn.is_empty() {
+        (1e-3, 1.0)
+    } else {
+        (
+            drawn.iter().copied().fold(f64::INFINITY, f64::min),
+            drawn.iter().copied().fold(0.0, f64::max),
+        )
+    };
+    let (y0, y1) = if lo < hi {
+        (lo / 1.12, hi * 1.12)
+    } else {
+        (lo / 2.0, hi * 2.0)
+    };
+    let (x0, x1) = if x_min < x_max {
+        (x_min / 1.12, x_max * 1.12)
+    } else {
+        (x_min / 2.0, x_max * 2.0)
+    };
+    let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
+    let x_ticks = style::count_ticks(&plan.spp, x0, x1, plot_px);
+    let y_ticks = style::log_ticks(y0, y1);
+    let decimal = style::decimal_axis(y0, y1);
+
+    let mut legend: Vec<LegendEntry> = plan
+        .variants
+        .iter()
+        .enumerate()
+        .map(|(v, variant)| LegendEntry {
+            swatch: Swatch::Series(v),
+            text: variant.label.clone(),
+            wide: false,
+        })
+        .collect();
+    if let Some((v, _)) = &guide {
+        legend.push(LegendEntry {
+            swatch: Swatch::Guide,
+            text: format!("∝ spp^(−1/2) through {}", plan.variants[*v].label),
+            wide: false,
+        });
+    }
+    let repetitions = plan
+        .spp
+        .iter()
+        .zip(&plan.repetitions)
+        .map(|(s, r)| format!("{r} at {s}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    legend.push(LegendEntry {
+        swatch: Swatch::Bar,
+        text: format!(
+            "points: mean RMSE; bars: its 95% Student-t interval over the repetitions ({repetitions} spp); variants set side by side (spp × 1 ± {:.0}% at most) so that none hides another",
+            100.0 * dodge_factors(plan.variants.len()).last().map_or(0.0, |d| d - 1.0)
+        ),
+        wide: true,
+    });
+
+    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (820, 560)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
         root.fill(&WHITE)?;
-        let lo = |c: &Cell| {
-            if c.half_width.is_finite() {
-                c.mean - c.half_width
-            } else {
-                c.mean
-            }
-        };
-        let hi = |c: &Cell| {
-            if c.half_width.is_finite() {
-                c.mean + c.half_width
-            } else {
-                c.mean
-            }
-        };
-        let y_min = cells
-            .iter()
-            .map(lo)
-            .filter(|y| *y > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        let y_max = cells.iter().map(hi).fold(0.0, f64::max);
-        let x_min = *plan.spp.iter().min().expect("spp") as f64;
-        let x_max = *plan.spp.iter().max().expect("spp") as f64;
-        let (x0, x1) = if x_min < x_max {
-            (x_min / 1.1, x_max * 1.1)
-        } else {
-            (x_min / 2.0, x_max * 2.0)
-        };
-        let (y0, y1) = if y_min < y_max {
-            (y_min / 1.1, y_max * 1.1)
-        } else {
-            (y_min / 2.0, y_max.max(1e-12) * 2.0)
-        };
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!(
-                    "{}: RMSE against an MC {}-spp reference ({}×{})",
-                    plan.name, plan.reference.spp, plan.width, plan.height
-                ),
-                ("sans-serif", 20),
-            )
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(80)
+        let (header, rest) = root.split_vertically(style::HEADER_HEIGHT);
+        let (chart_area, legend_area) = rest.split_vertically(CHART_HEIGHT);
+        style::draw_header(
+            &header,
+            &format!("{}: mean RMSE against samples per pixel", plan.name),
+            &reference_caption(plan),
+        )?;
+        let mut chart = ChartBuilder::on(&chart_area)
+            .margin_left(MARGIN_LEFT)
+            .margin_right(MARGIN_RIGHT)
+            .margin_top(8)
+            .x_label_area_size(52)
+            .y_label_area_size(Y_LABEL_AREA)
             .build_cartesian_2d(
-                (x0..x1)
-                    .log_scale()
-                    .with_key_points(plan.spp.iter().map(|&s| s as f64).collect()),
-                (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
+                (y0..y1).log_scale().with_key_points(y_ticks.labelled.clone()),
             )?;
         chart
             .configure_mesh()
             .x_desc("samples per pixel (spp)")
-            .y_desc("RMSE")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.3}"))
-            .light_line_style(WHITE)
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
+            .y_desc("RMSE against the reference (linear RGB)")
+            .x_label_formatter(&|x| style::format_count(*x))
+            .y_label_formatter(&|y| style::format_tick(*y, decimal))
+            .axis_desc_style((style::FONT, style::AXIS_FONT))
+            .label_style((style::FONT, style::TICK_FONT))
+            .bold_line_style(BLACK.mix(0.08))
+            .light_line_style(TRANSPARENT)
+            .set_all_tick_mark_size(6)
             .draw()?;
-        for (v, variant) in plan.variants.iter().enumerate() {
-            let colour = PALETTE[v % PALETTE.len()].to_rgba();
-            let mine: Vec<&Cell> = cells.iter().filter(|c| c.variant == v).collect();
-            let points: Vec<(f64, f64)> = mine.iter().map(|c| (c.spp as f64, c.mean)).collect();
-            chart
-                .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?
-                .label(variant.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
-            chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
-            chart.draw_series(mine.iter().filter(|c| c.half_width.is_finite()).map(|c| {
-                // Bars side by side: a small per-variant offset in log x.
-                let x = c.spp as f64 * (1.0 + 0.008 * (v as f64 - (plan.variants.len() - 1) as f64 / 2.0));
-                PathElement::new(vec![(x, lo(c)), (x, hi(c))], colour.stroke_width(2))
+        let plot = chart.plotting_area().get_pixel_range();
+        let xs: Vec<i32> = x_ticks
+            .minor
+            .iter()
+            .map(|&x| chart.backend_coord(&(x, y0)).0)
+            .collect();
+        let ys: Vec<i32> = y_ticks
+            .minor
+            .iter()
+            .map(|&y| chart.backend_coord(&(x0, y)).1)
+            .collect();
+        style::draw_minor_ticks(&root, &plot, &xs, &ys)?;
+
+        if let Some((_, line)) = &guide {
+            chart.draw_series(DashedLineSeries::new(
+                line.clone(),
+                8,
+                5,
+                style::GUIDE.stroke_width(2),
+            ))?;
+        }
+        // Variants are set side by side — points, lines and bars shifted by a small factor in
+        // spp — so that variants with equal RMSE (BMC and BMCP with the same sets) do not hide
+        // each other's markers and intervals. The shift is at most ±6% and said in the legend.
+        for (v, mine) in per_variant.iter().enumerate() {
+            let colour = style::colour(v);
+            chart.draw_series(mine.iter().filter(|c| finite_interval(c)).map(|c| {
+                let x = c.spp as f64 * dodge[v];
+                PathElement::new(
+                    vec![(x, c.mean - c.half_width), (x, c.mean + c.half_width)],
+                    colour.stroke_width(2),
+                )
             }))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()?;
+        for (v, mine) in per_variant.iter().enumerate() {
+            let colour = style::colour(v);
+            let points: Vec<(f64, f64)> = mine
+                .iter()
+                .filter(|c| ok(c.mean))
+                .map(|c| (c.spp as f64 * dodge[v], c.mean))
+                .collect();
+            chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?;
+            for p in &points {
+                style::draw_marker(&root, v, chart.backend_coord(p), colour)?;
+            }
+        }
+        style::draw_legend(&legend_area, &legend)?;
         root.present()?;
     }
     Ok(svg)
-}
-
-/// Distinguishable line colours (Okabe–Ito, without the yellow that is unreadable on white).
-const PALETTE: [plotters::style::RGBColor; 7] = [
-    plotters::style::RGBColor(0, 0, 0),
-    plotters::style::RGBColor(230, 159, 0),
-    plotters::style::RGBColor(86, 180, 233),
-    plotters::style::RGBColor(0, 158, 115),
-    plotters::style::RGBColor(0, 114, 178),
-    plotters::style::RGBColor(213, 94, 0),
-    plotters::style::RGBColor(204, 121, 167),
-];
-
-/// Tick values `m·10^k`, `m ∈ {1, 1.5, 2, 3, 4, 5, 6, 8}`, inside `[lo, hi]` (`0 < lo < hi`).
-fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let mut ticks = Vec::new();
-    let mut decade = 10f64.powf(lo.log10().floor());
-    while decade <= hi {
-        for m in [1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0] {
-            let t = m * decade;
-            if t >= lo && t <= hi {
-                ticks.push(t);
-            }
-        }
-        decade *= 10.0;
-    }
-    ticks
 }

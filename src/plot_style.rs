@@ -1,0 +1,549 @@
+//! The look shared by the workbench's SVG plots (`run`'s error plots and the render table's RMSE
+//! plot): colours, markers, log-axis ticks that do not crowd, a title block and a legend drawn
+//! below the chart, where it cannot cover data.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// Width of every plot in pixels.
+pub const WIDTH: u32 = 960;
+/// Height of the title block (title and one line of subtitle).
+pub const HEADER_HEIGHT: u32 = 62;
+/// Font size of tick labels (plotters' sizes are points: an SVG text of `size / 1.24` px).
+pub const TICK_FONT: u32 = 17;
+/// Font size of axis descriptions.
+pub const AXIS_FONT: u32 = 19;
+/// Font size of the legend.
+pub const LEGEND_FONT: u32 = 18;
+/// Font family (DejaVu Sans or whatever the viewer maps `sans-serif` to).
+pub const FONT: &str = "sans-serif";
+/// The colour of reference lines (guides) and of generic legend samples.
+pub const GUIDE: RGBColor = RGBColor(90, 90, 90);
+
+/// Okabe–Ito colours, distinguishable with colour-vision deficiencies (their yellow, unreadable
+/// on white, left out), in the order series get them.
+pub const PALETTE: [RGBColor; 7] = [
+    RGBColor(213, 94, 0),
+    RGBColor(0, 114, 178),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+];
+
+/// The colour of series `i`.
+pub fn colour(i: usize) -> RGBColor {
+    PALETTE[i % PALETTE.len()]
+}
+
+/// Number of distinct marker shapes; series `i` and `i + MARKERS` share one (their colours
+/// differ unless there are more than 7 × 7 series).
+pub const MARKERS: usize = 7;
+
+/// Draws the marker of series `i` centred on pixel `at` of `area`: filled circle, filled
+/// triangle, ×, open circle, filled square, filled diamond, open square. Shapes differ as well
+/// as colours, so series stay apart in grey print and where colours blend. (Drawn in pixels
+/// on a plain drawing area, so that a chart's points, mapped with `backend_coord`, and the
+/// legend share it.)
+pub fn draw_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    i: usize,
+    at: (i32, i32),
+    colour: RGBColor,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (x, y) = at;
+    let fill = colour.filled();
+    let stroke = colour.stroke_width(2);
+    // Open shapes get a white inside so that a band or line behind them does not show through.
+    let white = WHITE.filled();
+    match i % MARKERS {
+        0 => area.draw(&Circle::new(at, 4, fill)),
+        1 => area.draw(&TriangleMarker::new(at, 6, fill)),
+        2 => area.draw(&Cross::new(at, 4, stroke)),
+        3 => {
+            area.draw(&Circle::new(at, 4, white))?;
+            area.draw(&Circle::new(at, 4, stroke))
+        }
+        4 => area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], fill)),
+        5 => area.draw(&Polygon::new(
+            vec![(x, y - 6), (x + 5, y), (x, y + 6), (x - 5, y)],
+            fill,
+        )),
+        _ => {
+            area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], white))?;
+            area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], stroke))
+        }
+    }
+}
+
+/// The tick values of one axis: labelled ones (with tick marks and grid lines) and unlabelled
+/// minor ones (short tick marks only).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Ticks {
+    /// Values with a label, a tick mark and a faint grid line.
+    pub labelled: Vec<f64>,
+    /// Values with a short tick mark only.
+    pub minor: Vec<f64>,
+}
+
+/// `m·10^k` as the nearest `f64` (so that `0.02` prints as `0.02`, not `0.020000000000000004`).
+fn decade_multiple(m: u32, k: i32) -> f64 {
+    format!("{m}e{k}").parse().expect("a number")
+}
+
+/// Ticks of a logarithmic error axis over `[lo, hi]` (`0 < lo < hi`): the decades are labelled
+/// and 2…9 × 10^k are minor ticks. When fewer than two decades fall inside the range, 2 and 5 ×
+/// 10^k are labelled too, and if that still gives fewer than two labels, every m × 10^k.
+pub fn log_ticks(lo: f64, hi: f64) -> Ticks {
+    let all: Vec<(u32, f64)> = {
+        let mut v = Vec::new();
+        for k in lo.log10().floor() as i32..=hi.log10().ceil() as i32 {
+            for m in 1u32..=9 {
+                let t = decade_multiple(m, k);
+                if t >= lo && t <= hi {
+                    v.push((m, t));
+                }
+            }
+        }
+        v
+    };
+    let pick = |labelled: &[u32]| -> Ticks {
+        let values = |keep: bool| {
+            all.iter()
+                .filter(|(m, _)| labelled.contains(m) == keep)
+                .map(|p| p.1)
+                .collect()
+        };
+        Ticks {
+            labelled: values(true),
+            minor: values(false),
+        }
+    };
+    for labelled in [&[1][..], &[1, 2, 5], &[1, 2, 3, 4, 5, 6, 7, 8, 9]] {
+        let t = pick(labelled);
+        if t.labelled.len() >= 2 {
+            return t;
+        }
+    }
+    pick(&[1, 2, 3, 4, 5, 6, 7, 8, 9])
+}
+
+/// Whether an axis over `[lo, hi]` reads better in decimals (`0.05`) than in `1e-2` notation:
+/// when it spans less than three decades of moderate numbers.
+pub fn decimal_axis(lo: f64, hi: f64) -> bool {
+    lo >= 1e-3 && hi < 1e4 && hi / lo < 1e3
+}
+
+/// A tick label: the shortest decimal when `decimal`, else `1e-2`, `5e-3`, … (one significant
+/// digit is all a log tick at `m·10^k` has).
+pub fn format_tick(v: f64, decimal: bool) -> String {
+    // Both forms are Rust's shortest round-trip ones: `0.05`, `1e-2`, `2.5e-3`.
+    if decimal { format!("{v}") } else { format!("{v:e}") }
+}
+
+/// Pixels per em of a plotters font size (plotters writes `size / 1.24` into the SVG).
+fn em(font: u32) -> f64 {
+    font as f64 / 1.24
+}
+
+/// Estimated width in pixels of a number drawn at `font` (DejaVu Sans, the usual `sans-serif`,
+/// has digits 0.64 em wide).
+pub fn text_width(text: &str, font: u32) -> f64 {
+    text.chars().count() as f64 * 0.64 * em(font)
+}
+
+/// Ticks of a logarithmic count axis (N, spp) over `[lo, hi]` drawn `px` pixels wide: the
+/// `grid` values — all powers of two between its ends when the grid is made of powers of two —
+/// labelled with every s-th value for the smallest step s at which no two labels come closer than
+/// 12 px, the rest as minor ticks.
+pub fn count_ticks(grid: &[usize], lo: f64, hi: f64, px: f64) -> Ticks {
+    let mut g: Vec<usize> = grid.to_vec();
+    g.sort_unstable();
+    g.dedup();
+    let candidates: Vec<f64> = match (g.first(), g.last()) {
+        (Some(&a), Some(&b)) if g.iter().all(|n| n.is_power_of_two()) => {
+            let (ka, kb) = (a.trailing_zeros(), b.trailing_zeros());
+            (ka..=kb).map(|k| (1u64 << k) as f64).collect()
+        }
+        _ => g.iter().map(|&n| n as f64).collect(),
+    };
+    let pos = |v: f64| (v.ln() - lo.ln()) / (hi.ln() - lo.ln()) * px;
+    let width = |v: f64| text_width(&format_count(v), TICK_FONT);
+    for step in 1..=candidates.len().max(1) {
+        let chosen: Vec<f64> = candidates.iter().copied().step_by(step).collect();
+        let fits = chosen
+            .windows(2)
+            .all(|w| pos(w[1]) - pos(w[0]) >= 0.5 * (width(w[0]) + width(w[1])) + 12.0);
+        if fits {
+            let minor = candidates
+                .iter()
+                .copied()
+                .filter(|c| !chosen.contains(c))
+                .collect();
+            return Ticks {
+                labelled: chosen,
+                minor,
+            };
+        }
+    }
+    Ticks::default()
+}
+
+/// A count-axis label: the integer.
+pub fn format_count(v: f64) -> String {
+    format!("{}", v.round())
+}
+
+/// Draws short unlabelled tick marks outside the plotting area `plot` (its pixel ranges, as
+/// from `ChartContext::plotting_area().get_pixel_range()`): at pixel columns `xs` under the x
+/// axis and pixel rows `ys` left of the y axis.
+pub fn draw_minor_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &(std::ops::Range<i32>, std::ops::Range<i32>),
+    xs: &[i32],
+    ys: &[i32],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let style = BLACK.mix(0.7).stroke_width(1);
+    let (xr, yr) = plot;
+    for &x in xs.iter().filter(|x| xr.contains(x)) {
+        root.draw(&PathElement::new(vec![(x, yr.end), (x, yr.end + 3)], style))?;
+    }
+    for &y in ys.iter().filter(|y| yr.contains(y)) {
+        root.draw(&PathElement::new(vec![(xr.start - 3, y), (xr.start, y)], style))?;
+    }
+    Ok(())
+}
+
+/// Draws the title and a subtitle, centred, in the top `HEADER_HEIGHT` pixels of `area`.
+pub fn draw_header<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    subtitle: &str,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let centre = (WIDTH / 2) as i32;
+    let top = Pos::new(HPos::Center, VPos::Top);
+    area.draw(&Text::new(
+        title.to_string(),
+        (centre, 10),
+        (FONT, 25).into_font().color(&BLACK).pos(top),
+    ))?;
+    area.draw(&Text::new(
+        subtitle.to_string(),
+        (centre, 38),
+        (FONT, 18).into_font().color(&RGBColor(70, 70, 70)).pos(top),
+    ))?;
+    Ok(())
+}
+
+/// The sample drawn before a legend entry's text.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Swatch {
+    /// Series `i`: a line in [`colour`]`(i)` with [`draw_marker`]'s shape `i`.
+    Series(usize),
+    /// A dashed grey reference line.
+    Guide,
+    /// A light grey band with dashed edges (what a quantile band is).
+    Band,
+    /// A vertical grey bar with caps (what an interval bar is).
+    Bar,
+    /// No sample: a line of explanation.
+    Text,
+}
+
+/// One legend entry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LegendEntry {
+    /// The sample drawn before the text.
+    pub swatch: Swatch,
+    /// The text (wide entries are wrapped at words).
+    pub text: String,
+    /// Takes a whole row (explanations) rather than a column.
+    pub wide: bool,
+}
+
+const SWATCH_WIDTH: i32 = 34;
+const ROW_HEIGHT: u32 = 24;
+const LEGEND_PAD: u32 = 10;
+
+/// Columns for the narrow entries: as many as fit in the width, at most 3.
+fn legend_columns(entries: &[LegendEntry]) -> usize {
+    let widest = entries
+        .iter()
+        .filter(|e| !e.wide)
+        .map(|e| SWATCH_WIDTH as f64 + 8.0 + legend_text_width(&e.text))
+        .fold(0.0, f64::max);
+    let usable = (WIDTH - 2 * LEGEND_PAD) as f64;
+    ((usable / (widest + 24.0)).floor() as usize).clamp(1, 3)
+}
+
+fn legend_rows(entries: &[LegendEntry]) -> (usize, usize) {
+    let narrow = entries.iter().filter(|e| !e.wide).count();
+    let columns = legend_columns(entries);
+    (narrow.div_ceil(columns), columns)
+}
+
+/// Estimated width in pixels of legend text (DejaVu Sans letters, spaces and digits average
+/// ~0.55 em; a little over, so that estimated lines never run past the frame).
+fn legend_text_width(text: &str) -> f64 {
+    text.chars().count() as f64 * 0.55 * em(LEGEND_FONT)
+}
+
+/// The lines of a wide entry: words wrapped so that no line is estimated wider than the legend.
+fn wrap(entry: &LegendEntry) -> Vec<String> {
+    let indent = if entry.swatch == Swatch::Text {
+        0
+    } else {
+        SWATCH_WIDTH + 8
+    };
+    let max = (WIDTH - 2 * LEGEND_PAD) as f64 - 24.0 - indent as f64;
+    let mut lines: Vec<String> = Vec::new();
+    for word in entry.text.split(' ') {
+        match lines.last_mut() {
+            Some(line) if legend_text_width(&format!("{line} {word}")) <= max => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
+/// Height in pixels of the legend block for `entries`.
+pub fn legend_height(entries: &[LegendEntry]) -> u32 {
+    let (rows, _) = legend_rows(entries);
+    let wide: usize = entries.iter().filter(|e| e.wide).map(|e| wrap(e).len()).sum();
+    (rows + wide) as u32 * ROW_HEIGHT + 2 * LEGEND_PAD
+}
+
+/// Draws the legend block (below the chart, framed): the narrow entries in columns, row by
+/// row, then each wide entry on its own row.
+pub fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (_, columns) = legend_rows(entries);
+    let height = legend_height(entries) as i32;
+    let left = 16;
+    area.draw(&Rectangle::new(
+        [(left - 6, 2), (WIDTH as i32 - 10, height - 4)],
+        BLACK.mix(0.35).stroke_width(1),
+    ))?;
+    let column_width = (WIDTH as i32 - 2 * left) / columns as i32;
+    let font = (FONT, LEGEND_FONT)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let mut row: i32 = 0;
+    let mut col = 0;
+    // Where the next entry goes; a wide entry takes `lines` whole rows.
+    let mut place = |wide: bool, lines: usize| {
+        let at = if wide {
+            if col > 0 {
+                row += 1;
+                col = 0;
+            }
+            let at = (left, row);
+            row += lines as i32;
+            at
+        } else {
+            let at = (left + col as i32 * column_width, row);
+            col += 1;
+            if col == columns {
+                col = 0;
+                row += 1;
+            }
+            at
+        };
+        (
+            at.0,
+            LEGEND_PAD as i32 + at.1 * ROW_HEIGHT as i32 + ROW_HEIGHT as i32 / 2,
+        )
+    };
+    // Narrow entries first, then the wide ones, whatever order they were given in.
+    let ordered = entries
+        .iter()
+        .filter(|e| !e.wide)
+        .chain(entries.iter().filter(|e| e.wide));
+    for e in ordered {
+        let lines = if e.wide { wrap(e) } else { vec![e.text.clone()] };
+        let (x, y) = place(e.wide, lines.len());
+        draw_swatch(area, e.swatch, x, y)?;
+        let text_x = if e.swatch == Swatch::Text {
+            x
+        } else {
+            x + SWATCH_WIDTH + 8
+        };
+        for (k, line) in lines.into_iter().enumerate() {
+            let line_y = y + k as i32 * ROW_HEIGHT as i32;
+            area.draw(&Text::new(line, (text_x, line_y), font.clone()))?;
+        }
+    }
+    Ok(())
+}
+
+fn draw_swatch<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    swatch: Swatch,
+    x: i32,
+    y: i32,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let w = SWATCH_WIDTH;
+    match swatch {
+        Swatch::Series(i) => {
+            let c = colour(i);
+            area.draw(&PathElement::new(vec![(x, y), (x + w, y)], c.stroke_width(2)))?;
+            draw_marker(area, i, (x + w / 2, y), c)?;
+        }
+        Swatch::Guide => dashed(area, x, x + w, y, GUIDE.stroke_width(2))?,
+        Swatch::Band => {
+            area.draw(&Rectangle::new(
+                [(x, y - 7), (x + w, y + 7)],
+                GUIDE.mix(0.15).filled(),
+            ))?;
+            dashed(area, x, x + w, y - 7, GUIDE.stroke_width(1))?;
+            dashed(area, x, x + w, y + 7, GUIDE.stroke_width(1))?;
+        }
+        Swatch::Bar => {
+            let m = x + w / 2;
+            let s = GUIDE.stroke_width(2);
+            area.draw(&PathElement::new(vec![(m, y - 8), (m, y + 8)], s))?;
+            area.draw(&PathElement::new(vec![(m - 4, y - 8), (m + 4, y - 8)], s))?;
+            area.draw(&PathElement::new(vec![(m - 4, y + 8), (m + 4, y + 8)], s))?;
+        }
+        Swatch::Text => {}
+    }
+    Ok(())
+}
+
+/// A horizontal dashed line from `x0` to `x1` at `y`, dashes of 6 px with gaps of 4 px.
+fn dashed<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    x0: i32,
+    x1: i32,
+    y: i32,
+    style: ShapeStyle,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut x = x0;
+    while x < x1 {
+        area.draw(&PathElement::new(vec![(x, y), ((x + 6).min(x1), y)], style))?;
+        x += 10;
+    }
+    Ok(())
+}
+
+/// `x` with `decimals` decimals and a typographic minus sign (−1.52); never a negative zero.
+pub fn signed(x: f64, decimals: usize) -> String {
+    let s = format!("{x:.decimals$}");
+    // "-0.00" would read as a negative zero.
+    let s = if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    };
+    s.replace('-', "−")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn error_axes_label_decades_and_keep_the_rest_minor() {
+        let t = log_ticks(3e-5, 2.0);
+        assert_eq!(t.labelled, [1e-4, 1e-3, 1e-2, 1e-1, 1.0]);
+        assert!(t.minor.contains(&5e-5) && t.minor.contains(&2.0) && !t.minor.contains(&1e-3));
+        assert_eq!(format_tick(1e-3, false), "1e-3");
+        // Less than two decades: 2 and 5 join in, in decimals.
+        let t = log_ticks(0.018, 0.13);
+        assert_eq!(t.labelled, [0.02, 0.05, 0.1]);
+        assert!(decimal_axis(0.018, 0.13) && !decimal_axis(3e-5, 2.0));
+        assert_eq!(format_tick(0.02, true), "0.02");
+        // Narrower still: every multiple.
+        assert_eq!(log_ticks(0.031, 0.048).labelled, [0.04]);
+        assert_eq!(log_ticks(0.029, 0.048).labelled, [0.03, 0.04]);
+    }
+
+    /// 4 … 16384 at the experiment plot's width: every power of two, with room between labels;
+    /// 1 … 10⁷ must be thinned.
+    #[test]
+    fn count_axes_do_not_crowd() {
+        let grid: Vec<usize> = (2..=14).map(|k| 1 << k).collect();
+        let px = 820.0;
+        let (lo, hi) = (4.0 / 1.2, 16384.0 * 1.2);
+        let t = count_ticks(&grid, lo, hi, px);
+        assert_eq!(t.labelled.len(), 13);
+        let wide: Vec<usize> = [1, 10, 100, 1000, 10_000, 100_000, 1_000_000, 10_000_000].to_vec();
+        let all_pow2: Vec<usize> = (0..=23).map(|k| 1 << k).collect();
+        for g in [&wide, &all_pow2] {
+            let (lo, hi) = (g[0] as f64 / 1.2, *g.last().unwrap() as f64 * 1.2);
+            let t = count_ticks(g, lo, hi, px);
+            assert!(t.labelled.len() >= 4, "{t:?}");
+            let pos = |v: f64| (v.ln() - lo.ln()) / (hi.ln() - lo.ln()) * px;
+            for w in t.labelled.windows(2) {
+                let need = 0.5
+                    * (text_width(&format_count(w[0]), TICK_FONT)
+                        + text_width(&format_count(w[1]), TICK_FONT));
+                assert!(pos(w[1]) - pos(w[0]) > need, "{w:?} overlap");
+            }
+        }
+        // A grid of non-powers of two is labelled at its own values.
+        let t = count_ticks(&[20, 40, 60, 80], 18.0, 88.0, px);
+        assert_eq!(t.labelled, [20.0, 40.0, 60.0, 80.0]);
+    }
+
+    /// Every marker draws a different shape: the SVG of each, in one colour, differs.
+    #[test]
+    fn markers_are_distinct() {
+        let shapes: Vec<String> = (0..MARKERS)
+            .map(|i| {
+                let mut svg = String::new();
+                {
+                    let area = SVGBackend::with_string(&mut svg, (20, 20)).into_drawing_area();
+                    draw_marker(&area, i, (10, 10), BLACK).unwrap();
+                    area.present().unwrap();
+                }
+                svg
+            })
+            .collect();
+        for i in 0..MARKERS {
+            for j in 0..i {
+                assert_ne!(shapes[i], shapes[j], "markers {i} and {j}");
+            }
+        }
+    }
+
+    #[test]
+    fn wide_legend_entries_wrap_and_take_their_rows() {
+        let long = LegendEntry {
+            swatch: Swatch::Text,
+            text: "word ".repeat(80).trim().to_string(),
+            wide: true,
+        };
+        let lines = wrap(&long);
+        assert!(lines.len() >= 2);
+        assert!(
+            lines
+                .iter()
+                .all(|l| legend_text_width(l) <= (WIDTH - 2 * LEGEND_PAD) as f64)
+        );
+        let one = legend_height(std::slice::from_ref(&long));
+        let short = LegendEntry {
+            text: "short".into(),
+            ..long
+        };
+        assert_eq!(
+            one - legend_height(&[short]),
+            (lines.len() as u32 - 1) * ROW_HEIGHT
+        );
+    }
+
+    #[test]
+    fn slopes_print_with_a_real_minus() {
+        assert_eq!(signed(-1.524, 2), "−1.52");
+        assert_eq!(signed(0.5, 2), "0.50");
+        assert_eq!(signed(-0.001, 2), "0.00");
+    }
+}
