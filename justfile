@@ -11,6 +11,8 @@ figures:
     cargo run --release -- run experiments/cos3.json -q
     cargo run --release -- run experiments/cos3-thesis-kernel-mean.json -q
     cargo run --release -- run experiments/cos3-designs.json -q
+    cargo run --release -- run experiments/glossy.json -q
+    cargo run --release -- run experiments/lights.json -q
     cargo run --release -- render experiments/render-table.json -q
 
 # The default test suite (what CI runs).

@@ -48,8 +48,9 @@ pub fn format_report(plan: &plan::Plan, report: &RunReport) -> String {
     let mut s = String::new();
     for (fi, f) in plan.integrands.iter().enumerate() {
         s += &format!(
-            "\n{} — ∫ {} dω = {:.10}; mean |Î − I| over {} trials [95% CI half-width]\n",
+            "\n{} — {} ({}): ∫ f dω = {:.10}; mean |Î − I| over {} trials [95% CI half-width]\n",
             plan.title,
+            f.display_name(),
             f.name(),
             f.integral(),
             plan.trials
