@@ -93,6 +93,22 @@ fn decade_multiple(m: u32, k: i32) -> f64 {
     format!("{m}e{k}").parse().expect("a number")
 }
 
+/// A log axis's range around the values drawn: `[min / pad, max · pad]`, or `pad²` either side
+/// when all values are equal, or the decade range `[1e-3, 1]` when nothing is drawn (a plot of
+/// exact series; its legend says why).
+pub fn padded_log_range(values: &[f64], pad: f64) -> (f64, f64) {
+    if values.is_empty() {
+        return (1e-3, 1.0);
+    }
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().copied().fold(0.0, f64::max);
+    if lo < hi {
+        (lo / pad, hi * pad)
+    } else {
+        (lo / (pad * pad), hi * pad * pad)
+    }
+}
+
 /// Ticks of a logarithmic error axis over `[lo, hi]` (`0 < lo < hi`): the decades are labelled
 /// and 2…9 × 10^k are minor ticks. When fewer than two decades fall inside the range, 2 and 5 ×
 /// 10^k are labelled too, and if that still gives fewer than two labels, every m × 10^k.

@@ -129,25 +129,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
         .filter(|&e| ok(e))
         .chain(guide.iter().flat_map(|g| g.1.iter().map(|p| p.1)))
         .collect();
-    let (lo, hi) = if drawn.is_empty() {
-        // Nothing but exact series: an empty decade range; the legend says why.
-        (1e-3, 1.0)
-    } else {
-        (
-            drawn.iter().copied().fold(f64::INFINITY, f64::min),
-            drawn.iter().copied().fold(0.0, f64::max),
-        )
-    };
-    let (y0, y1) = if lo < hi {
-        (lo / 1.5, hi * 1.5)
-    } else {
-        (lo / 3.0, hi * 3.0)
-    };
-    let (x0, x1) = if n_min < n_max {
-        (n_min / 1.25, n_max * 1.25)
-    } else {
-        (n_min / 2.0, n_max * 2.0)
-    };
+    let (y0, y1) = style::padded_log_range(&drawn, 1.5);
+    let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
     let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
     let x_ticks = style::count_ticks(&plan.samples, x0, x1, plot_px);
     let y_ticks = style::log_ticks(y0, y1);

@@ -44,48 +44,36 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
     bytes
 }
 
-fn gps_field(v: &VariantPlan) -> String {
-    if v.kind.uses_sets() {
-        v.gps.to_string()
+/// The columns that say which variant a row belongs to.
+const VARIANT_COLUMNS: [&str; 4] = ["variant", "integrator", "gps", "rotate"];
+
+/// A variant's label, integrator, and for integrators with weights its sets and rotation
+/// (empty otherwise).
+fn variant_fields(v: &VariantPlan) -> [String; 4] {
+    let (gps, rotate) = if v.kind.uses_sets() {
+        (v.gps.to_string(), v.rotate.to_string())
     } else {
-        String::new()
-    }
+        (String::new(), String::new())
+    };
+    [v.label.clone(), v.kind.name(), gps, rotate]
 }
 
-fn rotate_field(v: &VariantPlan) -> String {
-    if v.kind.uses_sets() {
-        v.rotate.to_string()
-    } else {
-        String::new()
-    }
-}
-
+/// `rmse.csv`: `variant,integrator,gps,rotate,spp,repetition,seed,rmse`, one row per render,
+/// RMSE in Rust's shortest round-trip form (exact, like the `run` CSVs).
 pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record([
-        "variant",
-        "integrator",
-        "gps",
-        "rotate",
-        "spp",
-        "repetition",
-        "seed",
-        "rmse",
-    ])
-    .expect(IN_MEMORY);
+    let head = ["spp", "repetition", "seed", "rmse"];
+    w.write_record(VARIANT_COLUMNS.iter().chain(&head))
+        .expect(IN_MEMORY);
     for r in rows {
-        let v = &plan.variants[r.variant];
-        w.write_record([
-            v.label.clone(),
-            v.kind.name(),
-            gps_field(v),
-            rotate_field(v),
+        let rest = [
             r.spp.to_string(),
             r.repetition.to_string(),
             r.seed.to_string(),
             format!("{:?}", r.rmse),
-        ])
-        .expect(IN_MEMORY);
+        ];
+        w.write_record(variant_fields(&plan.variants[r.variant]).iter().chain(&rest))
+            .expect(IN_MEMORY);
     }
     w.into_inner().expect(IN_MEMORY)
 }
@@ -98,36 +86,31 @@ fn num(x: f64) -> String {
     }
 }
 
+/// `table.csv`: `variant,integrator,gps,rotate,spp,repetitions,rmse_mean,rmse_sd,rmse_ci95_low,
+/// rmse_ci95_high` per (variant, spp), the interval from Student's t (empty for one repetition).
 pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record([
-        "variant",
-        "integrator",
-        "gps",
-        "rotate",
+    let head = [
         "spp",
         "repetitions",
         "rmse_mean",
         "rmse_sd",
         "rmse_ci95_low",
         "rmse_ci95_high",
-    ])
-    .expect(IN_MEMORY);
+    ];
+    w.write_record(VARIANT_COLUMNS.iter().chain(&head))
+        .expect(IN_MEMORY);
     for c in cells {
-        let v = &plan.variants[c.variant];
-        w.write_record([
-            v.label.clone(),
-            v.kind.name(),
-            gps_field(v),
-            rotate_field(v),
+        let rest = [
             c.spp.to_string(),
             c.n.to_string(),
             num(c.mean),
             num(c.sd),
             num(c.mean - c.half_width),
             num(c.mean + c.half_width),
-        ])
-        .expect(IN_MEMORY);
+        ];
+        w.write_record(variant_fields(&plan.variants[c.variant]).iter().chain(&rest))
+            .expect(IN_MEMORY);
     }
     w.into_inner().expect(IN_MEMORY)
 }

@@ -79,24 +79,8 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
         .filter(|&y| ok(y))
         .chain(guide.iter().flat_map(|g| g.1.iter().map(|p| p.1)))
         .collect();
-    let (lo, hi) = if drawn.is_empty() {
-        (1e-3, 1.0)
-    } else {
-        (
-            drawn.iter().copied().fold(f64::INFINITY, f64::min),
-            drawn.iter().copied().fold(0.0, f64::max),
-        )
-    };
-    let (y0, y1) = if lo < hi {
-        (lo / 1.12, hi * 1.12)
-    } else {
-        (lo / 2.0, hi * 2.0)
-    };
-    let (x0, x1) = if x_min < x_max {
-        (x_min / 1.12, x_max * 1.12)
-    } else {
-        (x_min / 2.0, x_max * 2.0)
-    };
+    let (y0, y1) = style::padded_log_range(&drawn, 1.12);
+    let (x0, x1) = style::padded_log_range(&[x_min, x_max], 1.12);
     let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
     let x_ticks = style::count_ticks(&plan.spp, x0, x1, plot_px);
     let y_ticks = style::log_ticks(y0, y1);
