@@ -7,6 +7,7 @@ use super::summary::Cell;
 use crate::estimator::Method;
 use crate::plot_style::{self as style, LegendEntry, Swatch};
 use crate::render::integrator::IntegratorKind;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 /// Height of the chart (axes and plotting area), between the title block and the legend.
@@ -44,9 +45,30 @@ pub fn reference_caption(plan: &TablePlan) -> String {
     )
 }
 
-fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::Error>> {
-    let finite_interval = |c: &Cell| c.half_width.is_finite() && c.mean - c.half_width > 0.0;
-    let ok = |y: f64| y.is_finite() && y > 0.0;
+/// What the plot shows, computed before drawing: each variant's cells in spp order, the
+/// side-by-side factors, the guide, and the axes.
+struct Frame<'a> {
+    per_variant: Vec<Vec<&'a Cell>>,
+    dodge: Vec<f64>,
+    guide: Option<(usize, Vec<(f64, f64)>)>,
+    x: (f64, f64),
+    y: (f64, f64),
+    x_ticks: style::Ticks,
+    y_ticks: style::Ticks,
+    decimal: bool,
+}
+
+/// Whether a cell's interval can stand on a log axis.
+fn finite_interval(c: &Cell) -> bool {
+    c.half_width.is_finite() && c.mean - c.half_width > 0.0
+}
+
+/// Whether a value can stand on a log axis.
+fn ok(y: f64) -> bool {
+    y.is_finite() && y > 0.0
+}
+
+fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
     let per_variant: Vec<Vec<&Cell>> = (0..plan.variants.len())
         .map(|v| {
             let mut s: Vec<&Cell> = cells.iter().filter(|c| c.variant == v).collect();
@@ -82,10 +104,20 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
     let (y0, y1) = style::padded_log_range(&drawn, 1.12);
     let (x0, x1) = style::padded_log_range(&[x_min, x_max], 1.12);
     let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
-    let x_ticks = style::count_ticks(&plan.spp, x0, x1, plot_px);
-    let y_ticks = style::log_ticks(y0, y1);
-    let decimal = style::decimal_axis(y0, y1);
+    Frame {
+        per_variant,
+        dodge,
+        guide,
+        x: (x0, x1),
+        y: (y0, y1),
+        x_ticks: style::count_ticks(&plan.spp, x0, x1, plot_px),
+        y_ticks: style::log_ticks(y0, y1),
+        decimal: style::decimal_axis(y0, y1),
+    }
+}
 
+/// One entry per variant, the guide, and what the points and bars are.
+fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<LegendEntry> {
     let mut legend: Vec<LegendEntry> = plan
         .variants
         .iter()
@@ -96,7 +128,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
             wide: false,
         })
         .collect();
-    if let Some((v, _)) = &guide {
+    if let Some((v, _)) = guide {
         legend.push(LegendEntry {
             swatch: Swatch::Guide,
             text: format!("∝ spp^(−1/2) through {}", plan.variants[*v].label),
@@ -118,6 +150,65 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
         ),
         wide: true,
     });
+    legend
+}
+
+/// The guide, then every variant's bars, then its line and markers (so no bar hides a marker).
+fn draw_variants<X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<X, Y>>,
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    per_variant: &[Vec<&Cell>],
+    dodge: &[f64],
+    guide: &Option<(usize, Vec<(f64, f64)>)>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    if let Some((_, line)) = &guide {
+        chart.draw_series(DashedLineSeries::new(
+            line.clone(),
+            8,
+            5,
+            style::GUIDE.stroke_width(2),
+        ))?;
+    }
+    // Variants are set side by side — points, lines and bars shifted by a small factor in
+    // spp — so that variants with equal RMSE (BMC and BMCP with the same sets) do not hide
+    // each other's markers and intervals. The shift is at most ±6% and said in the legend.
+    for (v, mine) in per_variant.iter().enumerate() {
+        let colour = style::colour(v);
+        chart.draw_series(mine.iter().filter(|c| finite_interval(c)).map(|c| {
+            let x = c.spp as f64 * dodge[v];
+            PathElement::new(
+                vec![(x, c.mean - c.half_width), (x, c.mean + c.half_width)],
+                colour.stroke_width(2),
+            )
+        }))?;
+    }
+    for (v, mine) in per_variant.iter().enumerate() {
+        let colour = style::colour(v);
+        let points: Vec<(f64, f64)> = mine
+            .iter()
+            .filter(|c| ok(c.mean))
+            .map(|c| (c.spp as f64 * dodge[v], c.mean))
+            .collect();
+        chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?;
+        for p in &points {
+            style::draw_marker(root, v, chart.backend_coord(p), colour)?;
+        }
+    }
+    Ok(())
+}
+
+fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::Error>> {
+    let Frame {
+        per_variant,
+        dodge,
+        guide,
+        x: (x0, x1),
+        y: (y0, y1),
+        x_ticks,
+        y_ticks,
+        decimal,
+    } = frame(plan, cells);
+    let legend = legend(plan, &guide);
 
     let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
     let mut svg = String::new();
@@ -166,39 +257,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
             .collect();
         style::draw_minor_ticks(&root, &plot, &xs, &ys)?;
 
-        if let Some((_, line)) = &guide {
-            chart.draw_series(DashedLineSeries::new(
-                line.clone(),
-                8,
-                5,
-                style::GUIDE.stroke_width(2),
-            ))?;
-        }
-        // Variants are set side by side — points, lines and bars shifted by a small factor in
-        // spp — so that variants with equal RMSE (BMC and BMCP with the same sets) do not hide
-        // each other's markers and intervals. The shift is at most ±6% and said in the legend.
-        for (v, mine) in per_variant.iter().enumerate() {
-            let colour = style::colour(v);
-            chart.draw_series(mine.iter().filter(|c| finite_interval(c)).map(|c| {
-                let x = c.spp as f64 * dodge[v];
-                PathElement::new(
-                    vec![(x, c.mean - c.half_width), (x, c.mean + c.half_width)],
-                    colour.stroke_width(2),
-                )
-            }))?;
-        }
-        for (v, mine) in per_variant.iter().enumerate() {
-            let colour = style::colour(v);
-            let points: Vec<(f64, f64)> = mine
-                .iter()
-                .filter(|c| ok(c.mean))
-                .map(|c| (c.spp as f64 * dodge[v], c.mean))
-                .collect();
-            chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?;
-            for p in &points {
-                style::draw_marker(&root, v, chart.backend_coord(p), colour)?;
-            }
-        }
+        draw_variants(&mut chart, &root, &per_variant, &dodge, &guide)?;
         style::draw_legend(&legend_area, &legend)?;
         root.present()?;
     }
