@@ -460,7 +460,7 @@ fn resolve_estimator(
             PriorSpec::Value(c) => {
                 return Err(err(
                     at("prior"),
-                    format!("must be finite with |2π·c| representable (|c| ≤ 2.8e307), got {c}"),
+                    format!("must be finite with |2π·c| representable (|c| ≤ 2.8e307), got {c:e}"),
                 ));
             }
         })
