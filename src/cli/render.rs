@@ -140,7 +140,25 @@ pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
     out.with_file_name(name)
 }
 
-fn single(args: &RenderArgs) -> anyhow::Result<()> {
+/// The error image's options, validated.
+struct ErrorOptions {
+    scale: ErrorScale,
+    max: f64,
+    colours: ColourMap,
+}
+
+/// A single render's options, checked before any work (the raw flags → a resolved form).
+struct Single<'a> {
+    out: &'a Path,
+    png: PathBuf,
+    error_png: PathBuf,
+    gps: usize,
+    error: ErrorOptions,
+}
+
+/// Every check a single render can make before it starts: names, sizes, counts, options that do
+/// not apply, and that no output is an input or another output.
+fn resolve_single(args: &RenderArgs) -> anyhow::Result<Single<'_>> {
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     if out.extension().and_then(|e| e.to_str()) != Some("exr") {
@@ -178,11 +196,11 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     if args.error_max.is_some() && args.error_scale != "absolute" {
         return Err(InputError::new("--error-max: applies to --error-scale absolute").into());
     }
-    let error_scale = match args.error_scale.as_str() {
+    let scale = match args.error_scale.as_str() {
         "absolute" => ErrorScale::Absolute,
         _ => ErrorScale::Normalised,
     };
-    let error_colours = match args.error_colours.as_str() {
+    let colours = match args.error_colours.as_str() {
         "grey" => ColourMap::Grey,
         _ => ColourMap::Viridis,
     };
@@ -211,6 +229,32 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     for (flag, path) in &outputs {
         workbench::io::check_name_length(flag, path)?;
     }
+    Ok(Single {
+        out,
+        png,
+        error_png,
+        gps,
+        error: ErrorOptions {
+            scale,
+            max: error_max,
+            colours,
+        },
+    })
+}
+
+fn single(args: &RenderArgs) -> anyhow::Result<()> {
+    let Single {
+        out,
+        png,
+        error_png,
+        gps,
+        error,
+    } = resolve_single(args)?;
+    let outputs: Vec<(&str, &Path)> = vec![
+        ("--out", out),
+        ("--out (its PNG)", &png),
+        ("--out (its error image)", &error_png),
+    ];
     let env = Environment::from_arg(&args.env)?;
     // Fail on an unwritable output folder now, not after the render.
     let dir = match out.parent() {
@@ -241,31 +285,14 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     let mut files = FileSet::lock(&outputs, "use another --out")?;
 
     let model_seconds = model_start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let integrator = Integrator::build(
-        args.integrator,
-        args.spp,
-        gps,
-        !args.no_rotate,
-        model.as_ref(),
-        args.seed,
-    )?;
-    for line in workbench::render::table::runner::numerical_warnings(&integrator) {
-        status!("warning: {line}");
-    }
-    let bar = Bar::new(args.quiet);
-    bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
-    let pool = workbench::threads::pool(None)?;
-    let image = pool.install(|| renderer.render(&integrator, args.seed, &bar));
-    bar.finish();
-    let seconds = start.elapsed().as_secs_f64();
+    let (image, seconds) = render_image(args, &renderer, gps, model.as_ref())?;
 
     // Every file is written in full before any replaces its predecessor, so a failure (a full
     // disk) leaves the earlier image and PNGs together, as they were.
     files.stage(out, &image.to_exr()?)?;
     files.stage(&png, &image.to_png()?)?;
     let error_image = match &reference {
-        Some(r) => Some(image.error_png(r, error_scale, error_max, error_colours)?),
+        Some(r) => Some(image.error_png(r, error.scale, error.max, error.colours)?),
         None => None,
     };
     match &error_image {
@@ -293,25 +320,53 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
     }
     if let Some(e) = &error_image {
-        let scale = match error_scale {
-            ErrorScale::Absolute if e.clamped > 0 => format!(
-                "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
-                short_number(e.scale_max),
-                e.clamped,
-                100.0 * e.clamped as f64 / (args.width * args.height) as f64
-            ),
-            ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
-            ErrorScale::Normalised => {
-                format!("scale 0–{}, the image's own maximum", short_number(e.scale_max))
-            }
-        };
         status!(
-            "render: error image → {} (max error {} at pixel ({}, {}); {scale})",
+            "render: error image → {} ({})",
             error_png.display(),
-            short_number(e.max_error),
-            e.max_at.0,
-            e.max_at.1
+            error_summary(e, error.scale, args.width * args.height)
         );
     }
     Ok(())
+}
+
+/// Builds the integrator (its sample sets, for estimators with weights) and renders, with the
+/// progress bar; returns the image and the seconds both took.
+fn render_image(
+    args: &RenderArgs,
+    renderer: &Renderer,
+    gps: usize,
+    model: Option<&workbench::bmc::BmcModel>,
+) -> anyhow::Result<(Image, f64)> {
+    let start = Instant::now();
+    let integrator = Integrator::build(args.integrator, args.spp, gps, !args.no_rotate, model, args.seed)?;
+    for line in workbench::render::table::runner::numerical_warnings(&integrator) {
+        status!("warning: {line}");
+    }
+    let bar = Bar::new(args.quiet);
+    bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
+    let pool = workbench::threads::pool(None)?;
+    let image = pool.install(|| renderer.render(&integrator, args.seed, &bar));
+    bar.finish();
+    let seconds = start.elapsed().as_secs_f64();
+    Ok((image, seconds))
+}
+
+/// `max error 0.579 at pixel (237, 169); scale 0–0.25, 3516 pixel(s) (5.4%) above it clamped`.
+fn error_summary(e: &workbench::render::image::ErrorImage, scale: ErrorScale, pixels: usize) -> String {
+    let scale = match scale {
+        ErrorScale::Absolute if e.clamped > 0 => format!(
+            "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
+            short_number(e.scale_max),
+            e.clamped,
+            100.0 * e.clamped as f64 / pixels as f64
+        ),
+        ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
+        ErrorScale::Normalised => format!("scale 0–{}, the image's own maximum", short_number(e.scale_max)),
+    };
+    format!(
+        "max error {} at pixel ({}, {}); {scale}",
+        short_number(e.max_error),
+        e.max_at.0,
+        e.max_at.1
+    )
 }
