@@ -38,8 +38,9 @@ pub fn colour(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
 }
 
-/// Number of distinct marker shapes; series `i` and `i + MARKERS` share one (their colours
-/// differ unless there are more than 7 × 7 series).
+/// Number of distinct marker shapes. Series `i` gets shape `(i + ⌊i/7⌋) mod 7` and colour
+/// `i mod 7`, so two series share both only 49 apart (series 7 is series 0's colour with the
+/// next shape).
 pub const MARKERS: usize = 7;
 
 /// Draws the marker of series `i` centred on pixel `at` of `area`: filled circle, filled
@@ -58,7 +59,7 @@ pub fn draw_marker<DB: DrawingBackend>(
     let stroke = colour.stroke_width(2);
     // Open shapes get a white inside so that a band or line behind them does not show through.
     let white = WHITE.filled();
-    match i % MARKERS {
+    match (i + i / MARKERS) % MARKERS {
         0 => area.draw(&Circle::new(at, 4, fill)),
         1 => area.draw(&TriangleMarker::new(at, 6, fill)),
         2 => area.draw(&Cross::new(at, 4, stroke)),

@@ -1,5 +1,8 @@
 //! Sampling the hemisphere around `+z` (math.md §2).
 
+pub mod sobol;
+pub mod stratified;
+
 use crate::geometry::Vec3;
 use rand::{Rng, RngExt};
 use std::f64::consts::{PI, TAU};
@@ -110,16 +113,24 @@ pub enum SetDesign {
     /// one point per band `cos θ ∈ [i/n, (i+1)/n)`. Marques et al. (2013) use this lattice for
     /// spherical quadrature.
     Fibonacci,
+    /// A jittered `m1 × m2` grid in `(u1, u2)`, mapped like [`Design::Uniform`] (see
+    /// [`stratified`]).
+    Stratified,
+    /// The first `n` points of a 2-D Sobol sequence, Owen-scrambled afresh for every set, mapped
+    /// like [`Design::Uniform`] (see [`sobol`]).
+    Sobol,
 }
 
 impl SetDesign {
     /// Every design, in the order of the docs: the list that the conformance tests walk and
     /// that names are parsed from. A new design is added here and in the matches below (all
     /// exhaustive, so a design not wired everywhere does not compile).
-    pub const ALL: [SetDesign; 3] = [
+    pub const ALL: [SetDesign; 5] = [
         SetDesign::Iid(Design::Uniform),
         SetDesign::Iid(Design::Cosine),
         SetDesign::Fibonacci,
+        SetDesign::Stratified,
+        SetDesign::Sobol,
     ];
 
     /// Parses [`SetDesign::name`].
@@ -138,6 +149,8 @@ impl SetDesign {
             SetDesign::Iid(Design::Uniform) => 0,
             SetDesign::Iid(Design::Cosine) => 1,
             SetDesign::Fibonacci => 2,
+            SetDesign::Stratified => 3,
+            SetDesign::Sobol => 4,
         }
     }
 
@@ -146,6 +159,8 @@ impl SetDesign {
         match self {
             SetDesign::Iid(d) => d.name(),
             SetDesign::Fibonacci => "fibonacci",
+            SetDesign::Stratified => "stratified",
+            SetDesign::Sobol => "sobol",
         }
     }
 
@@ -153,7 +168,7 @@ impl SetDesign {
     pub fn density(self) -> Design {
         match self {
             SetDesign::Iid(d) => d,
-            SetDesign::Fibonacci => Design::Uniform,
+            SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => Design::Uniform,
         }
     }
 
@@ -168,6 +183,29 @@ impl SetDesign {
                     .map(|i| {
                         let u1 = ((i as f64 + 0.5) / n as f64 + s1).fract();
                         let u2 = (i as f64 * INV_GOLDEN + s2).fract();
+                        Design::Uniform.map(u1, u2)
+                    })
+                    .collect()
+            }
+            SetDesign::Stratified => {
+                let (m1, m2) = stratified::grid(n);
+                (0..n)
+                    .map(|k| {
+                        let (a, b) = ((k % m1) as f64, (k / m1) as f64);
+                        let (j1, j2): (f64, f64) = (rng.random(), rng.random());
+                        Design::Uniform.map((a + j1) / m1 as f64, (b + j2) / m2 as f64)
+                    })
+                    .collect()
+            }
+            SetDesign::Sobol => {
+                let (s1, s2): (u32, u32) = (rng.random(), rng.random());
+                // Below the 32 scrambled bits, uniform random bits make each coordinate
+                // uniform on [0, 1) rather than on a 2^−32 grid.
+                let unit = |bits: u32, rng: &mut R| (bits as f64 + rng.random::<f64>()) * 2f64.powi(-32);
+                (0..n as u32)
+                    .map(|i| {
+                        let u1 = unit(sobol::owen_scramble(sobol::sobol(i, 0), s1), rng);
+                        let u2 = unit(sobol::owen_scramble(sobol::sobol(i, 1), s2), rng);
                         Design::Uniform.map(u1, u2)
                     })
                     .collect()
