@@ -10,6 +10,7 @@ pub mod plot;
 pub mod runner;
 pub mod spec;
 pub mod summary;
+pub mod sweep;
 pub mod text;
 
 pub use text::{describe, format_report};

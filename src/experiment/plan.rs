@@ -165,17 +165,21 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     // seeds the model's kernel-mean stream, so its order is part of the results.
     let mut model_keys: Vec<(ResolvedModel, SetDesign)> = Vec::new();
     let mut designs: Vec<SetDesign> = Vec::new();
-    for (i, e) in spec.estimators.iter().enumerate() {
-        let at = |field: &str| format!("estimators[{i}].{field}");
+    // The JSON path of each planned estimator, for messages (a swept one names its values).
+    let mut paths: Vec<String> = Vec::new();
+    for super::sweep::Expanded { path, spec: e } in super::sweep::expand(&spec.estimators)? {
+        let e = &e;
+        let at = |field: &str| format!("{path}.{field}");
         if e.label.is_empty() || e.label.contains(|c: char| c.is_control()) {
             return Err(err(at("label"), format!("{:?} is not a usable label", e.label)));
         }
         if let Some(j) = estimators.iter().position(|p| p.label == e.label) {
             return Err(err(
                 at("label"),
-                format!("{:?} is already the label of estimators[{j}]", e.label),
+                format!("{:?} is already the label of {}", e.label, paths[j]),
             ));
         }
+        paths.push(path.clone());
         let (mut planned, model) = resolve_estimator(e, &at)?;
         if let Some(model) = model {
             let key = (model, planned.design);

@@ -53,6 +53,11 @@ pub struct EstimatorSpec {
     /// BMCP only: `"analytic"` (default) or a number.
     #[serde(default)]
     pub prior: Option<PriorSpec>,
+    /// Values to sweep: `{"noise": [1e-2, 1e-4], "kernel.s": [1.2, 1.8]}` makes one estimator per
+    /// combination, labelled by the `label` template (`"BMC s={kernel.s}"`); see
+    /// [`super::sweep`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<std::collections::BTreeMap<String, Vec<serde_json::Value>>>,
 }
 
 /// `"analytic"` or a number.
