@@ -110,6 +110,7 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
             v
         }).collect::<Vec<_>>(),
         "samples": plan.samples,
+        "fit_from_n": plan.fit_from_n,
         "trials": plan.trials,
         "seed": plan.seed,
         "checks": plan.checks,
@@ -176,4 +177,44 @@ pub fn timings_json(threads: usize, wall_seconds: f64) -> Vec<u8> {
     let mut bytes = serde_json::to_vec_pretty(&v).expect("timings serialize");
     bytes.push(b'\n');
     bytes
+}
+
+/// `fits.csv`: per (integrand, estimator), the least-squares slope of ln(mean |Î − I|) against
+/// ln N over N ≥ `fit_from_n` (the rate the plot legends state), its 95% interval (Student t,
+/// empty with two points), the N range and number of points used, and `exact` for a series
+/// whose error is zero up to rounding (no slope then). Slopes in shortest round-trip form.
+pub fn fits_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
+    use super::fit::{SeriesFit, fit_series};
+    let mut out =
+        String::from("integrand,estimator,from_n,to_n,points,slope,slope_ci95_low,slope_ci95_high,exact\n");
+    let to_n = plan.samples.iter().max().copied().unwrap_or(0);
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            let mut points: Vec<(usize, f64)> = cells
+                .iter()
+                .filter(|c| c.integrand == fi && c.estimator == ei)
+                .map(|c| (c.n, c.mean_abs_error))
+                .collect();
+            points.sort_by_key(|p| p.0);
+            let head = format!(
+                "{},{},{},{to_n}",
+                csv_field(&f.name()),
+                csv_field(&e.label),
+                plan.fit_from_n
+            );
+            let row = match fit_series(&points, f.integral(), plan.fit_from_n) {
+                SeriesFit::Exact => format!("{head},0,,,,true"),
+                SeriesFit::TooFew { .. } => format!("{head},0,,,,false"),
+                SeriesFit::Slope { fit, .. } => {
+                    let (lo, hi) = fit.ci95.map_or((String::new(), String::new()), |(lo, hi)| {
+                        (format!("{lo:?}"), format!("{hi:?}"))
+                    });
+                    format!("{head},{},{:?},{lo},{hi},false", fit.points, fit.slope)
+                }
+            };
+            out.push_str(&row);
+            out.push('\n');
+        }
+    }
+    out.into_bytes()
 }

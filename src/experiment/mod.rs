@@ -116,6 +116,11 @@ pub fn run_plan(
         "one row per (integrand, estimator, n)",
         &export::summary_csv(plan, &cells),
     )?;
+    folder.write(
+        "fits.csv",
+        "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
+        &export::fits_csv(plan, &cells),
+    )?;
     for (fi, f) in plan.integrands.iter().enumerate() {
         let svg = plot::error_plot_svg(plan, &cells, fi)?;
         folder.write(

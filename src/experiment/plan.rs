@@ -41,6 +41,8 @@ pub struct Plan {
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
     pub designs: Vec<SetDesign>,
+    /// Smallest N of the slope fits ([`super::fit`]).
+    pub fit_from_n: usize,
 }
 
 /// The constant prior mean of an estimator that takes one ([`Method::uses_prior`]).
@@ -300,7 +302,21 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         });
     }
 
+    let fit_from_n = match spec.fit_from_n {
+        None => super::fit::fit_from(&spec.samples.iter().map(|&n| n as usize).collect::<Vec<_>>()),
+        Some(n) => {
+            let fittable = spec.samples.iter().filter(|&&m| m >= n).count();
+            if n == 0 || fittable < 2 {
+                return Err(err(
+                    "fit_from_n",
+                    format!("{n} leaves {fittable} sample count(s) at or above it; a slope needs at least 2"),
+                ));
+            }
+            n as usize
+        }
+    };
     Ok(Plan {
+        fit_from_n,
         name: spec.name.clone(),
         title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
         integrands,

@@ -3,7 +3,7 @@
 //! dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]), or
 //! says that it is exact; a dashed N^(−1/2) guide goes through the MC series.
 
-use super::fit::{SeriesFit, fit_from, fit_series, is_fittable};
+use super::fit::{SeriesFit, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
 use crate::estimator::Method;
@@ -91,7 +91,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
     let name = integrand.display_name();
     let truth = integrand.integral();
     let ok = |e: f64| is_fittable(e, truth);
-    let from_n = fit_from(&plan.samples);
+    let from_n = plan.fit_from_n;
 
     // Each estimator's cells in N order, and what its points say about its rate.
     let series: Vec<Vec<&CellSummary>> = (0..plan.estimators.len())

@@ -25,6 +25,10 @@ pub struct ExperimentSpec {
     pub seed: u64,
     #[serde(default)]
     pub checks: Vec<CheckSpec>,
+    /// Smallest N of the log–log slope fits (`fits.csv`, the plot legends); default the upper
+    /// half of the grid (the N at or above the median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_from_n: Option<u64>,
 }
 
 /// One estimator of the comparison.
