@@ -88,6 +88,8 @@ impl Diagnostics {
 #[derive(Clone, Debug)]
 pub struct BmcWeights {
     pub weights: Vec<f64>,
+    /// `u = Q⁻¹ 1`, for Bayes–Sard quadrature (math.md §8) and its residuals `Y − β̂ 1`.
+    pub ones_solve: Vec<f64>,
     pub diagnostics: Diagnostics,
 }
 
@@ -97,6 +99,67 @@ impl BmcWeights {
         // sqrt(max(V̂ − zᵀQ⁻¹z, 0)): 0 also when MC kernel means made the variance negative;
         // a NegativePosteriorVariance warning then says so.
         self.diagnostics.posterior_variance_clamped().sqrt()
+    }
+
+    /// `(2π − 1ᵀw) / 1ᵀu`: the multiple of `u = Q⁻¹1` that Bayes–Sard quadrature adds to the
+    /// BMC weights so that they sum to `2π` (math.md §8).
+    pub fn bayes_sard_shift(&self) -> f64 {
+        let sum_u: f64 = self.ones_solve.iter().sum();
+        (std::f64::consts::TAU - self.diagnostics.weight_sum) / sum_u
+    }
+
+    /// `β̂ = 1ᵀQ⁻¹Y / 1ᵀQ⁻¹1`, the generalised-least-squares constant of Bayes–Sard quadrature.
+    pub fn bayes_sard_constant(&self, values: &[f64]) -> f64 {
+        dot(&self.ones_solve, values) / self.ones_solve.iter().sum::<f64>()
+    }
+
+    /// Bayes–Sard quadrature's unit-amplitude posterior variance (math.md §8; Karvonen, Oates &
+    /// Särkkä, "A Bayes–Sard cubature method", NeurIPS 2018, Theorem 2.7 with a constant
+    /// function space): `Var₁ = V̂ − zᵀQ⁻¹z + (2π − 1ᵀQ⁻¹z)² / (1ᵀQ⁻¹1)`, raw (not clamped).
+    pub fn bayes_sard_variance(&self) -> f64 {
+        let sum_u: f64 = self.ones_solve.iter().sum();
+        let gap = std::f64::consts::TAU - self.diagnostics.weight_sum;
+        self.diagnostics.posterior_variance + gap * gap / sum_u
+    }
+
+    /// The Bayes–Sard rule on the same points: weights `w_BS = w + u (2π − 1ᵀw) / (1ᵀu)` (sum
+    /// `2π` to rounding, so constants are integrated exactly) and diagnostics with §8's `Var₁`
+    /// as the posterior variance (Karvonen, Oates & Särkkä 2018).
+    pub fn bayes_sard(&self) -> BmcWeights {
+        let shift = self.bayes_sard_shift();
+        let weights: Vec<f64> = self
+            .weights
+            .iter()
+            .zip(&self.ones_solve)
+            .map(|(w, u)| w + shift * u)
+            .collect();
+        let posterior_variance = self.bayes_sard_variance();
+        let mut warnings: Vec<NumericalWarning> = self
+            .diagnostics
+            .warnings
+            .iter()
+            .filter(|w| !matches!(w, NumericalWarning::NegativePosteriorVariance { .. }))
+            .cloned()
+            .collect();
+        if posterior_variance < 0.0 {
+            warnings.push(NumericalWarning::NegativePosteriorVariance {
+                value: posterior_variance,
+            });
+        }
+        let diagnostics = Diagnostics {
+            weight_sum: weights.iter().sum(),
+            negative_weights: weights.iter().filter(|&&w| w < 0.0).count(),
+            min_weight: weights.iter().copied().fold(f64::INFINITY, f64::min),
+            max_weight: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            posterior_variance,
+            warnings,
+            ..self.diagnostics.clone()
+        };
+        BmcWeights {
+            weights,
+            ones_solve: self.ones_solve.clone(),
+            diagnostics,
+        }
     }
 }
 
@@ -162,6 +225,9 @@ pub fn bmc_weights(
     } = workspace.factor()?;
     let mut weights = z.to_vec();
     workspace.solve_in_place(&mut weights);
+    // One more O(N²) solve, for Bayes–Sard and its residuals.
+    let mut ones_solve = vec![1.0; n];
+    workspace.solve_in_place(&mut ones_solve);
 
     let mut warnings = Vec::new();
     if jitter > 0.0 {
@@ -190,7 +256,11 @@ pub fn bmc_weights(
         posterior_variance,
         warnings,
     };
-    Ok(BmcWeights { weights, diagnostics })
+    Ok(BmcWeights {
+        weights,
+        ones_solve,
+        diagnostics,
+    })
 }
 
 /// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.

@@ -26,6 +26,10 @@ pub struct RuleArgs {
     /// Read the points from a CSV with header `x,y,z` instead of generating them.
     #[arg(long)]
     points: Option<PathBuf>,
+    /// The rule: `bmc` (w = Q⁻¹z) or `bsq` (Bayes–Sard, math.md §8: weights summing to 2π;
+    /// needs at least 2 points).
+    #[arg(long, default_value = "bmc", value_parser = ["bmc", "bsq"])]
+    method: String,
     #[command(flatten)]
     model: ModelArgs,
     /// Write the rule (CSV `x,y,z,weight`) here instead of to stdout.
@@ -69,6 +73,13 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         }
     };
     workbench::rule::check_point_count(points.len(), "--points")?;
+    let bsq = args.method == "bsq";
+    if bsq && points.len() < 2 {
+        anyhow::bail!(workbench::error::InputError::new(format!(
+            "--method bsq: Bayes–Sard fits a constant and needs at least 2 points, got {}",
+            points.len()
+        )));
+    }
     let resolved = args.model.resolve()?;
     let model = args.model.build()?;
     // The rule and its summary are one set: both are written in full before either replaces an
@@ -76,6 +87,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     // known to be good, so that bad input leaves no trace.
     let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
     let weights = workbench::rule::compute_rule(&points, &model, args.seed)?;
+    let weights = if bsq { weights.bayes_sard() } else { weights };
     for w in &weights.diagnostics.warnings {
         status!("warning: {}", w.message());
     }
@@ -95,6 +107,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
             workbench::rule::rule_summary(&model, resolved.kernel_mean.name(), &points, &weights);
         summary["source"] = source;
         summary["seed"] = serde_json::json!(args.seed);
+        summary["method"] = serde_json::json!(args.method);
         if let Some(m) = resolved.samples() {
             summary["kernel_mean_samples"] = serde_json::json!(m);
         }

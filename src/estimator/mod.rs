@@ -11,6 +11,7 @@
 
 pub mod bmc;
 pub mod bmcp;
+pub mod bsq;
 pub mod mc;
 
 use crate::bmc::BmcWeights;
@@ -28,12 +29,14 @@ pub enum Method {
     Bmc,
     /// BMC with a constant prior mean `c`, `Î = 2πc + wᵀ (Y − c·1)` ([`bmcp`]).
     Bmcp,
+    /// Bayes–Sard quadrature, BMC with an unknown constant prior mean, `Î = w_BSᵀ Y` ([`bsq`]).
+    Bsq,
 }
 
 impl Method {
     /// Every estimator, in the order of the docs: the list the conformance tests walk and that
     /// names are parsed from.
-    pub const ALL: [Method; 3] = [Method::Mc, Method::Bmc, Method::Bmcp];
+    pub const ALL: [Method; 4] = [Method::Mc, Method::Bmc, Method::Bmcp, Method::Bsq];
 
     /// The name in experiment files, on the command line and in CSVs.
     pub fn name(self) -> &'static str {
@@ -41,6 +44,7 @@ impl Method {
             Method::Mc => "mc",
             Method::Bmc => "bmc",
             Method::Bmcp => "bmcp",
+            Method::Bsq => "bsq",
         }
     }
 
@@ -53,14 +57,23 @@ impl Method {
     pub fn needs_weights(self) -> bool {
         match self {
             Method::Mc => false,
-            Method::Bmc | Method::Bmcp => true,
+            Method::Bmc | Method::Bmcp | Method::Bsq => true,
+        }
+    }
+
+    /// The fewest points the estimator accepts: Bayes–Sard fits a constant, so it needs two
+    /// points for a residual (its `ml` amplitude has N − 1 degrees of freedom).
+    pub fn min_points(self) -> usize {
+        match self {
+            Method::Mc | Method::Bmc | Method::Bmcp => 1,
+            Method::Bsq => 2,
         }
     }
 
     /// Whether the estimate takes a constant prior mean `c`.
     pub fn uses_prior(self) -> bool {
         match self {
-            Method::Mc | Method::Bmc => false,
+            Method::Mc | Method::Bmc | Method::Bsq => false,
             Method::Bmcp => true,
         }
     }
@@ -83,6 +96,7 @@ impl Method {
             Method::Mc => mc::estimate(density, points, values),
             Method::Bmc => bmc::estimate(weights.expect("BMC needs weights"), values),
             Method::Bmcp => bmcp::estimate(weights.expect("BMCP needs weights"), values, prior),
+            Method::Bsq => bsq::estimate(weights.expect("BSQ needs weights"), values),
         }
     }
 
@@ -91,6 +105,7 @@ impl Method {
         match self {
             Method::Mc => None,
             Method::Bmc | Method::Bmcp => weights.map(BmcWeights::posterior_sd),
+            Method::Bsq => weights.map(|w| w.bayes_sard_variance().max(0.0).sqrt()),
         }
     }
 }

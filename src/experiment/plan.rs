@@ -237,6 +237,28 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ),
         ));
     }
+    // Bayes–Sard fits a constant: it needs at least two points.
+    if let Some((i, e)) = estimators
+        .iter()
+        .enumerate()
+        .find(|(_, e)| spec.samples.iter().any(|&n| (n as usize) < e.method.min_points()))
+    {
+        let (k, n) = spec
+            .samples
+            .iter()
+            .enumerate()
+            .find(|&(_, &n)| (n as usize) < e.method.min_points())
+            .expect("found above");
+        return Err(err(
+            format!("samples[{k}]"),
+            format!(
+                "N = {n} is too few for estimators[{i}] ({:?}, method {}), which needs at least {} points",
+                e.label,
+                e.method,
+                e.method.min_points()
+            ),
+        ));
+    }
     let cells = (integrands.len() * estimators.len() * spec.samples.len()) as u128;
     let rows = cells * spec.trials as u128;
     if rows > MAX_ROWS as u128 {
