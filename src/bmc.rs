@@ -7,10 +7,86 @@
 use crate::geometry::Vec3;
 use crate::kernel::Kernel;
 use crate::linalg::{FactorInfo, ILL_CONDITIONED, NotPositiveDefinite, SpdWorkspace};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The thesis's observation noise σ_n².
 pub const DEFAULT_NOISE: f64 = 0.01;
+
+/// The kernel amplitude `λ` of the prior `f ~ GP(f̄, λk)` (nugget scaled too, so `Q` becomes
+/// `λQ`): the weights and estimates do not depend on it, only the posterior variance
+/// `λ · Var₁` does (math.md §7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scale {
+    /// `λ = 1` (the thesis): `Î ± z sqrt(Var₁)`. Not equivariant: multiplying `f` by 1000
+    /// multiplies the error by 1000 but leaves the interval as it was.
+    Unit,
+    /// Maximum marginal likelihood, `λ̂ = rᵀQ⁻¹r / N` (`N − 1` for Bayes–Sard); with `λ`
+    /// integrated out under `p(λ) ∝ 1/λ` the interval is Student-t with that many degrees of
+    /// freedom (Briol et al., "Probabilistic integration: a role in statistical computation?",
+    /// Statist. Sci. 2019, §4.1; Karvonen & Oates, "Maximum likelihood estimation in Gaussian
+    /// process regression is ill-posed", JMLR 2023, for why only the amplitude is fitted).
+    /// O(N²) per trial: one solve with the existing factor.
+    Ml,
+    /// Leave-one-out, `λ̂ = (1/N) Σ_i (Q⁻¹r)_i² / (Q⁻¹)_ii` (the mean squared LOO residual
+    /// standardised by its unit-amplitude variance); normal interval. Needs `diag(Q⁻¹)`:
+    /// O(N³) per weight set.
+    Loo,
+}
+
+impl Scale {
+    pub const ALL: [Scale; 3] = [Scale::Unit, Scale::Ml, Scale::Loo];
+    /// What an estimator gets without a `"scale"`: see the README ("How far to trust the
+    /// error bars").
+    pub const DEFAULT: Scale = Scale::Ml;
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Scale::Unit => "unit",
+            Scale::Ml => "ml",
+            Scale::Loo => "loo",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+/// The fitted amplitude `λ̂` for residuals `r = Y − F̄` (math.md §7), using the factor of `Q`
+/// that `workspace` holds (the one the weights came from): `ml` is `rᵀQ⁻¹r / dof` (one O(N²)
+/// solve), `loo` is `(1/N) Σ (Q⁻¹r)_i² / (Q⁻¹)_ii` with `inverse_diagonal = diag(Q⁻¹)` (see
+/// [`SpdWorkspace::inverse_diagonal`]). `unit` is 1. All residuals exactly 0 give exactly 0
+/// (a [`NumericalWarning::ZeroAmplitude`] for the caller to count).
+///
+/// # Panics
+/// With `loo` and no `inverse_diagonal`, or mismatched lengths.
+pub fn fit_amplitude(
+    scale: Scale,
+    residuals: &[f64],
+    dof: usize,
+    workspace: &SpdWorkspace,
+    inverse_diagonal: Option<&[f64]>,
+) -> f64 {
+    if scale == Scale::Unit {
+        return 1.0;
+    }
+    if residuals.iter().all(|&r| r == 0.0) {
+        return 0.0;
+    }
+    let mut a = residuals.to_vec();
+    workspace.solve_in_place(&mut a);
+    match scale {
+        Scale::Unit => unreachable!("returned above"),
+        // rᵀQ⁻¹r ≥ 0 for SPD Q; max() only guards rounding.
+        Scale::Ml => (dot(residuals, &a) / dof as f64).max(0.0),
+        Scale::Loo => {
+            let d = inverse_diagonal.expect("loo needs diag(Q⁻¹)");
+            assert_eq!(d.len(), a.len(), "one diagonal entry per point");
+            a.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / a.len() as f64
+        }
+    }
+}
 
 /// A numerical event worth telling the user about; counted per weight set.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -29,6 +105,10 @@ pub enum NumericalWarning {
     /// has eigenvalues up to `1/σ_n²` (`rule --n 512 --kernel-mean mc`: −2.3 with fresh
     /// directions per point, −0.058 with one shared set).
     NegativePosteriorVariance { value: f64 },
+    /// A fitted amplitude (`ml` or `loo`, math.md §7) is exactly 0: every residual vanished
+    /// (e.g. no sample saw a small light, so `Y ≡ 0` for BMC), so the interval is a point.
+    /// That is absence of evidence, not certainty; the trial is kept in coverage.
+    ZeroAmplitude,
 }
 
 impl NumericalWarning {
@@ -51,6 +131,10 @@ impl NumericalWarning {
                  this: use the exact kernel mean (\"kernel_mean\": \"exact\", --kernel-mean exact), \
                  or, if it is already exact, increase the noise σ_n²"
             ),
+            NumericalWarning::ZeroAmplitude => "zero_amplitude: every residual is 0, so the fitted \
+                 amplitude λ̂ is 0 and the interval is a single point (absence of evidence, not \
+                 certainty); use more samples, or the unit scale for this integrand"
+                .to_string(),
         }
     }
 }

@@ -76,13 +76,17 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
             "weight_sum",
             "negative_weights",
             "jitter",
-            "condition_estimate"
+            "condition_estimate",
+            "amplitude",
+            "dof"
         ]
     );
     // Weight diagnostics: present for BMC-type rows (Σw near 2π), empty for MC.
     for r in &trials {
         if r[1].starts_with("MC") {
-            assert!(r[11..].iter().all(|c| c.is_empty()), "{r:?}");
+            assert!(r[11..16].iter().all(|c| c.is_empty()), "{r:?}");
+            // MC's interval: Student-t with N − 1 degrees of freedom.
+            assert_eq!(f(&r[16]), f(&r[4]) - 1.0, "{r:?}");
         } else {
             let sum = f(&r[11]);
             assert!(sum > 0.0 && sum < 1.1 * std::f64::consts::TAU, "{r:?}");
@@ -106,7 +110,10 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         "q10_abs_error",
         "q90_abs_error",
         "mean_posterior_sd",
+        "coverage50",
+        "coverage80",
         "coverage95",
+        "median_abs_error_over_sd",
         "warnings",
     ] {
         col(name);
@@ -129,20 +136,38 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         let median = 0.5 * (errors[11] + errors[12]);
         assert!((median - f(&s[col("median_abs_error")])).abs() <= 1e-15 * median.max(1e-300));
         assert!(f(&s[col("q10_abs_error")]) <= median && median <= f(&s[col("q90_abs_error")]));
-        if s[1].starts_with("MC") {
-            assert!(rows.iter().all(|r| r[9].is_empty()));
-            assert!(s[col("coverage95")].is_empty() && s[col("mean_posterior_sd")].is_empty());
-        } else {
-            let sds: Vec<f64> = rows.iter().map(|r| f(&r[9])).collect();
+        // Every estimator states an sd (MC its standard error); coverage at each level uses
+        // the row's interval law: Student-t with the `dof` column, normal when it is empty.
+        let sds: Vec<f64> = rows.iter().map(|r| f(&r[9])).collect();
+        for (level, name) in [(0.5, "coverage50"), (0.8, "coverage80"), (0.95, "coverage95")] {
             let covered = rows
                 .iter()
                 .zip(&sds)
-                .filter(|(r, sd)| f(&r[8]) <= 1.959963984540054 * **sd)
+                .filter(|(r, sd)| {
+                    use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+                    let p = 0.5 + 0.5 * level;
+                    let q = if r[16].is_empty() {
+                        Normal::new(0.0, 1.0).unwrap().inverse_cdf(p)
+                    } else {
+                        StudentsT::new(0.0, 1.0, f(&r[16])).unwrap().inverse_cdf(p)
+                    };
+                    f(&r[8]) <= q * **sd
+                })
                 .count();
-            assert!((covered as f64 / 24.0 - f(&s[col("coverage95")])).abs() < 1e-12);
-            let msd = sds.iter().sum::<f64>() / 24.0;
-            assert!((msd - f(&s[col("mean_posterior_sd")])).abs() < 1e-14);
+            assert!((covered as f64 / 24.0 - f(&s[col(name)])).abs() < 1e-12, "{s:?} {name}");
         }
+        let msd = sds.iter().sum::<f64>() / 24.0;
+        assert!((msd - f(&s[col("mean_posterior_sd")])).abs() < 1e-14 * msd.max(1.0));
+        // 0/0 (an exact estimate stated exact) counts as 0.
+        let mut ratios: Vec<f64> = rows
+            .iter()
+            .zip(&sds)
+            .map(|(r, sd)| if f(&r[8]) == 0.0 { 0.0 } else { f(&r[8]) / sd })
+            .collect();
+        ratios.sort_by(f64::total_cmp);
+        let median_ratio = 0.5 * (ratios[11] + ratios[12]);
+        let got = f(&s[col("median_abs_error_over_sd")]);
+        assert!((median_ratio - got).abs() <= 1e-12 * got.max(1e-300), "{median_ratio} vs {got}");
     }
     // Cosine-weighted MC on cos θ is exact in every trial.
     assert!(

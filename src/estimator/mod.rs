@@ -14,7 +14,7 @@ pub mod bmcp;
 pub mod bsq;
 pub mod mc;
 
-use crate::bmc::BmcWeights;
+use crate::bmc::{BmcWeights, Diagnostics, Scale};
 use crate::geometry::Vec3;
 use crate::sampling::Design;
 use serde::{Deserialize, Serialize};
@@ -100,13 +100,108 @@ impl Method {
         }
     }
 
-    /// The posterior standard deviation of the integral, for the estimators that have one.
-    pub fn posterior_sd(self, weights: Option<&BmcWeights>) -> Option<f64> {
+    /// The residuals `r = Y − F̄` whose size the `ml` and `loo` amplitudes measure (math.md
+    /// §7–8): `Y` for BMC, `Y − c·1` for BMCP, `Y − β̂·1` for Bayes–Sard; None for MC.
+    pub fn residuals(self, values: &[f64], weights: Option<&BmcWeights>, prior: f64) -> Option<Vec<f64>> {
         match self {
             Method::Mc => None,
-            Method::Bmc | Method::Bmcp => weights.map(BmcWeights::posterior_sd),
-            Method::Bsq => weights.map(|w| w.bayes_sard_variance().max(0.0).sqrt()),
+            Method::Bmc => Some(values.to_vec()),
+            Method::Bmcp => Some(values.iter().map(|y| y - prior).collect()),
+            Method::Bsq => {
+                let beta = weights.expect("BSQ needs weights").bayes_sard_constant(values);
+                Some(values.iter().map(|y| y - beta).collect())
+            }
         }
+    }
+
+    /// Degrees of freedom of the `ml` amplitude and of its Student-t interval: `N` for BMC and
+    /// BMCP, `N − 1` for Bayes–Sard (one more parameter, `β`, fitted).
+    pub fn ml_dof(self, n: usize) -> usize {
+        match self {
+            Method::Mc | Method::Bmc | Method::Bmcp => n,
+            Method::Bsq => n.saturating_sub(1),
+        }
+    }
+
+    /// The weight set's diagnostics as this estimator sees them: Bayes–Sard reports its own
+    /// weights (Σ = 2π) and §8's `Var₁`; None for MC.
+    pub fn diagnostics(self, weights: Option<&BmcWeights>) -> Option<Diagnostics> {
+        match self {
+            Method::Mc => None,
+            Method::Bmc | Method::Bmcp => weights.map(|w| w.diagnostics.clone()),
+            Method::Bsq => weights.map(|w| w.bayes_sard().diagnostics),
+        }
+    }
+
+    /// The unit-amplitude posterior variance `Var₁`, clamped at 0 (math.md §7): `V̂ − zᵀQ⁻¹z`
+    /// for BMC and BMCP, §8's for Bayes–Sard; None for MC.
+    pub fn unit_variance(self, weights: Option<&BmcWeights>) -> Option<f64> {
+        match self {
+            Method::Mc => None,
+            Method::Bmc | Method::Bmcp => weights.map(|w| w.diagnostics.posterior_variance_clamped()),
+            Method::Bsq => weights.map(|w| w.bayes_sard_variance().max(0.0)),
+        }
+    }
+
+    /// The estimator's stated uncertainty: the standard deviation it attaches to `Î` and the
+    /// law of its interval.
+    ///
+    /// - MC: the standard error `s/√N` of the mean of the `N` terms `f/p` (`s` the sample
+    ///   standard deviation), Student-t with `N − 1` degrees of freedom; None for `N < 2`.
+    /// - BMC, BMCP, BSQ: the posterior sd `sqrt(λ Var₁)` with `λ = amplitude` (1 for `unit`,
+    ///   `λ̂` from [`crate::bmc::fit_amplitude`] otherwise); Student-t with [`Method::ml_dof`]
+    ///   degrees of freedom for `ml`, normal otherwise (math.md §7).
+    #[allow(clippy::too_many_arguments)]
+    pub fn uncertainty(
+        self,
+        density: Design,
+        points: &[Vec3],
+        values: &[f64],
+        weights: Option<&BmcWeights>,
+        scale: Scale,
+        amplitude: f64,
+    ) -> Option<Uncertainty> {
+        match self {
+            Method::Mc => {
+                let n = points.len();
+                if n < 2 {
+                    return None;
+                }
+                let terms: Vec<f64> = points.iter().zip(values).map(|(w, f)| f / density.pdf(w)).collect();
+                Some(Uncertainty {
+                    sd: crate::stats::sample_sd(&terms) / (n as f64).sqrt(),
+                    dof: Some(n - 1),
+                    amplitude: None,
+                })
+            }
+            Method::Bmc | Method::Bmcp | Method::Bsq => {
+                let var1 = self.unit_variance(weights)?;
+                Some(Uncertainty {
+                    sd: (amplitude * var1).sqrt(),
+                    dof: (scale == Scale::Ml).then(|| self.ml_dof(values.len())),
+                    amplitude: Some(amplitude),
+                })
+            }
+        }
+    }
+}
+
+/// The standard deviation an estimator states for its estimate and the law of its interval
+/// `Î ± q · sd` ([`Method::uncertainty`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Uncertainty {
+    /// The stated standard deviation of `Î` (posterior sd, or MC's standard error).
+    pub sd: f64,
+    /// Student-t degrees of freedom of the interval; None for a normal interval.
+    pub dof: Option<usize>,
+    /// The kernel amplitude `λ` used (None for MC).
+    pub amplitude: Option<f64>,
+}
+
+impl Uncertainty {
+    /// The two-sided quantile `q` of the interval `Î ± q · sd` at `level` (e.g. 0.95).
+    pub fn quantile(&self, level: f64) -> f64 {
+        crate::stats::interval_quantile(self.dof, level)
     }
 }
 

@@ -2,7 +2,7 @@
 //! one-line error naming the file, the JSON path and the value.
 
 use super::spec::*;
-use crate::bmc::BmcModel;
+use crate::bmc::{BmcModel, Scale};
 use crate::estimator::Method;
 use crate::integrand::family::{AxisIntegrand, Profile};
 use crate::integrand::{CosPower, Integrand};
@@ -72,6 +72,8 @@ pub struct PlannedEstimator {
     pub model: Option<usize>,
     /// The prior mean (methods that use one).
     pub prior: Option<Prior>,
+    /// The kernel amplitude (methods with weights; math.md §7).
+    pub scale: Option<Scale>,
     /// The resolved settings, for the manifest and `validate`.
     pub settings: ResolvedSettings,
 }
@@ -91,6 +93,8 @@ pub struct ResolvedSettings {
     pub kernel_mean_samples: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub prior: Option<PriorSpec>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale: Option<Scale>,
 }
 
 /// A resolved check.
@@ -495,7 +499,16 @@ fn resolve_estimator(
         }
         None
     };
+    let scale = if e.method.needs_weights() {
+        Some(e.scale.unwrap_or(Scale::DEFAULT))
+    } else {
+        if let Some(sc) = e.scale {
+            return Err(unused("scale", format!("{:?}", sc.name())));
+        }
+        None
+    };
     let settings = ResolvedSettings {
+        scale,
         method: e.method,
         design,
         kernel: model.map(|m| m.kernel.to_json()),
@@ -514,6 +527,7 @@ fn resolve_estimator(
             design,
             model: None,
             prior,
+            scale,
             settings,
         },
         model,

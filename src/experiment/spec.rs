@@ -53,6 +53,10 @@ pub struct EstimatorSpec {
     /// BMCP only: `"analytic"` (default) or a number.
     #[serde(default)]
     pub prior: Option<PriorSpec>,
+    /// Methods with weights (BMC, BMCP, BSQ): the kernel amplitude, `unit`, `ml` or `loo`
+    /// (math.md §7); default [`crate::bmc::Scale::DEFAULT`].
+    #[serde(default)]
+    pub scale: Option<crate::bmc::Scale>,
 }
 
 /// `"analytic"` or a number.

@@ -4,8 +4,8 @@ use super::plan::{Check, Plan};
 use super::runner::Results;
 use crate::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
 
-/// The 95% credible interval is `Î ± 1.96 σ_post`.
-pub const Z95: f64 = 1.959_963_984_540_054;
+/// The levels at which `summary.csv` reports coverage (math.md §7).
+pub const COVERAGE_LEVELS: [f64; 3] = [0.5, 0.8, 0.95];
 
 /// Summary of one (integrand, estimator, N) cell.
 #[derive(Debug, Clone)]
@@ -19,10 +19,13 @@ pub struct CellSummary {
     pub median_abs_error: f64,
     pub q10_abs_error: f64,
     pub q90_abs_error: f64,
-    /// None for estimators without a posterior (MC).
+    /// Mean of the stated sd (posterior sd, or MC's standard error); None when a trial has
+    /// none (MC with N = 1).
     pub mean_posterior_sd: Option<f64>,
-    /// Share of trials whose 95% credible interval holds the truth.
-    pub coverage95: Option<f64>,
+    /// Share of trials whose interval at each of [`COVERAGE_LEVELS`] holds the truth.
+    pub coverage: Option<[f64; 3]>,
+    /// Median over the trials of `|Î − I| / sd` (0/0 counts as 0, e/0 as ∞).
+    pub median_error_over_sd: Option<f64>,
     pub warnings: u64,
 }
 
@@ -50,10 +53,21 @@ pub fn summarize(plan: &Plan, results: &Results) -> Vec<CellSummary> {
                 let mut sorted = errors.clone();
                 sorted.sort_by(f64::total_cmp);
                 let units: Vec<_> = (0..plan.trials).map(|t| results.unit(plan, ni, t)).collect();
-                let sds: Option<Vec<f64>> = units.iter().map(|u| u.posterior_sd[ei]).collect();
-                let coverage95 = sds.as_ref().map(|sds| {
-                    let hits = errors.iter().zip(sds).filter(|(e, sd)| **e <= Z95 * **sd).count();
-                    hits as f64 / plan.trials as f64
+                let sds: Option<Vec<f64>> = units
+                    .iter()
+                    .map(|u| u.uncertainty[fi][ei].map(|x| x.sd))
+                    .collect();
+                let coverage = sds.as_ref().map(|_| {
+                    COVERAGE_LEVELS.map(|level| coverage_at(plan, results, fi, ei, ni, level).expect("every trial has an sd"))
+                });
+                let median_error_over_sd = sds.as_ref().map(|sds| {
+                    let mut ratios: Vec<f64> = errors
+                        .iter()
+                        .zip(sds)
+                        .map(|(&e, &sd)| if e == 0.0 { 0.0 } else { e / sd })
+                        .collect();
+                    ratios.sort_by(f64::total_cmp);
+                    quantile_sorted(&ratios, 0.5)
                 });
                 out.push(CellSummary {
                     integrand: fi,
@@ -66,13 +80,45 @@ pub fn summarize(plan: &Plan, results: &Results) -> Vec<CellSummary> {
                     q10_abs_error: quantile_sorted(&sorted, 0.1),
                     q90_abs_error: quantile_sorted(&sorted, 0.9),
                     mean_posterior_sd: sds.as_ref().map(|s| mean(s)),
-                    coverage95,
+                    coverage,
+                    median_error_over_sd,
                     warnings: units.iter().map(|u| u.warnings_for(fi, ei) as u64).sum(),
                 });
             }
         }
     }
     out
+}
+
+/// The share of the cell's trials whose interval `Î ± q · sd` at `level` holds the truth;
+/// None if a trial has no interval. The quantile `q` depends on the interval's law only (the
+/// same in every trial of a cell), so it is computed once per law.
+pub fn coverage_at(
+    plan: &Plan,
+    results: &Results,
+    integrand: usize,
+    estimator: usize,
+    n_index: usize,
+    level: f64,
+) -> Option<f64> {
+    let errors = abs_errors(plan, results, integrand, estimator, n_index);
+    let mut quantiles: Vec<(Option<usize>, f64)> = Vec::new();
+    let mut hits = 0usize;
+    for (t, e) in errors.iter().enumerate() {
+        let u = results.unit(plan, n_index, t).uncertainty[integrand][estimator]?;
+        let q = match quantiles.iter().find(|(d, _)| *d == u.dof) {
+            Some(&(_, q)) => q,
+            None => {
+                let q = u.quantile(level);
+                quantiles.push((u.dof, q));
+                q
+            }
+        };
+        if *e <= q * u.sd {
+            hits += 1;
+        }
+    }
+    Some(hits as f64 / errors.len() as f64)
 }
 
 /// One (integrand, N) cell of a check.
