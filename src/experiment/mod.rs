@@ -3,6 +3,7 @@
 //! spec (JSON) → [`plan::Plan`] (validated) → [`runner::run`] (parallel) → [`summary`] →
 //! [`export`] / [`plot`] (pure) → one atomic write per file.
 
+pub mod coverage_plot;
 pub mod export;
 pub mod fit;
 pub mod plan;
@@ -122,6 +123,17 @@ pub fn run_plan(
             &format!("absolute error against n for {}, every estimator", f.name()),
             svg.as_bytes(),
         )?;
+        if cells.iter().any(|c| c.integrand == fi && c.coverage.is_some()) {
+            let svg = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
+            folder.write(
+                &format!("{}-coverage.svg", f.name()),
+                &format!(
+                    "95% coverage against n for {}, every estimator with an interval, with the binomial 99% band",
+                    f.name()
+                ),
+                svg.as_bytes(),
+            )?;
+        }
     }
     folder.write(
         "timings.json",

@@ -145,6 +145,22 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         }
         integrands.push(f);
     }
+    // `<name>-coverage.svg` is written beside `<name>.svg`: no integrand may take that name.
+    for (i, f) in integrands.iter().enumerate() {
+        if let Some(j) = integrands
+            .iter()
+            .position(|g| format!("{}-coverage", g.name()) == f.name())
+        {
+            return Err(err(
+                format!("integrands[{i}]"),
+                format!(
+                    "the name {:?} is the calibration plot of integrands[{j}] ({:?}); rename one",
+                    f.name(),
+                    integrands[j].name()
+                ),
+            ));
+        }
+    }
     if spec.samples.is_empty() {
         return Err(err("samples", "must list at least one sample count"));
     }

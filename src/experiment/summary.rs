@@ -121,6 +121,14 @@ pub fn coverage_at(
     Some(hits as f64 / errors.len() as f64)
 }
 
+/// The binomial 99% band around `level` for `trials` trials: `level ± z₀.₉₉₅ sqrt(level (1 −
+/// level) / trials)` (normal approximation to the binomial count of covering trials), clipped to
+/// [0, 1]. A calibrated estimator's coverage falls outside it in about 1% of cells.
+pub fn binomial_band(level: f64, trials: usize) -> (f64, f64) {
+    let half = crate::stats::interval_quantile(None, 0.99) * (level * (1.0 - level) / trials as f64).sqrt();
+    ((level - half).max(0.0), (level + half).min(1.0))
+}
+
 /// One (integrand, N) cell of a check.
 #[derive(Debug, Clone)]
 pub struct CheckCell {
