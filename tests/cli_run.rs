@@ -497,3 +497,36 @@ fn high_powers_of_cos_are_integrands() {
             .all(|r| r[0] == "cos100" && f(&r[7]) == std::f64::consts::TAU / 101.0)
     );
 }
+
+/// A calibration check passes when every cell's coverage lies in the binomial 99% band around
+/// the level, and fails (exit 1, outputs written) otherwise: MC's Student-t interval on cos³θ
+/// passes; BMC with the unit amplitude covers every trial (coverage 1.0, above the band) and
+/// fails. The coverage plot is written for each integrand.
+#[test]
+fn calibration_checks_pass_and_fail_with_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = |checks: &str| {
+        format!(
+            r#"{{"name": "cal", "integrands": ["cos3"],
+                "estimators": [{{"label": "MC", "method": "mc"}},
+                               {{"label": "BMC-unit", "method": "bmc", "scale": "unit"}}],
+                "samples": [32, 64], "trials": 200, "seed": 7, "checks": [{checks}]}}"#
+        )
+    };
+    write(dir.path(), "pass.json", &spec(r#"{"calibrated": "MC", "level": 0.95, "from_n": 32}"#));
+    let o = workbench(dir.path(), &["run", "pass.json", "-q", "--out", "p"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("PASS check MC calibrated at 0.95"), "{}", stdout(&o));
+    assert!(dir.path().join("p/cos3-coverage.svg").is_file());
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("p/manifest.json")).unwrap()).unwrap();
+    let c = &manifest["calibration_checks"][0];
+    assert_eq!(c["passed"], true);
+    assert_eq!(c["cells"].as_array().unwrap().len(), 2);
+
+    write(dir.path(), "fail.json", &spec(r#"{"calibrated": "BMC-unit"}"#));
+    let o = workbench(dir.path(), &["run", "fail.json", "-q", "--out", "f"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stdout(&o).contains("FAIL check BMC-unit calibrated"), "{}", stdout(&o));
+    assert!(dir.path().join("f/summary.csv").is_file());
+}

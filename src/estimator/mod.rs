@@ -70,6 +70,15 @@ impl Method {
         }
     }
 
+    /// Whether the estimator states an interval at `n` points ([`Method::uncertainty`] is
+    /// `Some`): MC needs two terms for a sample standard deviation.
+    pub fn has_interval(self, n: usize) -> bool {
+        match self {
+            Method::Mc => n >= 2,
+            Method::Bmc | Method::Bmcp | Method::Bsq => n >= self.min_points(),
+        }
+    }
+
     /// Whether the estimate takes a constant prior mean `c`.
     pub fn uses_prior(self) -> bool {
         match self {

@@ -5,7 +5,7 @@
 
 use super::plan::Plan;
 use super::runner::Results;
-use super::summary::{CellSummary, CheckOutcome};
+use super::summary::{CalibrationOutcome, CellSummary, CheckOutcome};
 use std::fmt::Write;
 
 fn opt(v: Option<f64>) -> String {
@@ -122,6 +122,7 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
         "trials": plan.trials,
         "seed": plan.seed,
         "checks": plan.checks,
+        "calibration_checks": plan.calibration_checks,
     })
 }
 
@@ -146,7 +147,7 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
 }
 
 /// `manifest.json`: the plan and how the run went.
-pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome]) -> Vec<u8> {
+pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[CalibrationOutcome]) -> Vec<u8> {
     let v = serde_json::json!({
         "plan": plan_json(plan),
         "seed": plan.seed,
@@ -164,6 +165,19 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome]) -> Vec<u8> {
                 "mean_abs_error_than": x.mean_than,
                 "t": x.test.t,
                 "p_value": x.test.p_value,
+                "passed": x.passed,
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "calibration_checks": calibration.iter().map(|c| serde_json::json!({
+            "calibrated": c.check.calibrated,
+            "level": c.check.level,
+            "from_n": c.check.from_n,
+            "band99": [c.band.0, c.band.1],
+            "passed": c.passed(),
+            "cells": c.cells.iter().map(|x| serde_json::json!({
+                "integrand": plan.integrands[x.integrand].name(),
+                "n": x.n,
+                "coverage": x.coverage,
                 "passed": x.passed,
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),

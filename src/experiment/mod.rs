@@ -41,7 +41,7 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
         if t == 0 {
             return Err(InputError::new("--trials: must be at least 1, got 0"));
         }
-        if t < 2 && !spec.checks.is_empty() {
+        if t < 2 && spec.checks.iter().any(|c| c.calibrated.is_none()) {
             return Err(InputError::new(format!(
                 "--trials {t}: the file's checks need at least 2 trials for their paired test"
             )));
@@ -59,6 +59,7 @@ pub struct RunReport {
     pub out_dir: PathBuf,
     pub cells: Vec<summary::CellSummary>,
     pub checks: Vec<summary::CheckOutcome>,
+    pub calibration: Vec<summary::CalibrationOutcome>,
     pub wall_seconds: f64,
     pub threads: usize,
     pub warnings: Vec<(String, usize)>,
@@ -105,6 +106,11 @@ pub fn run_plan(
         .iter()
         .map(|c| summary::evaluate_check(plan, &results, c))
         .collect();
+    let calibration: Vec<_> = plan
+        .calibration_checks
+        .iter()
+        .map(|c| summary::evaluate_calibration(plan, &results, c))
+        .collect();
 
     folder.write(
         "trials.csv",
@@ -141,7 +147,7 @@ pub fn run_plan(
         &export::timings_json(threads, wall_seconds),
     )?;
     let manifest: serde_json::Value =
-        serde_json::from_slice(&export::manifest_json(plan, &checks)).expect("the manifest is JSON");
+        serde_json::from_slice(&export::manifest_json(plan, &checks, &calibration)).expect("the manifest is JSON");
     folder.commit(manifest)?;
 
     let mut warnings: Vec<(String, usize)> = Vec::new();
@@ -166,6 +172,7 @@ pub fn run_plan(
         out_dir,
         cells,
         checks,
+        calibration,
         wall_seconds,
         threads,
         warnings,

@@ -37,6 +37,8 @@ pub struct Plan {
     pub trials: usize,
     pub seed: u64,
     pub checks: Vec<Check>,
+    /// Calibration checks (`"calibrated"` entries of `checks`).
+    pub calibration_checks: Vec<CalibrationCheck>,
     /// Distinct BMC models; estimators that share one share its weights within a trial.
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
@@ -108,6 +110,18 @@ pub struct Check {
     pub better_index: usize,
     #[serde(skip)]
     pub than_index: usize,
+}
+
+/// A resolved calibration check: estimator `label`'s coverage at `level` lies in the binomial
+/// 99% band around `level` ([`super::summary::binomial_band`]) for every integrand and N ≥
+/// `from_n`.
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibrationCheck {
+    pub calibrated: String,
+    pub level: f64,
+    pub from_n: usize,
+    #[serde(skip)]
+    pub index: usize,
 }
 
 /// Parses the JSON text; errors say where (`path: message`).
@@ -292,6 +306,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     }
 
     let mut checks = Vec::new();
+    let mut calibration_checks = Vec::new();
     for (i, c) in spec.checks.iter().enumerate() {
         let at = |field: &str| format!("checks[{i}].{field}");
         let find = |label: &str, field: &str| {
@@ -306,11 +321,6 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
                 )
             })
         };
-        let better_index = find(&c.better, "better")?;
-        let than_index = find(&c.than, "than")?;
-        if better_index == than_index {
-            return Err(err(at("than"), format!("{:?} is compared with itself", c.than)));
-        }
         let from_n = c.from_n.unwrap_or(1);
         if from_n == 0 {
             return Err(err(at("from_n"), "must be at least 1, got 0"));
@@ -321,6 +331,64 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
                 format!("{from_n} is above every sample count, so nothing is checked"),
             ));
         }
+        if let Some(label) = &c.calibrated {
+            for (field, given) in [
+                ("better", c.better.is_some()),
+                ("than", c.than.is_some()),
+                ("alpha", c.alpha.is_some()),
+            ] {
+                if given {
+                    return Err(err(
+                        at(field),
+                        "is not used by a calibration check (\"calibrated\" takes \"level\" and \"from_n\")",
+                    ));
+                }
+            }
+            let index = find(label, "calibrated")?;
+            let e = &estimators[index];
+            if let Some(&n) = spec
+                .samples
+                .iter()
+                .find(|&&n| n >= from_n && !e.method.has_interval(n as usize))
+            {
+                return Err(err(
+                    at("calibrated"),
+                    format!(
+                        "{label:?} (method {}) has no interval at N = {n}, so its calibration cannot be checked; \
+                         raise from_n",
+                        e.method
+                    ),
+                ));
+            }
+            let level = c.level.unwrap_or(0.95);
+            if !(level > 0.0 && level < 1.0) {
+                return Err(err(at("level"), format!("must be in (0, 1), got {level}")));
+            }
+            calibration_checks.push(CalibrationCheck {
+                calibrated: label.clone(),
+                level,
+                from_n: from_n as usize,
+                index,
+            });
+            continue;
+        }
+        if c.level.is_some() {
+            return Err(err(
+                at("level"),
+                "is used only by a calibration check (\"calibrated\": LABEL)",
+            ));
+        }
+        let (Some(better), Some(than)) = (&c.better, &c.than) else {
+            return Err(err(
+                format!("checks[{i}]"),
+                "give \"better\" and \"than\" (a comparison) or \"calibrated\" (a calibration check)",
+            ));
+        };
+        let better_index = find(better, "better")?;
+        let than_index = find(than, "than")?;
+        if better_index == than_index {
+            return Err(err(at("than"), format!("{than:?} is compared with itself")));
+        }
         let alpha = c.alpha.unwrap_or(0.01);
         if !(alpha > 0.0 && alpha < 1.0) {
             return Err(err(at("alpha"), format!("must be in (0, 1), got {alpha}")));
@@ -329,8 +397,8 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             return Err(err(at("better"), "a paired test needs at least 2 trials"));
         }
         checks.push(Check {
-            better: c.better.clone(),
-            than: c.than.clone(),
+            better: better.clone(),
+            than: than.clone(),
             from_n: from_n as usize,
             alpha,
             better_index,
@@ -347,6 +415,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         trials: spec.trials as usize,
         seed: spec.seed,
         checks,
+        calibration_checks,
         models,
         designs,
     })

@@ -1,6 +1,6 @@
 //! Per-cell summaries and the evaluation of checks.
 
-use super::plan::{Check, Plan};
+use super::plan::{CalibrationCheck, Check, Plan};
 use super::runner::Results;
 use crate::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
 
@@ -178,6 +178,57 @@ pub fn evaluate_check(plan: &Plan, results: &Results, check: &Check) -> CheckOut
     }
     CheckOutcome {
         check: check.clone(),
+        cells,
+    }
+}
+
+/// One (integrand, N) cell of a calibration check.
+#[derive(Debug, Clone)]
+pub struct CalibrationCell {
+    pub integrand: usize,
+    pub n: usize,
+    pub coverage: f64,
+    pub passed: bool,
+}
+
+/// The outcome of one calibration check.
+#[derive(Debug, Clone)]
+pub struct CalibrationOutcome {
+    pub check: CalibrationCheck,
+    /// The binomial 99% band around the level.
+    pub band: (f64, f64),
+    pub cells: Vec<CalibrationCell>,
+}
+
+impl CalibrationOutcome {
+    pub fn passed(&self) -> bool {
+        self.cells.iter().all(|c| c.passed)
+    }
+}
+
+/// Evaluates a calibration check: in every (integrand, N ≥ from_n) cell the estimator's
+/// coverage at the level lies within [`binomial_band`] around it.
+pub fn evaluate_calibration(plan: &Plan, results: &Results, check: &CalibrationCheck) -> CalibrationOutcome {
+    let band = binomial_band(check.level, plan.trials);
+    let mut cells = Vec::new();
+    for fi in 0..plan.integrands.len() {
+        for (ni, &n) in plan.samples.iter().enumerate() {
+            if n < check.from_n {
+                continue;
+            }
+            let coverage = coverage_at(plan, results, fi, check.index, ni, check.level)
+                .expect("validation ensures an interval at every checked N");
+            cells.push(CalibrationCell {
+                integrand: fi,
+                n,
+                coverage,
+                passed: band.0 <= coverage && coverage <= band.1,
+            });
+        }
+    }
+    CalibrationOutcome {
+        check: check.clone(),
+        band,
         cells,
     }
 }
