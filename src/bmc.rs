@@ -53,19 +53,19 @@ impl Scale {
     }
 }
 
-/// The fitted amplitude `λ̂` for residuals `r = Y − F̄` (math.md §7), using the factor of `Q`
-/// that `workspace` holds (the one the weights came from): `ml` is `rᵀQ⁻¹r / dof` (one O(N²)
-/// solve), `loo` is `(1/N) Σ (Q⁻¹r)_i² / (Q⁻¹)_ii` with `inverse_diagonal = diag(Q⁻¹)` (see
-/// [`SpdWorkspace::inverse_diagonal`]). `unit` is 1. All residuals exactly 0 give exactly 0
-/// (a [`NumericalWarning::ZeroAmplitude`] for the caller to count).
+/// The fitted amplitude `λ̂` for residuals `r = Y − F̄` (math.md §7), given `solved = Q⁻¹r`
+/// (from the factor the weights came from): `ml` is `rᵀQ⁻¹r / dof`, `loo` is
+/// `(1/N) Σ (Q⁻¹r)_i² / (Q⁻¹)_ii` with `inverse_diagonal = diag(Q⁻¹)` (see
+/// [`SpdWorkspace::inverse_diagonal`]); `unit` is 1. O(N) given the solve. All residuals exactly
+/// 0 give exactly 0 (a [`NumericalWarning::ZeroAmplitude`] for the caller to count).
 ///
 /// # Panics
 /// With `loo` and no `inverse_diagonal`, or mismatched lengths.
 pub fn fit_amplitude(
     scale: Scale,
     residuals: &[f64],
+    solved: &[f64],
     dof: usize,
-    workspace: &SpdWorkspace,
     inverse_diagonal: Option<&[f64]>,
 ) -> f64 {
     if scale == Scale::Unit {
@@ -74,16 +74,14 @@ pub fn fit_amplitude(
     if residuals.iter().all(|&r| r == 0.0) {
         return 0.0;
     }
-    let mut a = residuals.to_vec();
-    workspace.solve_in_place(&mut a);
     match scale {
         Scale::Unit => unreachable!("returned above"),
         // rᵀQ⁻¹r ≥ 0 for SPD Q; max() only guards rounding.
-        Scale::Ml => (dot(residuals, &a) / dof as f64).max(0.0),
+        Scale::Ml => (dot(residuals, solved) / dof as f64).max(0.0),
         Scale::Loo => {
             let d = inverse_diagonal.expect("loo needs diag(Q⁻¹)");
-            assert_eq!(d.len(), a.len(), "one diagonal entry per point");
-            a.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / a.len() as f64
+            assert_eq!(d.len(), solved.len(), "one diagonal entry per point");
+            solved.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / solved.len() as f64
         }
     }
 }

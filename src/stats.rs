@@ -38,7 +38,9 @@ pub fn interval_quantile(dof: Option<usize>, level: f64) -> f64 {
     match dof {
         None => Normal::new(0.0, 1.0).expect("standard normal").inverse_cdf(p),
         Some(0) => f64::INFINITY,
-        Some(d) => StudentsT::new(0.0, 1.0, d as f64).expect("dof > 0").inverse_cdf(p),
+        Some(d) => StudentsT::new(0.0, 1.0, d as f64)
+            .expect("dof > 0")
+            .inverse_cdf(p),
     }
 }
 

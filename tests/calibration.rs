@@ -6,6 +6,13 @@ use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use std::f64::consts::TAU;
 use workbench::bmc::{BmcWeights, Scale, bmc_weights, fit_amplitude};
+
+/// `Q⁻¹ v` with the workspace's factor.
+fn solve(ws: &SpdWorkspace, v: &[f64]) -> Vec<f64> {
+    let mut a = v.to_vec();
+    ws.solve_in_place(&mut a);
+    a
+}
 use workbench::estimator::Method;
 use workbench::geometry::Vec3;
 use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
@@ -84,7 +91,10 @@ fn amplitudes_and_bayes_sard_match_a_dense_reference() {
                 assert!(rel(*a, *b) < TOL, "{kernel} n={n}: w {a} vs {b}");
             }
             let var1 = d.v - d.z.dot(&wd);
-            assert!(rel(w.diagnostics.posterior_variance, var1) < TOL, "{kernel} n={n}: Var₁");
+            assert!(
+                rel(w.diagnostics.posterior_variance, var1) < TOL,
+                "{kernel} n={n}: Var₁"
+            );
 
             // Bayes–Sard by the augmented system.
             let mut a = DMatrix::zeros(n + 1, n + 1);
@@ -107,14 +117,17 @@ fn amplitudes_and_bayes_sard_match_a_dense_reference() {
             assert!(rel(est, est_dense) < TOL, "{kernel} n={n}: BSQ estimate");
             let u = &d.qinv * &ones;
             let var_bs = var1 + (TAU - ones.dot(&wd)).powi(2) / ones.dot(&u);
-            assert!(rel(w.bayes_sard_variance(), var_bs) < TOL, "{kernel} n={n}: BSQ Var₁");
+            assert!(
+                rel(w.bayes_sard_variance(), var_bs) < TOL,
+                "{kernel} n={n}: BSQ Var₁"
+            );
             // The same variance as the augmented system's: V̂ − [z; 2π]ᵀ A⁻¹ [z; 2π].
             assert!(rel(var_bs, d.v - rhs.dot(&sol)) < 1e-8, "{kernel} n={n}");
 
             // Amplitudes for each method's residuals.
             let inv_diag = ws.inverse_diagonal();
-            for i in 0..n {
-                assert!(rel(inv_diag[i], d.qinv[(i, i)]) < TOL, "{kernel} n={n}: diag");
+            for (i, got) in inv_diag.iter().enumerate() {
+                assert!(rel(*got, d.qinv[(i, i)]) < TOL, "{kernel} n={n}: diag {i}");
             }
             let c = 0.25;
             let beta = ones.dot(&(&d.qinv * &y)) / ones.dot(&u);
@@ -128,11 +141,26 @@ fn amplitudes_and_bayes_sard_match_a_dense_reference() {
                 let qr = &d.qinv * &r_dense;
                 let ml = r_dense.dot(&qr) / dof as f64;
                 let loo = (0..n).map(|i| qr[i] * qr[i] / d.qinv[(i, i)]).sum::<f64>() / n as f64;
-                let got_ml = fit_amplitude(Scale::Ml, &r, dof, &ws, None);
-                let got_loo = fit_amplitude(Scale::Loo, &r, dof, &ws, Some(&inv_diag));
-                assert!(rel(got_ml, ml) < TOL, "{kernel} n={n} {method}: ml {got_ml} vs {ml}");
-                assert!(rel(got_loo, loo) < TOL, "{kernel} n={n} {method}: loo {got_loo} vs {loo}");
-                assert_eq!(fit_amplitude(Scale::Unit, &r, dof, &ws, None), 1.0);
+                // The runner's path: one solve Q⁻¹Y shared by the methods, Q⁻¹r = Q⁻¹Y − o·u.
+                let values_solve = solve(&ws, &values);
+                let amp = |scale| {
+                    method
+                        .amplitude(scale, &values, &values_solve, Some(&w), c, Some(&inv_diag))
+                        .unwrap()
+                };
+                let (got_ml, got_loo) = (amp(Scale::Ml), amp(Scale::Loo));
+                assert!(
+                    rel(got_ml, ml) < TOL,
+                    "{kernel} n={n} {method}: ml {got_ml} vs {ml}"
+                );
+                assert!(
+                    rel(got_loo, loo) < TOL,
+                    "{kernel} n={n} {method}: loo {got_loo} vs {loo}"
+                );
+                assert_eq!(amp(Scale::Unit), 1.0);
+                // And with the residuals solved directly.
+                let direct = fit_amplitude(Scale::Ml, &r, &solve(&ws, &r), dof, None);
+                assert!(rel(direct, ml) < TOL, "{kernel} n={n} {method}: direct ml");
             }
         }
     }
@@ -161,7 +189,7 @@ fn loo_amplitude_is_the_mean_standardised_leave_one_out_residual() {
     }
     let mut ws = SpdWorkspace::new();
     library(&kernel, 0.01, &pts, &table, &mut ws);
-    let got = fit_amplitude(Scale::Loo, &r, n, &ws, Some(&ws.inverse_diagonal()));
+    let got = fit_amplitude(Scale::Loo, &r, &solve(&ws, &r), n, Some(&ws.inverse_diagonal()));
     assert!(rel(got, sum / n as f64) < 1e-9, "{got} vs {}", sum / n as f64);
 }
 
@@ -174,11 +202,16 @@ fn zero_residuals_give_zero_amplitude() {
     let mut ws = SpdWorkspace::new();
     library(&kernel, 0.01, &pts, &table, &mut ws);
     let zeros = vec![0.0; 8];
-    assert_eq!(fit_amplitude(Scale::Ml, &zeros, 8, &ws, None), 0.0);
-    assert_eq!(
-        fit_amplitude(Scale::Loo, &zeros, 8, &ws, Some(&ws.inverse_diagonal())),
-        0.0
-    );
+    for method in [Method::Bmc, Method::Bsq] {
+        for scale in [Scale::Ml, Scale::Loo] {
+            let w = library(&kernel, 0.01, &pts, &table, &mut ws);
+            let amp = method
+                .amplitude(scale, &zeros, &zeros, Some(&w), 0.0, Some(&ws.inverse_diagonal()))
+                .unwrap();
+            assert_eq!(amp, 0.0, "{method} {scale:?}");
+        }
+    }
+    assert_eq!(fit_amplitude(Scale::Ml, &zeros, &zeros, 8, None), 0.0);
 }
 
 fn normal(rng: &mut impl RngExt) -> f64 {
@@ -221,8 +254,9 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
             let values: Vec<f64> = (0..n).map(|i| beta + draw[i]).collect();
             let truth = TAU * beta + draw[n];
             let est = method.estimate(Design::Uniform, &pts, &values, Some(&w), 0.0);
-            let r = method.residuals(&values, Some(&w), 0.0).unwrap();
-            let lam = fit_amplitude(Scale::Ml, &r, method.ml_dof(n), &ws, None);
+            let lam = method
+                .amplitude(Scale::Ml, &values, &solve(&ws, &values), Some(&w), 0.0, None)
+                .unwrap();
             let u = method
                 .uncertainty(Design::Uniform, &pts, &values, Some(&w), Scale::Ml, lam)
                 .unwrap();
@@ -250,7 +284,10 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
         // With λ = 40 the unit interval is sqrt(40) ≈ 6.3 times too narrow: |T| ≤ 1.96/6.3
         // has probability ≈ 0.24.
         let unit = unit_hits as f64 / trials as f64;
-        assert!(unit < 0.4, "{method}: unit coverage {unit} should be far below 0.95");
+        assert!(
+            unit < 0.4,
+            "{method}: unit coverage {unit} should be far below 0.95"
+        );
     }
 }
 
@@ -280,7 +317,14 @@ fn mc_interval_covers_at_its_level() {
     assert!((cov - 0.95).abs() < 4.0 * se, "coverage {cov} (se {se})");
     assert!(
         Method::Mc
-            .uncertainty(Design::Uniform, &[Vec3::new(0.0, 0.0, 1.0)], &[1.0], None, Scale::Unit, 1.0)
+            .uncertainty(
+                Design::Uniform,
+                &[Vec3::new(0.0, 0.0, 1.0)],
+                &[1.0],
+                None,
+                Scale::Unit,
+                1.0
+            )
             .is_none()
     );
 }

@@ -173,8 +173,19 @@ fn bayes_sard_rule_sums_to_two_pi() {
         let o = workbench(
             dir.path(),
             &[
-                "rule", "--n", "40", "--seed", "3", "--method", method, "--scale", scale, "--out",
-                "r.csv", "--summary", "r.json",
+                "rule",
+                "--n",
+                "40",
+                "--seed",
+                "3",
+                "--method",
+                method,
+                "--scale",
+                scale,
+                "--out",
+                "r.csv",
+                "--summary",
+                "r.json",
             ],
         );
         assert!(o.status.success(), "{}", stderr(&o));
@@ -188,7 +199,10 @@ fn bayes_sard_rule_sums_to_two_pi() {
     let (sum_bsq, bsq) = run("bsq", "ml");
     let tau = std::f64::consts::TAU;
     assert!((sum_bsq - tau).abs() < 1e-12, "{sum_bsq}");
-    assert!((sum_bmc - tau).abs() > 1e-6, "BMC's weights do not sum to 2π at N = 40");
+    assert!(
+        (sum_bmc - tau).abs() > 1e-6,
+        "BMC's weights do not sum to 2π at N = 40"
+    );
     let v = |s: &serde_json::Value| s["posterior_variance"].as_f64().unwrap();
     assert!(v(&bsq) > v(&bmc), "{} vs {}", v(&bsq), v(&bmc));
     assert_eq!(bsq["method"], "bsq");

@@ -154,7 +154,10 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
                     f(&r[8]) <= q * **sd
                 })
                 .count();
-            assert!((covered as f64 / 24.0 - f(&s[col(name)])).abs() < 1e-12, "{s:?} {name}");
+            assert!(
+                (covered as f64 / 24.0 - f(&s[col(name)])).abs() < 1e-12,
+                "{s:?} {name}"
+            );
         }
         let msd = sds.iter().sum::<f64>() / 24.0;
         assert!((msd - f(&s[col("mean_posterior_sd")])).abs() < 1e-14 * msd.max(1.0));
@@ -167,7 +170,10 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         ratios.sort_by(f64::total_cmp);
         let median_ratio = 0.5 * (ratios[11] + ratios[12]);
         let got = f(&s[col("median_abs_error_over_sd")]);
-        assert!((median_ratio - got).abs() <= 1e-12 * got.max(1e-300), "{median_ratio} vs {got}");
+        assert!(
+            (median_ratio - got).abs() <= 1e-12 * got.max(1e-300),
+            "{median_ratio} vs {got}"
+        );
     }
     // Cosine-weighted MC on cos θ is exact in every trial.
     assert!(
@@ -513,10 +519,18 @@ fn calibration_checks_pass_and_fail_with_exit_codes() {
                 "samples": [32, 64], "trials": 200, "seed": 7, "checks": [{checks}]}}"#
         )
     };
-    write(dir.path(), "pass.json", &spec(r#"{"calibrated": "MC", "level": 0.95, "from_n": 32}"#));
+    write(
+        dir.path(),
+        "pass.json",
+        &spec(r#"{"calibrated": "MC", "level": 0.95, "from_n": 32}"#),
+    );
     let o = workbench(dir.path(), &["run", "pass.json", "-q", "--out", "p"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stdout(&o).contains("PASS check MC calibrated at 0.95"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("PASS check MC calibrated at 0.95"),
+        "{}",
+        stdout(&o)
+    );
     assert!(dir.path().join("p/cos3-coverage.svg").is_file());
     let manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("p/manifest.json")).unwrap()).unwrap();
@@ -527,6 +541,10 @@ fn calibration_checks_pass_and_fail_with_exit_codes() {
     write(dir.path(), "fail.json", &spec(r#"{"calibrated": "BMC-unit"}"#));
     let o = workbench(dir.path(), &["run", "fail.json", "-q", "--out", "f"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stdout(&o).contains("FAIL check BMC-unit calibrated"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("FAIL check BMC-unit calibrated"),
+        "{}",
+        stdout(&o)
+    );
     assert!(dir.path().join("f/summary.csv").is_file());
 }

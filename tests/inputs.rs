@@ -464,7 +464,11 @@ mod calibration_inputs {
                 "Error: x.json: checks[0].calibrated: no estimator is labelled \"BMX\" (labels: BMC)",
             ),
             (
-                spec(&format!("{mc}, {bmc}"), "[8]", r#"{"calibrated": "BMC", "than": "MC"}"#),
+                spec(
+                    &format!("{mc}, {bmc}"),
+                    "[8]",
+                    r#"{"calibrated": "BMC", "than": "MC"}"#,
+                ),
                 "Error: x.json: checks[0].than: is not used by a calibration check",
             ),
             (
@@ -479,7 +483,11 @@ mod calibration_inputs {
         // The calibration check on MC from N = 2 on is fine.
         validates(
             "ok.json",
-            spec(&format!("{mc}, {bmc}"), "[1, 8]", r#"{"calibrated": "MC", "from_n": 2}"#),
+            spec(
+                &format!("{mc}, {bmc}"),
+                "[1, 8]",
+                r#"{"calibrated": "MC", "from_n": 2}"#,
+            ),
         );
     }
 }

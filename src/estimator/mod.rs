@@ -109,18 +109,56 @@ impl Method {
         }
     }
 
-    /// The residuals `r = Y − F̄` whose size the `ml` and `loo` amplitudes measure (math.md
-    /// §7–8): `Y` for BMC, `Y − c·1` for BMCP, `Y − β̂·1` for Bayes–Sard; None for MC.
-    pub fn residuals(self, values: &[f64], weights: Option<&BmcWeights>, prior: f64) -> Option<Vec<f64>> {
+    /// The constant `o` of the residuals `r = Y − o·1` whose size the `ml` and `loo`
+    /// amplitudes measure (math.md §7–8): 0 for BMC (`r = Y`), the prior `c` for BMCP,
+    /// `β̂ = 1ᵀQ⁻¹Y / 1ᵀQ⁻¹1` for Bayes–Sard; None for MC.
+    pub fn residual_offset(self, values: &[f64], weights: Option<&BmcWeights>, prior: f64) -> Option<f64> {
         match self {
             Method::Mc => None,
-            Method::Bmc => Some(values.to_vec()),
-            Method::Bmcp => Some(values.iter().map(|y| y - prior).collect()),
-            Method::Bsq => {
-                let beta = weights.expect("BSQ needs weights").bayes_sard_constant(values);
-                Some(values.iter().map(|y| y - beta).collect())
-            }
+            Method::Bmc => Some(0.0),
+            Method::Bmcp => Some(prior),
+            Method::Bsq => Some(weights.expect("BSQ needs weights").bayes_sard_constant(values)),
         }
+    }
+
+    /// The residuals `r = Y − o·1` ([`Method::residual_offset`]); None for MC.
+    pub fn residuals(self, values: &[f64], weights: Option<&BmcWeights>, prior: f64) -> Option<Vec<f64>> {
+        let o = self.residual_offset(values, weights, prior)?;
+        Some(values.iter().map(|y| y - o).collect())
+    }
+
+    /// The fitted amplitude `λ̂` ([`crate::bmc::fit_amplitude`]) of this estimator's residuals,
+    /// from `values_solve = Q⁻¹Y`: `Q⁻¹r = Q⁻¹Y − o·u` with `u = Q⁻¹1`, so one solve per
+    /// integrand and weight set serves BMC, BMCP and Bayes–Sard alike (O(N) each after it).
+    /// None for MC.
+    pub fn amplitude(
+        self,
+        scale: Scale,
+        values: &[f64],
+        values_solve: &[f64],
+        weights: Option<&BmcWeights>,
+        prior: f64,
+        inverse_diagonal: Option<&[f64]>,
+    ) -> Option<f64> {
+        let w = weights?;
+        let o = self.residual_offset(values, weights, prior)?;
+        let r: Vec<f64> = values.iter().map(|y| y - o).collect();
+        let solved: Vec<f64> = if o == 0.0 {
+            values_solve.to_vec()
+        } else {
+            values_solve
+                .iter()
+                .zip(&w.ones_solve)
+                .map(|(a, u)| a - o * u)
+                .collect()
+        };
+        Some(crate::bmc::fit_amplitude(
+            scale,
+            &r,
+            &solved,
+            self.ml_dof(values.len()),
+            inverse_diagonal,
+        ))
     }
 
     /// Degrees of freedom of the `ml` amplitude and of its Student-t interval: `N` for BMC and
@@ -176,7 +214,11 @@ impl Method {
                 if n < 2 {
                     return None;
                 }
-                let terms: Vec<f64> = points.iter().zip(values).map(|(w, f)| f / density.pdf(w)).collect();
+                let terms: Vec<f64> = points
+                    .iter()
+                    .zip(values)
+                    .map(|(w, f)| f / density.pdf(w))
+                    .collect();
                 Some(Uncertainty {
                     sd: crate::stats::sample_sd(&terms) / (n as f64).sqrt(),
                     dof: Some(n - 1),

@@ -43,11 +43,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
         })
         .collect();
     let (band_lo, band_hi) = binomial_band(LEVEL, plan.trials);
-    let lowest = series
-        .iter()
-        .flatten()
-        .map(|p| p.1)
-        .fold(band_lo, f64::min);
+    let lowest = series.iter().flatten().map(|p| p.1).fold(band_lo, f64::min);
     let y0 = (lowest - 0.05).max(0.0);
     let y1 = 1.02;
     let n_min = *plan.samples.iter().min().expect("samples") as f64;

@@ -147,7 +147,8 @@ pub fn run_plan(
         &export::timings_json(threads, wall_seconds),
     )?;
     let manifest: serde_json::Value =
-        serde_json::from_slice(&export::manifest_json(plan, &checks, &calibration)).expect("the manifest is JSON");
+        serde_json::from_slice(&export::manifest_json(plan, &checks, &calibration))
+            .expect("the manifest is JSON");
     folder.commit(manifest)?;
 
     let mut warnings: Vec<(String, usize)> = Vec::new();

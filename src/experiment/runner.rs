@@ -6,7 +6,7 @@
 //! and BMCP with the same model cost one Cholesky between them.
 
 use super::plan::Plan;
-use crate::bmc::{BmcWeights, Scale, fit_amplitude};
+use crate::bmc::{BmcWeights, Scale};
 use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
 use crate::sampling::SetDesign;
@@ -113,8 +113,9 @@ pub fn run_unit(
 
     // Weights per (model, design) pair in use, computed once. While the workspace still holds
     // a weight set's Cholesky factor, the fitted amplitudes of the estimators that use it are
-    // computed: one O(N²) solve per (estimator, integrand) for `ml`, plus diag(Q⁻¹) once per
-    // weight set (O(N³)) when an estimator uses `loo`.
+    // computed: one O(N²) solve `Q⁻¹Y` per (weight set, integrand), shared by every estimator
+    // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
+    // estimator uses `loo`.
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
     let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
@@ -151,22 +152,21 @@ pub fn run_unit(
                 .then(|| workspace.inverse_diagonal());
             for (fi, f) in plan.integrands.iter().enumerate() {
                 let values: Vec<f64> = set.iter().map(|p| f.value(p)).collect();
+                let mut values_solve = values.clone();
+                workspace.solve_in_place(&mut values_solve);
                 for (ei, x) in plan.estimators.iter().enumerate() {
                     if !(sharing(&x) && fitted(x)) {
                         continue;
                     }
                     let prior = x.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
-                    let r = x
-                        .method
-                        .residuals(&values, Some(&w), prior)
-                        .expect("methods with weights have residuals");
-                    amplitudes[fi][ei] = Some(fit_amplitude(
+                    amplitudes[fi][ei] = x.method.amplitude(
                         x.scale.expect("fitted"),
-                        &r,
-                        x.method.ml_dof(n),
-                        workspace,
+                        &values,
+                        &values_solve,
+                        Some(&w),
+                        prior,
                         inverse_diagonal.as_deref(),
-                    ));
+                    );
                 }
             }
         }
@@ -242,8 +242,8 @@ pub fn run_unit(
             }
         }
     }
-    for fi in 0..ni {
-        for (ei, a) in amplitudes[fi].iter().enumerate() {
+    for (fi, row) in amplitudes.iter().enumerate() {
+        for (ei, a) in row.iter().enumerate() {
             if *a == Some(0.0) {
                 messages.push(format!(
                     "{} ({:?} on {})",

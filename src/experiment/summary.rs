@@ -58,7 +58,9 @@ pub fn summarize(plan: &Plan, results: &Results) -> Vec<CellSummary> {
                     .map(|u| u.uncertainty[fi][ei].map(|x| x.sd))
                     .collect();
                 let coverage = sds.as_ref().map(|_| {
-                    COVERAGE_LEVELS.map(|level| coverage_at(plan, results, fi, ei, ni, level).expect("every trial has an sd"))
+                    COVERAGE_LEVELS.map(|level| {
+                        coverage_at(plan, results, fi, ei, ni, level).expect("every trial has an sd")
+                    })
                 });
                 let median_error_over_sd = sds.as_ref().map(|sds| {
                     let mut ratios: Vec<f64> = errors

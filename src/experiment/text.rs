@@ -100,7 +100,9 @@ fn calibration_line(plan: &plan::Plan, o: &summary::CalibrationOutcome) -> Strin
         let (lo, hi) = o
             .cells
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x.coverage), h.max(x.coverage)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+                (l.min(x.coverage), h.max(x.coverage))
+            });
         format!("PASS {head}: {} cells, coverage {lo:.3}–{hi:.3}", o.cells.len())
     } else {
         let fails: Vec<String> = o
