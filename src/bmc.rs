@@ -7,10 +7,84 @@
 use crate::geometry::Vec3;
 use crate::kernel::Kernel;
 use crate::linalg::{FactorInfo, ILL_CONDITIONED, NotPositiveDefinite, SpdWorkspace};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The thesis's observation noise σ_n².
 pub const DEFAULT_NOISE: f64 = 0.01;
+
+/// The kernel amplitude `λ` of the prior `f ~ GP(f̄, λk)` (nugget scaled too, so `Q` becomes
+/// `λQ`): the weights and estimates do not depend on it, only the posterior variance
+/// `λ · Var₁` does (math.md §7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scale {
+    /// `λ = 1` (the thesis): `Î ± z sqrt(Var₁)`. Not equivariant: multiplying `f` by 1000
+    /// multiplies the error by 1000 but leaves the interval as it was.
+    Unit,
+    /// Maximum marginal likelihood, `λ̂ = rᵀQ⁻¹r / N` (`N − 1` for Bayes–Sard); with `λ`
+    /// integrated out under `p(λ) ∝ 1/λ` the interval is Student-t with that many degrees of
+    /// freedom (Briol et al., "Probabilistic integration: a role in statistical computation?",
+    /// Statist. Sci. 2019, §4.1; Karvonen & Oates, "Maximum likelihood estimation in Gaussian
+    /// process regression is ill-posed", JMLR 2023, for why only the amplitude is fitted).
+    /// O(N²) per trial: one solve with the existing factor.
+    Ml,
+    /// Leave-one-out, `λ̂ = (1/N) Σ_i (Q⁻¹r)_i² / (Q⁻¹)_ii` (the mean squared LOO residual
+    /// standardised by its unit-amplitude variance); normal interval. Needs `diag(Q⁻¹)`:
+    /// O(N³) per weight set.
+    Loo,
+}
+
+impl Scale {
+    pub const ALL: [Scale; 3] = [Scale::Unit, Scale::Ml, Scale::Loo];
+    /// What an estimator gets without a `"scale"`: see the README ("How far to trust the
+    /// error bars").
+    pub const DEFAULT: Scale = Scale::Ml;
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Scale::Unit => "unit",
+            Scale::Ml => "ml",
+            Scale::Loo => "loo",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+/// The fitted amplitude `λ̂` for residuals `r = Y − F̄` (math.md §7), given `solved = Q⁻¹r`
+/// (from the factor the weights came from): `ml` is `rᵀQ⁻¹r / dof`, `loo` is
+/// `(1/N) Σ (Q⁻¹r)_i² / (Q⁻¹)_ii` with `inverse_diagonal = diag(Q⁻¹)` (see
+/// [`SpdWorkspace::inverse_diagonal`]); `unit` is 1. O(N) given the solve. All residuals exactly
+/// 0 give exactly 0 (a [`NumericalWarning::ZeroAmplitude`] for the caller to count).
+///
+/// # Panics
+/// With `loo` and no `inverse_diagonal`, or mismatched lengths.
+pub fn fit_amplitude(
+    scale: Scale,
+    residuals: &[f64],
+    solved: &[f64],
+    dof: usize,
+    inverse_diagonal: Option<&[f64]>,
+) -> f64 {
+    if scale == Scale::Unit {
+        return 1.0;
+    }
+    if residuals.iter().all(|&r| r == 0.0) {
+        return 0.0;
+    }
+    match scale {
+        Scale::Unit => unreachable!("returned above"),
+        // rᵀQ⁻¹r ≥ 0 for SPD Q; max() only guards rounding.
+        Scale::Ml => (dot(residuals, solved) / dof as f64).max(0.0),
+        Scale::Loo => {
+            let d = inverse_diagonal.expect("loo needs diag(Q⁻¹)");
+            assert_eq!(d.len(), solved.len(), "one diagonal entry per point");
+            solved.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / solved.len() as f64
+        }
+    }
+}
 
 /// A numerical event worth telling the user about; counted per weight set.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -29,6 +103,10 @@ pub enum NumericalWarning {
     /// has eigenvalues up to `1/σ_n²` (`rule --n 512 --kernel-mean mc`: −2.3 with fresh
     /// directions per point, −0.058 with one shared set).
     NegativePosteriorVariance { value: f64 },
+    /// A fitted amplitude (`ml` or `loo`, math.md §7) is exactly 0: every residual vanished
+    /// (e.g. no sample saw a small light, so `Y ≡ 0` for BMC), so the interval is a point.
+    /// That is absence of evidence, not certainty; the trial is kept in coverage.
+    ZeroAmplitude,
 }
 
 impl NumericalWarning {
@@ -51,6 +129,10 @@ impl NumericalWarning {
                  this: use the exact kernel mean (\"kernel_mean\": \"exact\", --kernel-mean exact), \
                  or, if it is already exact, increase the noise σ_n²"
             ),
+            NumericalWarning::ZeroAmplitude => "zero_amplitude: every residual is 0, so the fitted \
+                 amplitude λ̂ is 0 and the interval is a single point (absence of evidence, not \
+                 certainty); use more samples, or the unit scale for this integrand"
+                .to_string(),
         }
     }
 }
@@ -88,6 +170,8 @@ impl Diagnostics {
 #[derive(Clone, Debug)]
 pub struct BmcWeights {
     pub weights: Vec<f64>,
+    /// `u = Q⁻¹ 1`, for Bayes–Sard quadrature (math.md §8) and its residuals `Y − β̂ 1`.
+    pub ones_solve: Vec<f64>,
     pub diagnostics: Diagnostics,
 }
 
@@ -97,6 +181,67 @@ impl BmcWeights {
         // sqrt(max(V̂ − zᵀQ⁻¹z, 0)): 0 also when MC kernel means made the variance negative;
         // a NegativePosteriorVariance warning then says so.
         self.diagnostics.posterior_variance_clamped().sqrt()
+    }
+
+    /// `(2π − 1ᵀw) / 1ᵀu`: the multiple of `u = Q⁻¹1` that Bayes–Sard quadrature adds to the
+    /// BMC weights so that they sum to `2π` (math.md §8).
+    pub fn bayes_sard_shift(&self) -> f64 {
+        let sum_u: f64 = self.ones_solve.iter().sum();
+        (std::f64::consts::TAU - self.diagnostics.weight_sum) / sum_u
+    }
+
+    /// `β̂ = 1ᵀQ⁻¹Y / 1ᵀQ⁻¹1`, the generalised-least-squares constant of Bayes–Sard quadrature.
+    pub fn bayes_sard_constant(&self, values: &[f64]) -> f64 {
+        dot(&self.ones_solve, values) / self.ones_solve.iter().sum::<f64>()
+    }
+
+    /// Bayes–Sard quadrature's unit-amplitude posterior variance (math.md §8; Karvonen, Oates &
+    /// Särkkä, "A Bayes–Sard cubature method", NeurIPS 2018, Theorem 2.7 with a constant
+    /// function space): `Var₁ = V̂ − zᵀQ⁻¹z + (2π − 1ᵀQ⁻¹z)² / (1ᵀQ⁻¹1)`, raw (not clamped).
+    pub fn bayes_sard_variance(&self) -> f64 {
+        let sum_u: f64 = self.ones_solve.iter().sum();
+        let gap = std::f64::consts::TAU - self.diagnostics.weight_sum;
+        self.diagnostics.posterior_variance + gap * gap / sum_u
+    }
+
+    /// The Bayes–Sard rule on the same points: weights `w_BS = w + u (2π − 1ᵀw) / (1ᵀu)` (sum
+    /// `2π` to rounding, so constants are integrated exactly) and diagnostics with §8's `Var₁`
+    /// as the posterior variance (Karvonen, Oates & Särkkä 2018).
+    pub fn bayes_sard(&self) -> BmcWeights {
+        let shift = self.bayes_sard_shift();
+        let weights: Vec<f64> = self
+            .weights
+            .iter()
+            .zip(&self.ones_solve)
+            .map(|(w, u)| w + shift * u)
+            .collect();
+        let posterior_variance = self.bayes_sard_variance();
+        let mut warnings: Vec<NumericalWarning> = self
+            .diagnostics
+            .warnings
+            .iter()
+            .filter(|w| !matches!(w, NumericalWarning::NegativePosteriorVariance { .. }))
+            .cloned()
+            .collect();
+        if posterior_variance < 0.0 {
+            warnings.push(NumericalWarning::NegativePosteriorVariance {
+                value: posterior_variance,
+            });
+        }
+        let diagnostics = Diagnostics {
+            weight_sum: weights.iter().sum(),
+            negative_weights: weights.iter().filter(|&&w| w < 0.0).count(),
+            min_weight: weights.iter().copied().fold(f64::INFINITY, f64::min),
+            max_weight: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            posterior_variance,
+            warnings,
+            ..self.diagnostics.clone()
+        };
+        BmcWeights {
+            weights,
+            ones_solve: self.ones_solve.clone(),
+            diagnostics,
+        }
     }
 }
 
@@ -162,6 +307,9 @@ pub fn bmc_weights(
     } = workspace.factor()?;
     let mut weights = z.to_vec();
     workspace.solve_in_place(&mut weights);
+    // One more O(N²) solve, for Bayes–Sard and its residuals.
+    let mut ones_solve = vec![1.0; n];
+    workspace.solve_in_place(&mut ones_solve);
 
     let mut warnings = Vec::new();
     if jitter > 0.0 {
@@ -190,7 +338,11 @@ pub fn bmc_weights(
         posterior_variance,
         warnings,
     };
-    Ok(BmcWeights { weights, diagnostics })
+    Ok(BmcWeights {
+        weights,
+        ones_solve,
+        diagnostics,
+    })
 }
 
 /// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.

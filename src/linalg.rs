@@ -164,6 +164,38 @@ impl SpdWorkspace {
         let factor = self.factor.as_ref().submatrix(0, 0, n, n);
         llt::solve::solve_in_place(factor, rhs.as_mut(), Par::Seq, MemStack::new(&mut mem));
     }
+
+    /// The diagonal of `Q⁻¹` from the last factorisation, without forming `Q⁻¹`:
+    /// `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` because `Q⁻¹ = L⁻ᵀ L⁻¹`. Each `L⁻¹ e_i` is a forward substitution
+    /// that starts at row `i` (the rows above are zero), column-oriented over `L`'s contiguous
+    /// columns, so the whole diagonal costs `N³/6` multiply–adds: O(N³), like the factorisation
+    /// itself (it is what a leave-one-out amplitude needs, math.md §7).
+    pub fn inverse_diagonal(&self) -> Vec<f64> {
+        let n = self.n;
+        let mut out = vec![0.0; n];
+        let mut x = vec![0.0; n];
+        for i in 0..n {
+            x[i..].fill(0.0);
+            x[i] = 1.0;
+            for j in i..n {
+                let xj = x[j] / self.factor[(j, j)];
+                x[j] = xj;
+                if xj != 0.0 {
+                    let col = self
+                        .factor
+                        .col(j)
+                        .try_as_col_major()
+                        .expect("faer Mat columns are contiguous")
+                        .as_slice();
+                    for (xk, lk) in x[j + 1..n].iter_mut().zip(&col[j + 1..n]) {
+                        *xk -= lk * xj;
+                    }
+                }
+            }
+            out[i] = x[i..].iter().map(|v| v * v).sum();
+        }
+        out
+    }
 }
 
 #[cfg(test)]
@@ -225,6 +257,29 @@ mod tests {
                     x_true[i]
                 );
             }
+        }
+    }
+
+    /// `diag(Q⁻¹)` against the explicit inverse of a 3 × 3 matrix (adjugate / determinant).
+    #[test]
+    fn inverse_diagonal_matches_the_adjugate() {
+        let a = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
+        let mut ws = SpdWorkspace::new();
+        // A larger system first, so the buffers are bigger than n (as in a reused workspace).
+        ws.assemble_lower(5, |i, j| if i == j { 3.0 } else { 0.1 });
+        ws.factor().unwrap();
+        ws.assemble_lower(3, |i, j| a[i][j]);
+        ws.factor().unwrap();
+        let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        let expected = [
+            (a[1][1] * a[2][2] - a[1][2] * a[2][1]) / det,
+            (a[0][0] * a[2][2] - a[0][2] * a[2][0]) / det,
+            (a[0][0] * a[1][1] - a[0][1] * a[1][0]) / det,
+        ];
+        for (got, want) in ws.inverse_diagonal().iter().zip(expected) {
+            assert!((got - want).abs() < 1e-14 * want.abs(), "{got} vs {want}");
         }
     }
 

@@ -1,7 +1,7 @@
 //! Summary statistics (math.md §6): means with Student-t intervals, quantiles, the paired test
 //! of the checks, log–log slopes. Shared by `run` and `render`.
 
-use statrs::distribution::{ContinuousCDF, StudentsT};
+use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
 /// Arithmetic mean.
 pub fn mean(x: &[f64]) -> f64 {
@@ -28,6 +28,20 @@ pub fn mean_ci95(x: &[f64]) -> (f64, f64) {
     let half = t * sample_sd(x) / (x.len() as f64).sqrt();
     let m = mean(x);
     (m - half, m + half)
+}
+
+/// The two-sided quantile of an interval `m ± q · sd` at `level ∈ (0, 1)`: Student-t with
+/// `dof` degrees of freedom, or the standard normal for None (or 0 degrees of freedom, which
+/// has no t law: then the interval is unbounded, `q = ∞`).
+pub fn interval_quantile(dof: Option<usize>, level: f64) -> f64 {
+    let p = 0.5 + 0.5 * level;
+    match dof {
+        None => Normal::new(0.0, 1.0).expect("standard normal").inverse_cdf(p),
+        Some(0) => f64::INFINITY,
+        Some(d) => StudentsT::new(0.0, 1.0, d as f64)
+            .expect("dof > 0")
+            .inverse_cdf(p),
+    }
 }
 
 /// Quantile `p ∈ [0, 1]` of sorted data by linear interpolation between order statistics

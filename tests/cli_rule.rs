@@ -162,3 +162,55 @@ fn a_closed_stdout_is_a_quiet_exit() {
     assert_eq!(out.status.code(), Some(0), "{err}");
     assert!(!err.contains("panicked") && !err.contains("Error"), "{err}");
 }
+
+/// `--method bsq` writes the Bayes–Sard rule on the same points: weights summing to 2π to
+/// rounding, and §8's Var₁ = BMC's + (2π − Σw_BMC)² / 1ᵀQ⁻¹1, so never below BMC's. It needs
+/// two points; `--scale` is recorded with its interval law.
+#[test]
+fn bayes_sard_rule_sums_to_two_pi() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |method: &str, scale: &str| {
+        let o = workbench(
+            dir.path(),
+            &[
+                "rule",
+                "--n",
+                "40",
+                "--seed",
+                "3",
+                "--method",
+                method,
+                "--scale",
+                scale,
+                "--out",
+                "r.csv",
+                "--summary",
+                "r.json",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (_, rows) = read_csv(&dir.path().join("r.csv"));
+        let s: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+        let sum: f64 = rows.iter().map(|r| r[3].parse::<f64>().unwrap()).sum();
+        (sum, s)
+    };
+    let (sum_bmc, bmc) = run("bmc", "unit");
+    let (sum_bsq, bsq) = run("bsq", "ml");
+    let tau = std::f64::consts::TAU;
+    assert!((sum_bsq - tau).abs() < 1e-12, "{sum_bsq}");
+    assert!(
+        (sum_bmc - tau).abs() > 1e-6,
+        "BMC's weights do not sum to 2π at N = 40"
+    );
+    let v = |s: &serde_json::Value| s["posterior_variance"].as_f64().unwrap();
+    assert!(v(&bsq) > v(&bmc), "{} vs {}", v(&bsq), v(&bmc));
+    assert_eq!(bsq["method"], "bsq");
+    assert_eq!(bsq["scale"]["scale"], "ml");
+    assert_eq!(bsq["scale"]["student_t_dof"], 39);
+    assert_eq!(bmc["scale"]["student_t_dof"], serde_json::Value::Null);
+
+    let o = workbench(dir.path(), &["rule", "--n", "1", "--method", "bsq"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--method bsq"), "{}", stderr(&o));
+}

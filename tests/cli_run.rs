@@ -76,13 +76,17 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
             "weight_sum",
             "negative_weights",
             "jitter",
-            "condition_estimate"
+            "condition_estimate",
+            "amplitude",
+            "dof"
         ]
     );
     // Weight diagnostics: present for BMC-type rows (Σw near 2π), empty for MC.
     for r in &trials {
         if r[1].starts_with("MC") {
-            assert!(r[11..].iter().all(|c| c.is_empty()), "{r:?}");
+            assert!(r[11..16].iter().all(|c| c.is_empty()), "{r:?}");
+            // MC's interval: Student-t with N − 1 degrees of freedom.
+            assert_eq!(f(&r[16]), f(&r[4]) - 1.0, "{r:?}");
         } else {
             let sum = f(&r[11]);
             assert!(sum > 0.0 && sum < 1.1 * std::f64::consts::TAU, "{r:?}");
@@ -106,7 +110,10 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         "q10_abs_error",
         "q90_abs_error",
         "mean_posterior_sd",
+        "coverage50",
+        "coverage80",
         "coverage95",
+        "median_abs_error_over_sd",
         "warnings",
     ] {
         col(name);
@@ -129,20 +136,44 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         let median = 0.5 * (errors[11] + errors[12]);
         assert!((median - f(&s[col("median_abs_error")])).abs() <= 1e-15 * median.max(1e-300));
         assert!(f(&s[col("q10_abs_error")]) <= median && median <= f(&s[col("q90_abs_error")]));
-        if s[1].starts_with("MC") {
-            assert!(rows.iter().all(|r| r[9].is_empty()));
-            assert!(s[col("coverage95")].is_empty() && s[col("mean_posterior_sd")].is_empty());
-        } else {
-            let sds: Vec<f64> = rows.iter().map(|r| f(&r[9])).collect();
+        // Every estimator states an sd (MC its standard error); coverage at each level uses
+        // the row's interval law: Student-t with the `dof` column, normal when it is empty.
+        let sds: Vec<f64> = rows.iter().map(|r| f(&r[9])).collect();
+        for (level, name) in [(0.5, "coverage50"), (0.8, "coverage80"), (0.95, "coverage95")] {
             let covered = rows
                 .iter()
                 .zip(&sds)
-                .filter(|(r, sd)| f(&r[8]) <= 1.959963984540054 * **sd)
+                .filter(|(r, sd)| {
+                    use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+                    let p = 0.5 + 0.5 * level;
+                    let q = if r[16].is_empty() {
+                        Normal::new(0.0, 1.0).unwrap().inverse_cdf(p)
+                    } else {
+                        StudentsT::new(0.0, 1.0, f(&r[16])).unwrap().inverse_cdf(p)
+                    };
+                    f(&r[8]) <= q * **sd
+                })
                 .count();
-            assert!((covered as f64 / 24.0 - f(&s[col("coverage95")])).abs() < 1e-12);
-            let msd = sds.iter().sum::<f64>() / 24.0;
-            assert!((msd - f(&s[col("mean_posterior_sd")])).abs() < 1e-14);
+            assert!(
+                (covered as f64 / 24.0 - f(&s[col(name)])).abs() < 1e-12,
+                "{s:?} {name}"
+            );
         }
+        let msd = sds.iter().sum::<f64>() / 24.0;
+        assert!((msd - f(&s[col("mean_posterior_sd")])).abs() < 1e-14 * msd.max(1.0));
+        // 0/0 (an exact estimate stated exact) counts as 0.
+        let mut ratios: Vec<f64> = rows
+            .iter()
+            .zip(&sds)
+            .map(|(r, sd)| if f(&r[8]) == 0.0 { 0.0 } else { f(&r[8]) / sd })
+            .collect();
+        ratios.sort_by(f64::total_cmp);
+        let median_ratio = 0.5 * (ratios[11] + ratios[12]);
+        let got = f(&s[col("median_abs_error_over_sd")]);
+        assert!(
+            (median_ratio - got).abs() <= 1e-12 * got.max(1e-300),
+            "{median_ratio} vs {got}"
+        );
     }
     // Cosine-weighted MC on cos θ is exact in every trial.
     assert!(
@@ -471,4 +502,49 @@ fn high_powers_of_cos_are_integrands() {
         rows.iter()
             .all(|r| r[0] == "cos100" && f(&r[7]) == std::f64::consts::TAU / 101.0)
     );
+}
+
+/// A calibration check passes when every cell's coverage lies in the binomial 99% band around
+/// the level, and fails (exit 1, outputs written) otherwise: MC's Student-t interval on cos³θ
+/// passes; BMC with the unit amplitude covers every trial (coverage 1.0, above the band) and
+/// fails. The coverage plot is written for each integrand.
+#[test]
+fn calibration_checks_pass_and_fail_with_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = |checks: &str| {
+        format!(
+            r#"{{"name": "cal", "integrands": ["cos3"],
+                "estimators": [{{"label": "MC", "method": "mc"}},
+                               {{"label": "BMC-unit", "method": "bmc", "scale": "unit"}}],
+                "samples": [32, 64], "trials": 200, "seed": 7, "checks": [{checks}]}}"#
+        )
+    };
+    write(
+        dir.path(),
+        "pass.json",
+        &spec(r#"{"calibrated": "MC", "level": 0.95, "from_n": 32}"#),
+    );
+    let o = workbench(dir.path(), &["run", "pass.json", "-q", "--out", "p"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("PASS check MC calibrated at 0.95"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(dir.path().join("p/cos3-coverage.svg").is_file());
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("p/manifest.json")).unwrap()).unwrap();
+    let c = &manifest["calibration_checks"][0];
+    assert_eq!(c["passed"], true);
+    assert_eq!(c["cells"].as_array().unwrap().len(), 2);
+
+    write(dir.path(), "fail.json", &spec(r#"{"calibrated": "BMC-unit"}"#));
+    let o = workbench(dir.path(), &["run", "fail.json", "-q", "--out", "f"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("FAIL check BMC-unit calibrated"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(dir.path().join("f/summary.csv").is_file());
 }

@@ -272,7 +272,25 @@ fn every_method_conforms() {
             } else {
                 assert_eq!(e, estimate(0.0), "{m} takes no prior");
             }
-            assert_eq!(m.posterior_sd(Some(&w)).is_some(), m.needs_weights(), "{m}");
+            // Every estimator states an uncertainty at N = 32 (MC its standard error), and the
+            // methods with weights have a unit-amplitude posterior variance and residuals.
+            let u = m
+                .uncertainty(
+                    design.density(),
+                    &pts,
+                    &vals,
+                    m.needs_weights().then_some(&w),
+                    workbench::bmc::Scale::Unit,
+                    1.0,
+                )
+                .unwrap_or_else(|| panic!("{m} has no uncertainty"));
+            assert!(u.sd.is_finite() && u.sd > 0.0, "{m} on {design}: sd {}", u.sd);
+            assert_eq!(m.unit_variance(Some(&w)).is_some(), m.needs_weights(), "{m}");
+            assert_eq!(
+                m.residuals(&vals, Some(&w), 0.0).is_some(),
+                m.needs_weights(),
+                "{m}"
+            );
         }
     }
     for m in Method::ALL {

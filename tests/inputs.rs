@@ -421,3 +421,73 @@ mod hostile_json {
         );
     }
 }
+
+/// Issue 10: the amplitude, Bayes–Sard and calibration checks refuse bad input in one line
+/// naming the file, the JSON path and the value (exit 2).
+mod calibration_inputs {
+    use super::*;
+
+    fn spec(estimators: &str, samples: &str, checks: &str) -> String {
+        format!(
+            "{{\"name\": \"t\", \"integrands\": [\"cos\"], \"estimators\": [{estimators}], \
+             \"samples\": {samples}, \"trials\": 4, \"seed\": 1, \"checks\": [{checks}]}}"
+        )
+    }
+
+    #[test]
+    fn bad_scales_bsq_sizes_and_calibration_checks_are_named() {
+        let mc = r#"{"label": "MC", "method": "mc"}"#;
+        let bmc = r#"{"label": "BMC", "method": "bmc"}"#;
+        let cases = [
+            (
+                spec(r#"{"label": "B", "method": "bmc", "scale": "mle"}"#, "[4]", ""),
+                "Error: x.json: estimators[0].scale: unknown variant `mle`",
+            ),
+            (
+                spec(r#"{"label": "M", "method": "mc", "scale": "ml"}"#, "[4]", ""),
+                "Error: x.json: estimators[0].scale: \"ml\" is not used by method mc",
+            ),
+            (
+                spec(r#"{"label": "S", "method": "bsq"}"#, "[4, 1]", ""),
+                "Error: x.json: samples[1]: N = 1 is too few for estimators[0] (\"S\", method bsq), which needs at least 2 points",
+            ),
+            (
+                spec(&format!("{mc}, {bmc}"), "[1, 8]", r#"{"calibrated": "MC"}"#),
+                "Error: x.json: checks[0].calibrated: \"MC\" (method mc) has no interval at N = 1, so its calibration cannot be checked; raise from_n",
+            ),
+            (
+                spec(bmc, "[8]", r#"{"calibrated": "BMC", "level": 1.5}"#),
+                "Error: x.json: checks[0].level: must be in (0, 1), got 1.5",
+            ),
+            (
+                spec(bmc, "[8]", r#"{"calibrated": "BMX"}"#),
+                "Error: x.json: checks[0].calibrated: no estimator is labelled \"BMX\" (labels: BMC)",
+            ),
+            (
+                spec(
+                    &format!("{mc}, {bmc}"),
+                    "[8]",
+                    r#"{"calibrated": "BMC", "than": "MC"}"#,
+                ),
+                "Error: x.json: checks[0].than: is not used by a calibration check",
+            ),
+            (
+                spec(bmc, "[8]", r#"{"from_n": 4}"#),
+                "Error: x.json: checks[0]: give \"better\" and \"than\"",
+            ),
+        ];
+        for (text, want) in cases {
+            let got = validate_error("x.json", &text);
+            assert!(got.starts_with(want), "{text}\n got: {got}\nwant: {want}");
+        }
+        // The calibration check on MC from N = 2 on is fine.
+        validates(
+            "ok.json",
+            spec(
+                &format!("{mc}, {bmc}"),
+                "[1, 8]",
+                r#"{"calibrated": "MC", "from_n": 2}"#,
+            ),
+        );
+    }
+}

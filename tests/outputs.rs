@@ -132,8 +132,11 @@ fn results_folder_holds_one_run_after_another_experiment() {
     assert_eq!(
         listing(&d.join("o")),
         [
+            "cos-coverage.svg",
             "cos.svg",
+            "cos2-coverage.svg",
             "cos2.svg",
+            "fits.csv",
             "manifest.json",
             "summary.csv",
             "timings.json",
@@ -318,7 +321,12 @@ fn results_folder_holds_one_run_with_two_concurrent_runs() {
     let svgs: Vec<&String> = files.iter().filter(|f| f.ends_with(".svg")).collect();
     let (_, trials) = read_csv(&d.join("o/trials.csv"));
     let integrands: std::collections::BTreeSet<String> = trials.iter().map(|r| r[0].clone()).collect();
-    let expected: Vec<String> = integrands.iter().map(|i| format!("{i}.svg")).collect();
+    // Each integrand's error plot and calibration plot (sorted as the listing is).
+    let mut expected: Vec<String> = integrands
+        .iter()
+        .flat_map(|i| [format!("{i}.svg"), format!("{i}-coverage.svg")])
+        .collect();
+    expected.sort();
     assert_eq!(
         svgs,
         expected.iter().collect::<Vec<_>>(),

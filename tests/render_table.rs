@@ -101,7 +101,7 @@ fn spec_errors_are_exit_2_before_any_work() {
         ),
         (
             SPEC.replace("\"mc\"}", "\"mcc\"}"),
-            "bad.json: variants[0].integrator: unknown integrator \"mcc\"; expected one of mc, mc-cos, bmc, bmcp",
+            "bad.json: variants[0].integrator: unknown integrator \"mcc\"; expected one of mc, mc-cos, bmc, bmcp, bsq",
         ),
         (
             SPEC.replace("\"width\": 32", "\"width\": \"wide\""),

@@ -26,6 +26,17 @@ pub struct RuleArgs {
     /// Read the points from a CSV with header `x,y,z` instead of generating them.
     #[arg(long)]
     points: Option<PathBuf>,
+    /// The rule: `bmc` (w = Q⁻¹z) or `bsq` (Bayes–Sard, math.md §8: weights summing to 2π;
+    /// needs at least 2 points).
+    #[arg(long, default_value = "bmc", value_parser = ["bmc", "bsq"])]
+    method: String,
+    /// The kernel amplitude an integration with this rule should use (math.md §7): `unit`,
+    /// `ml` or `loo`. A rule has no integrand values, so it always reports the unit-amplitude
+    /// posterior variance Var₁; the summary records the scale and its interval law (`ml`:
+    /// Student-t with N, for bsq N − 1, degrees of freedom), to be applied as λ̂ · Var₁ once
+    /// values are known.
+    #[arg(long, default_value = "unit", value_parser = ["unit", "ml", "loo"])]
+    scale: String,
     #[command(flatten)]
     model: ModelArgs,
     /// Write the rule (CSV `x,y,z,weight`) here instead of to stdout.
@@ -69,6 +80,13 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         }
     };
     workbench::rule::check_point_count(points.len(), "--points")?;
+    let bsq = args.method == "bsq";
+    if bsq && points.len() < 2 {
+        anyhow::bail!(workbench::error::InputError::new(format!(
+            "--method bsq: Bayes–Sard fits a constant and needs at least 2 points, got {}",
+            points.len()
+        )));
+    }
     let resolved = args.model.resolve()?;
     let model = args.model.build()?;
     // The rule and its summary are one set: both are written in full before either replaces an
@@ -76,6 +94,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     // known to be good, so that bad input leaves no trace.
     let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
     let weights = workbench::rule::compute_rule(&points, &model, args.seed)?;
+    let weights = if bsq { weights.bayes_sard() } else { weights };
     for w in &weights.diagnostics.warnings {
         status!("warning: {}", w.message());
     }
@@ -95,6 +114,24 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
             workbench::rule::rule_summary(&model, resolved.kernel_mean.name(), &points, &weights);
         summary["source"] = source;
         summary["seed"] = serde_json::json!(args.seed);
+        summary["method"] = serde_json::json!(args.method);
+        let dof = match args.scale.as_str() {
+            "ml" if bsq => Some(points.len() - 1),
+            "ml" => Some(points.len()),
+            _ => None,
+        };
+        summary["scale"] = serde_json::json!({
+            "scale": args.scale,
+            "posterior_variance_is": "Var₁, the unit-amplitude posterior variance; with values Y the \
+                interval is Î ± q · sqrt(λ̂ · Var₁) (math.md §7)",
+            "amplitude": match args.scale.as_str() {
+                "unit" => "1",
+                "ml" if bsq => "rᵀQ⁻¹r / (N − 1), r = Y − β̂·1",
+                "ml" => "rᵀQ⁻¹r / N, r = Y (BMC) or Y − c·1 (BMCP)",
+                _ => "(1/N) Σ (Q⁻¹r)_i² / (Q⁻¹)_ii",
+            },
+            "student_t_dof": dof,
+        });
         if let Some(m) = resolved.samples() {
             summary["kernel_mean_samples"] = serde_json::json!(m);
         }

@@ -64,7 +64,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         report.threads,
         if report.threads == 1 { "" } else { "s" }
     );
-    let failed = report.checks.iter().any(|c| !c.passed());
+    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)
     } else {

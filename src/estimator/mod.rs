@@ -11,9 +11,10 @@
 
 pub mod bmc;
 pub mod bmcp;
+pub mod bsq;
 pub mod mc;
 
-use crate::bmc::BmcWeights;
+use crate::bmc::{BmcWeights, Diagnostics, Scale};
 use crate::geometry::Vec3;
 use crate::sampling::Design;
 use serde::{Deserialize, Serialize};
@@ -28,12 +29,14 @@ pub enum Method {
     Bmc,
     /// BMC with a constant prior mean `c`, `Î = 2πc + wᵀ (Y − c·1)` ([`bmcp`]).
     Bmcp,
+    /// Bayes–Sard quadrature, BMC with an unknown constant prior mean, `Î = w_BSᵀ Y` ([`bsq`]).
+    Bsq,
 }
 
 impl Method {
     /// Every estimator, in the order of the docs: the list the conformance tests walk and that
     /// names are parsed from.
-    pub const ALL: [Method; 3] = [Method::Mc, Method::Bmc, Method::Bmcp];
+    pub const ALL: [Method; 4] = [Method::Mc, Method::Bmc, Method::Bmcp, Method::Bsq];
 
     /// The name in experiment files, on the command line and in CSVs.
     pub fn name(self) -> &'static str {
@@ -41,6 +44,7 @@ impl Method {
             Method::Mc => "mc",
             Method::Bmc => "bmc",
             Method::Bmcp => "bmcp",
+            Method::Bsq => "bsq",
         }
     }
 
@@ -53,14 +57,32 @@ impl Method {
     pub fn needs_weights(self) -> bool {
         match self {
             Method::Mc => false,
-            Method::Bmc | Method::Bmcp => true,
+            Method::Bmc | Method::Bmcp | Method::Bsq => true,
+        }
+    }
+
+    /// The fewest points the estimator accepts: Bayes–Sard fits a constant, so it needs two
+    /// points for a residual (its `ml` amplitude has N − 1 degrees of freedom).
+    pub fn min_points(self) -> usize {
+        match self {
+            Method::Mc | Method::Bmc | Method::Bmcp => 1,
+            Method::Bsq => 2,
+        }
+    }
+
+    /// Whether the estimator states an interval at `n` points ([`Method::uncertainty`] is
+    /// `Some`): MC needs two terms for a sample standard deviation.
+    pub fn has_interval(self, n: usize) -> bool {
+        match self {
+            Method::Mc => n >= 2,
+            Method::Bmc | Method::Bmcp | Method::Bsq => n >= self.min_points(),
         }
     }
 
     /// Whether the estimate takes a constant prior mean `c`.
     pub fn uses_prior(self) -> bool {
         match self {
-            Method::Mc | Method::Bmc => false,
+            Method::Mc | Method::Bmc | Method::Bsq => false,
             Method::Bmcp => true,
         }
     }
@@ -83,15 +105,154 @@ impl Method {
             Method::Mc => mc::estimate(density, points, values),
             Method::Bmc => bmc::estimate(weights.expect("BMC needs weights"), values),
             Method::Bmcp => bmcp::estimate(weights.expect("BMCP needs weights"), values, prior),
+            Method::Bsq => bsq::estimate(weights.expect("BSQ needs weights"), values),
         }
     }
 
-    /// The posterior standard deviation of the integral, for the estimators that have one.
-    pub fn posterior_sd(self, weights: Option<&BmcWeights>) -> Option<f64> {
+    /// The constant `o` of the residuals `r = Y − o·1` whose size the `ml` and `loo`
+    /// amplitudes measure (math.md §7–8): 0 for BMC (`r = Y`), the prior `c` for BMCP,
+    /// `β̂ = 1ᵀQ⁻¹Y / 1ᵀQ⁻¹1` for Bayes–Sard; None for MC.
+    pub fn residual_offset(self, values: &[f64], weights: Option<&BmcWeights>, prior: f64) -> Option<f64> {
         match self {
             Method::Mc => None,
-            Method::Bmc | Method::Bmcp => weights.map(BmcWeights::posterior_sd),
+            Method::Bmc => Some(0.0),
+            Method::Bmcp => Some(prior),
+            Method::Bsq => Some(weights.expect("BSQ needs weights").bayes_sard_constant(values)),
         }
+    }
+
+    /// The residuals `r = Y − o·1` ([`Method::residual_offset`]); None for MC.
+    pub fn residuals(self, values: &[f64], weights: Option<&BmcWeights>, prior: f64) -> Option<Vec<f64>> {
+        let o = self.residual_offset(values, weights, prior)?;
+        Some(values.iter().map(|y| y - o).collect())
+    }
+
+    /// The fitted amplitude `λ̂` ([`crate::bmc::fit_amplitude`]) of this estimator's residuals,
+    /// from `values_solve = Q⁻¹Y`: `Q⁻¹r = Q⁻¹Y − o·u` with `u = Q⁻¹1`, so one solve per
+    /// integrand and weight set serves BMC, BMCP and Bayes–Sard alike (O(N) each after it).
+    /// None for MC.
+    pub fn amplitude(
+        self,
+        scale: Scale,
+        values: &[f64],
+        values_solve: &[f64],
+        weights: Option<&BmcWeights>,
+        prior: f64,
+        inverse_diagonal: Option<&[f64]>,
+    ) -> Option<f64> {
+        let w = weights?;
+        let o = self.residual_offset(values, weights, prior)?;
+        let r: Vec<f64> = values.iter().map(|y| y - o).collect();
+        let solved: Vec<f64> = if o == 0.0 {
+            values_solve.to_vec()
+        } else {
+            values_solve
+                .iter()
+                .zip(&w.ones_solve)
+                .map(|(a, u)| a - o * u)
+                .collect()
+        };
+        Some(crate::bmc::fit_amplitude(
+            scale,
+            &r,
+            &solved,
+            self.ml_dof(values.len()),
+            inverse_diagonal,
+        ))
+    }
+
+    /// Degrees of freedom of the `ml` amplitude and of its Student-t interval: `N` for BMC and
+    /// BMCP, `N − 1` for Bayes–Sard (one more parameter, `β`, fitted).
+    pub fn ml_dof(self, n: usize) -> usize {
+        match self {
+            Method::Mc | Method::Bmc | Method::Bmcp => n,
+            Method::Bsq => n.saturating_sub(1),
+        }
+    }
+
+    /// The weight set's diagnostics as this estimator sees them: Bayes–Sard reports its own
+    /// weights (Σ = 2π) and §8's `Var₁`; None for MC.
+    pub fn diagnostics(self, weights: Option<&BmcWeights>) -> Option<Diagnostics> {
+        match self {
+            Method::Mc => None,
+            Method::Bmc | Method::Bmcp => weights.map(|w| w.diagnostics.clone()),
+            Method::Bsq => weights.map(|w| w.bayes_sard().diagnostics),
+        }
+    }
+
+    /// The unit-amplitude posterior variance `Var₁`, clamped at 0 (math.md §7): `V̂ − zᵀQ⁻¹z`
+    /// for BMC and BMCP, §8's for Bayes–Sard; None for MC.
+    pub fn unit_variance(self, weights: Option<&BmcWeights>) -> Option<f64> {
+        match self {
+            Method::Mc => None,
+            Method::Bmc | Method::Bmcp => weights.map(|w| w.diagnostics.posterior_variance_clamped()),
+            Method::Bsq => weights.map(|w| w.bayes_sard_variance().max(0.0)),
+        }
+    }
+
+    /// The estimator's stated uncertainty: the standard deviation it attaches to `Î` and the
+    /// law of its interval.
+    ///
+    /// - MC: the standard error `s/√N` of the mean of the `N` terms `f/p` (`s` the sample
+    ///   standard deviation), Student-t with `N − 1` degrees of freedom; None for `N < 2`.
+    /// - BMC, BMCP, BSQ: the posterior sd `sqrt(λ Var₁)` with `λ = amplitude` (1 for `unit`,
+    ///   `λ̂` from [`crate::bmc::fit_amplitude`] otherwise); Student-t with [`Method::ml_dof`]
+    ///   degrees of freedom for `ml`, normal otherwise (math.md §7).
+    #[allow(clippy::too_many_arguments)]
+    pub fn uncertainty(
+        self,
+        density: Design,
+        points: &[Vec3],
+        values: &[f64],
+        weights: Option<&BmcWeights>,
+        scale: Scale,
+        amplitude: f64,
+    ) -> Option<Uncertainty> {
+        match self {
+            Method::Mc => {
+                let n = points.len();
+                if n < 2 {
+                    return None;
+                }
+                let terms: Vec<f64> = points
+                    .iter()
+                    .zip(values)
+                    .map(|(w, f)| f / density.pdf(w))
+                    .collect();
+                Some(Uncertainty {
+                    sd: crate::stats::sample_sd(&terms) / (n as f64).sqrt(),
+                    dof: Some(n - 1),
+                    amplitude: None,
+                })
+            }
+            Method::Bmc | Method::Bmcp | Method::Bsq => {
+                let var1 = self.unit_variance(weights)?;
+                Some(Uncertainty {
+                    sd: (amplitude * var1).sqrt(),
+                    dof: (scale == Scale::Ml).then(|| self.ml_dof(values.len())),
+                    amplitude: Some(amplitude),
+                })
+            }
+        }
+    }
+}
+
+/// The standard deviation an estimator states for its estimate and the law of its interval
+/// `Î ± q · sd` ([`Method::uncertainty`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Uncertainty {
+    /// The stated standard deviation of `Î` (posterior sd, or MC's standard error).
+    pub sd: f64,
+    /// Student-t degrees of freedom of the interval; None for a normal interval.
+    pub dof: Option<usize>,
+    /// The kernel amplitude `λ` used (None for MC).
+    pub amplitude: Option<f64>,
+}
+
+impl Uncertainty {
+    /// The two-sided quantile `q` of the interval `Î ± q · sd` at `level` (e.g. 0.95).
+    pub fn quantile(&self, level: f64) -> f64 {
+        crate::stats::interval_quantile(self.dof, level)
     }
 }
 

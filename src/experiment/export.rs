@@ -5,7 +5,7 @@
 
 use super::plan::Plan;
 use super::runner::Results;
-use super::summary::{CellSummary, CheckOutcome};
+use super::summary::{CalibrationOutcome, CellSummary, CheckOutcome};
 use std::fmt::Write;
 
 fn opt(v: Option<f64>) -> String {
@@ -25,7 +25,7 @@ fn num(v: f64) -> String {
 pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
     let mut s = String::from(
         "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,warnings,\
-         weight_sum,negative_weights,jitter,condition_estimate\n",
+         weight_sum,negative_weights,jitter,condition_estimate,amplitude,dof\n",
     );
     for (fi, f) in plan.integrands.iter().enumerate() {
         let truth = f.integral();
@@ -34,6 +34,7 @@ pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
                 for t in 0..plan.trials {
                     let u = results.unit(plan, ni, t);
                     let est = u.estimates[fi][ei];
+                    let uncertainty = u.uncertainty[fi][ei];
                     // The weight set's diagnostics (empty for MC).
                     let diagnostics = u.diagnostics[ei].as_ref().map_or(",,,".to_string(), |d| {
                         format!(
@@ -43,14 +44,18 @@ pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
                     });
                     writeln!(
                         s,
-                        "{},{},{},{},{n},{t},{est:?},{truth:?},{:?},{},{},{diagnostics}",
+                        "{},{},{},{},{n},{t},{est:?},{truth:?},{:?},{},{},{diagnostics},{},{}",
                         f.name(),
                         csv_field(&e.label),
                         e.method.name(),
                         e.design.name(),
                         (est - truth).abs(),
-                        opt(u.posterior_sd[ei]),
-                        u.warnings_for(fi, ei)
+                        opt(uncertainty.map(|x| x.sd)),
+                        u.warnings_for(fi, ei),
+                        opt(uncertainty.and_then(|x| x.amplitude)),
+                        uncertainty
+                            .and_then(|x| x.dof)
+                            .map_or(String::new(), |d| d.to_string())
                     )
                     .expect("writing to a String");
                 }
@@ -64,12 +69,13 @@ pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
 pub fn summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
     let mut s = String::from(
         "integrand,estimator,n,trials,mean_abs_error,ci95_low,ci95_high,median_abs_error,\
-         q10_abs_error,q90_abs_error,mean_posterior_sd,coverage95,warnings\n",
+         q10_abs_error,q90_abs_error,mean_posterior_sd,coverage50,coverage80,coverage95,\
+         median_abs_error_over_sd,warnings\n",
     );
     for c in cells {
         writeln!(
             s,
-            "{},{},{},{},{:?},{},{},{:?},{:?},{:?},{},{},{}",
+            "{},{},{},{},{:?},{},{},{:?},{:?},{:?},{},{},{},{},{},{}",
             plan.integrands[c.integrand].name(),
             csv_field(&plan.estimators[c.estimator].label),
             c.n,
@@ -81,7 +87,10 @@ pub fn summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
             c.q10_abs_error,
             c.q90_abs_error,
             opt(c.mean_posterior_sd),
-            opt(c.coverage95),
+            opt(c.coverage.map(|c| c[0])),
+            opt(c.coverage.map(|c| c[1])),
+            opt(c.coverage.map(|c| c[2])),
+            opt(c.median_error_over_sd),
             c.warnings
         )
         .expect("writing to a String");
@@ -114,6 +123,7 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
         "trials": plan.trials,
         "seed": plan.seed,
         "checks": plan.checks,
+        "calibration_checks": plan.calibration_checks,
     })
 }
 
@@ -138,7 +148,7 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
 }
 
 /// `manifest.json`: the plan and how the run went.
-pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome]) -> Vec<u8> {
+pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[CalibrationOutcome]) -> Vec<u8> {
     let v = serde_json::json!({
         "plan": plan_json(plan),
         "seed": plan.seed,
@@ -156,6 +166,19 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome]) -> Vec<u8> {
                 "mean_abs_error_than": x.mean_than,
                 "t": x.test.t,
                 "p_value": x.test.p_value,
+                "passed": x.passed,
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "calibration_checks": calibration.iter().map(|c| serde_json::json!({
+            "calibrated": c.check.calibrated,
+            "level": c.check.level,
+            "from_n": c.check.from_n,
+            "band99": [c.band.0, c.band.1],
+            "passed": c.passed(),
+            "cells": c.cells.iter().map(|x| serde_json::json!({
+                "integrand": plan.integrands[x.integrand].name(),
+                "n": x.n,
+                "coverage": x.coverage,
                 "passed": x.passed,
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),

@@ -3,6 +3,7 @@
 //! spec (JSON) → [`plan::Plan`] (validated) → [`runner::run`] (parallel) → [`summary`] →
 //! [`export`] / [`plot`] (pure) → one atomic write per file.
 
+pub mod coverage_plot;
 pub mod export;
 pub mod fit;
 pub mod plan;
@@ -41,7 +42,7 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
         if t == 0 {
             return Err(InputError::new("--trials: must be at least 1, got 0"));
         }
-        if t < 2 && !spec.checks.is_empty() {
+        if t < 2 && spec.checks.iter().any(|c| c.calibrated.is_none()) {
             return Err(InputError::new(format!(
                 "--trials {t}: the file's checks need at least 2 trials for their paired test"
             )));
@@ -59,6 +60,7 @@ pub struct RunReport {
     pub out_dir: PathBuf,
     pub cells: Vec<summary::CellSummary>,
     pub checks: Vec<summary::CheckOutcome>,
+    pub calibration: Vec<summary::CalibrationOutcome>,
     pub wall_seconds: f64,
     pub threads: usize,
     pub warnings: Vec<(String, usize)>,
@@ -105,6 +107,11 @@ pub fn run_plan(
         .iter()
         .map(|c| summary::evaluate_check(plan, &results, c))
         .collect();
+    let calibration: Vec<_> = plan
+        .calibration_checks
+        .iter()
+        .map(|c| summary::evaluate_calibration(plan, &results, c))
+        .collect();
 
     folder.write(
         "trials.csv",
@@ -128,6 +135,17 @@ pub fn run_plan(
             &format!("absolute error against n for {}, every estimator", f.name()),
             svg.as_bytes(),
         )?;
+        if cells.iter().any(|c| c.integrand == fi && c.coverage.is_some()) {
+            let svg = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
+            folder.write(
+                &format!("{}-coverage.svg", f.name()),
+                &format!(
+                    "95% coverage against n for {}, every estimator with an interval, with the binomial 99% band",
+                    f.name()
+                ),
+                svg.as_bytes(),
+            )?;
+        }
     }
     folder.write(
         "timings.json",
@@ -135,7 +153,8 @@ pub fn run_plan(
         &export::timings_json(threads, wall_seconds),
     )?;
     let manifest: serde_json::Value =
-        serde_json::from_slice(&export::manifest_json(plan, &checks)).expect("the manifest is JSON");
+        serde_json::from_slice(&export::manifest_json(plan, &checks, &calibration))
+            .expect("the manifest is JSON");
     folder.commit(manifest)?;
 
     let mut warnings: Vec<(String, usize)> = Vec::new();
@@ -160,6 +179,7 @@ pub fn run_plan(
         out_dir,
         cells,
         checks,
+        calibration,
         wall_seconds,
         threads,
         warnings,

@@ -2,7 +2,7 @@
 //! one-line error naming the file, the JSON path and the value.
 
 use super::spec::*;
-use crate::bmc::BmcModel;
+use crate::bmc::{BmcModel, Scale};
 use crate::estimator::Method;
 use crate::integrand::family::{AxisIntegrand, Profile};
 use crate::integrand::{CosPower, Integrand};
@@ -37,6 +37,8 @@ pub struct Plan {
     pub trials: usize,
     pub seed: u64,
     pub checks: Vec<Check>,
+    /// Calibration checks (`"calibrated"` entries of `checks`).
+    pub calibration_checks: Vec<CalibrationCheck>,
     /// Distinct BMC models; estimators that share one share its weights within a trial.
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
@@ -74,6 +76,8 @@ pub struct PlannedEstimator {
     pub model: Option<usize>,
     /// The prior mean (methods that use one).
     pub prior: Option<Prior>,
+    /// The kernel amplitude (methods with weights; math.md §7).
+    pub scale: Option<Scale>,
     /// The resolved settings, for the manifest and `validate`.
     pub settings: ResolvedSettings,
 }
@@ -93,6 +97,8 @@ pub struct ResolvedSettings {
     pub kernel_mean_samples: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub prior: Option<PriorSpec>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale: Option<Scale>,
 }
 
 /// A resolved check.
@@ -106,6 +112,18 @@ pub struct Check {
     pub better_index: usize,
     #[serde(skip)]
     pub than_index: usize,
+}
+
+/// A resolved calibration check: estimator `label`'s coverage at `level` lies in the binomial
+/// 99% band around `level` ([`super::summary::binomial_band`]) for every integrand and N ≥
+/// `from_n`.
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibrationCheck {
+    pub calibrated: String,
+    pub level: f64,
+    pub from_n: usize,
+    #[serde(skip)]
+    pub index: usize,
 }
 
 /// Parses the JSON text; errors say where (`path: message`).
@@ -142,6 +160,22 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ));
         }
         integrands.push(f);
+    }
+    // `<name>-coverage.svg` is written beside `<name>.svg`: no integrand may take that name.
+    for (i, f) in integrands.iter().enumerate() {
+        if let Some(j) = integrands
+            .iter()
+            .position(|g| format!("{}-coverage", g.name()) == f.name())
+        {
+            return Err(err(
+                format!("integrands[{i}]"),
+                format!(
+                    "the name {:?} is the calibration plot of integrands[{j}] ({:?}); rename one",
+                    f.name(),
+                    integrands[j].name()
+                ),
+            ));
+        }
     }
     if spec.samples.is_empty() {
         return Err(err("samples", "must list at least one sample count"));
@@ -243,6 +277,28 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ),
         ));
     }
+    // Bayes–Sard fits a constant: it needs at least two points.
+    if let Some((i, e)) = estimators
+        .iter()
+        .enumerate()
+        .find(|(_, e)| spec.samples.iter().any(|&n| (n as usize) < e.method.min_points()))
+    {
+        let (k, n) = spec
+            .samples
+            .iter()
+            .enumerate()
+            .find(|&(_, &n)| (n as usize) < e.method.min_points())
+            .expect("found above");
+        return Err(err(
+            format!("samples[{k}]"),
+            format!(
+                "N = {n} is too few for estimators[{i}] ({:?}, method {}), which needs at least {} points",
+                e.label,
+                e.method,
+                e.method.min_points()
+            ),
+        ));
+    }
     let cells = (integrands.len() * estimators.len() * spec.samples.len()) as u128;
     let rows = cells * spec.trials as u128;
     if rows > MAX_ROWS as u128 {
@@ -256,6 +312,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     }
 
     let mut checks = Vec::new();
+    let mut calibration_checks = Vec::new();
     for (i, c) in spec.checks.iter().enumerate() {
         let at = |field: &str| format!("checks[{i}].{field}");
         let find = |label: &str, field: &str| {
@@ -270,11 +327,6 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
                 )
             })
         };
-        let better_index = find(&c.better, "better")?;
-        let than_index = find(&c.than, "than")?;
-        if better_index == than_index {
-            return Err(err(at("than"), format!("{:?} is compared with itself", c.than)));
-        }
         let from_n = c.from_n.unwrap_or(1);
         if from_n == 0 {
             return Err(err(at("from_n"), "must be at least 1, got 0"));
@@ -285,6 +337,64 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
                 format!("{from_n} is above every sample count, so nothing is checked"),
             ));
         }
+        if let Some(label) = &c.calibrated {
+            for (field, given) in [
+                ("better", c.better.is_some()),
+                ("than", c.than.is_some()),
+                ("alpha", c.alpha.is_some()),
+            ] {
+                if given {
+                    return Err(err(
+                        at(field),
+                        "is not used by a calibration check (\"calibrated\" takes \"level\" and \"from_n\")",
+                    ));
+                }
+            }
+            let index = find(label, "calibrated")?;
+            let e = &estimators[index];
+            if let Some(&n) = spec
+                .samples
+                .iter()
+                .find(|&&n| n >= from_n && !e.method.has_interval(n as usize))
+            {
+                return Err(err(
+                    at("calibrated"),
+                    format!(
+                        "{label:?} (method {}) has no interval at N = {n}, so its calibration cannot be checked; \
+                         raise from_n",
+                        e.method
+                    ),
+                ));
+            }
+            let level = c.level.unwrap_or(0.95);
+            if !(level > 0.0 && level < 1.0) {
+                return Err(err(at("level"), format!("must be in (0, 1), got {level}")));
+            }
+            calibration_checks.push(CalibrationCheck {
+                calibrated: label.clone(),
+                level,
+                from_n: from_n as usize,
+                index,
+            });
+            continue;
+        }
+        if c.level.is_some() {
+            return Err(err(
+                at("level"),
+                "is used only by a calibration check (\"calibrated\": LABEL)",
+            ));
+        }
+        let (Some(better), Some(than)) = (&c.better, &c.than) else {
+            return Err(err(
+                format!("checks[{i}]"),
+                "give \"better\" and \"than\" (a comparison) or \"calibrated\" (a calibration check)",
+            ));
+        };
+        let better_index = find(better, "better")?;
+        let than_index = find(than, "than")?;
+        if better_index == than_index {
+            return Err(err(at("than"), format!("{than:?} is compared with itself")));
+        }
         let alpha = c.alpha.unwrap_or(0.01);
         if !(alpha > 0.0 && alpha < 1.0) {
             return Err(err(at("alpha"), format!("must be in (0, 1), got {alpha}")));
@@ -293,8 +403,8 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             return Err(err(at("better"), "a paired test needs at least 2 trials"));
         }
         checks.push(Check {
-            better: c.better.clone(),
-            than: c.than.clone(),
+            better: better.clone(),
+            than: than.clone(),
             from_n: from_n as usize,
             alpha,
             better_index,
@@ -325,6 +435,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         trials: spec.trials as usize,
         seed: spec.seed,
         checks,
+        calibration_checks,
         models,
         designs,
     })
@@ -493,7 +604,16 @@ fn resolve_estimator(
         }
         None
     };
+    let scale = if e.method.needs_weights() {
+        Some(e.scale.unwrap_or(Scale::DEFAULT))
+    } else {
+        if let Some(sc) = e.scale {
+            return Err(unused("scale", format!("{:?}", sc.name())));
+        }
+        None
+    };
     let settings = ResolvedSettings {
+        scale,
         method: e.method,
         design,
         kernel: model.map(|m| m.kernel.to_json()),
@@ -512,6 +632,7 @@ fn resolve_estimator(
             design,
             model: None,
             prior,
+            scale,
             settings,
         },
         model,

@@ -6,7 +6,7 @@
 //! and BMCP with the same model cost one Cholesky between them.
 
 use super::plan::Plan;
-use crate::bmc::BmcWeights;
+use crate::bmc::{BmcWeights, Scale};
 use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
 use crate::sampling::SetDesign;
@@ -21,21 +21,31 @@ const KERNEL_MEAN_STREAM: u64 = 2;
 pub struct UnitResult {
     /// `estimates[integrand][estimator]`.
     pub estimates: Vec<Vec<f64>>,
-    /// Posterior standard deviation per estimator (None for MC).
-    pub posterior_sd: Vec<Option<f64>>,
+    /// `uncertainty[integrand][estimator]`: the stated sd and its interval's law (None when
+    /// the estimator has none, e.g. MC with N = 1).
+    pub uncertainty: Vec<Vec<Option<crate::estimator::Uncertainty>>>,
     /// The diagnostics of each estimator's weight set (None for MC).
     pub diagnostics: Vec<Option<crate::bmc::Diagnostics>>,
     /// Numerical warnings of each estimator's weight set.
     pub warnings: Vec<u32>,
     /// The warnings' messages, once per weight set.
     pub messages: Vec<String>,
+    /// `fitted[integrand][estimator]`: the amplitude was fitted (`ml` or `loo`).
+    pub fitted: Vec<Vec<bool>>,
 }
 
 impl UnitResult {
     /// Warnings of estimator `ei` on integrand `fi`: its weight set's, plus one if the estimate
-    /// is not finite.
+    /// is not finite, plus one if a fitted amplitude is 0 (`zero_amplitude`, math.md §7).
     pub fn warnings_for(&self, fi: usize, ei: usize) -> u32 {
-        self.warnings[ei] + u32::from(!self.estimates[fi][ei].is_finite())
+        self.warnings[ei]
+            + u32::from(!self.estimates[fi][ei].is_finite())
+            + u32::from(self.zero_amplitude(fi, ei))
+    }
+
+    /// Whether estimator `ei`'s fitted amplitude on integrand `fi` is exactly 0.
+    pub fn zero_amplitude(&self, fi: usize, ei: usize) -> bool {
+        self.fitted[fi][ei] && self.uncertainty[fi][ei].and_then(|u| u.amplitude) == Some(0.0)
     }
 }
 
@@ -101,7 +111,13 @@ pub fn run_unit(
             .expect("design is planned")]
     };
 
-    // Weights per (model, design) pair in use, computed once.
+    // Weights per (model, design) pair in use, computed once. While the workspace still holds
+    // a weight set's Cholesky factor, the fitted amplitudes of the estimators that use it are
+    // computed: one O(N²) solve `Q⁻¹Y` per (weight set, integrand), shared by every estimator
+    // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
+    // estimator uses `loo`.
+    let ni = plan.integrands.len();
+    let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
     let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model else { continue };
@@ -118,12 +134,42 @@ pub fn run_unit(
                 trial as u64,
             ],
         );
+        let set = set_of(e.design);
         let w = plan.models[m]
-            .weights(set_of(e.design), &mut rng, workspace)
+            .weights(set, &mut rng, workspace)
             .map_err(|source| crate::Error::Numerical {
                 what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
                 source,
             })?;
+        let sharing = |x: &&super::plan::PlannedEstimator| x.model == Some(m) && x.design == e.design;
+        let fitted = |x: &super::plan::PlannedEstimator| x.scale.is_some_and(|s| s != Scale::Unit);
+        if plan.estimators.iter().filter(sharing).any(fitted) {
+            let inverse_diagonal = plan
+                .estimators
+                .iter()
+                .filter(sharing)
+                .any(|x| x.scale == Some(Scale::Loo))
+                .then(|| workspace.inverse_diagonal());
+            for (fi, f) in plan.integrands.iter().enumerate() {
+                let values: Vec<f64> = set.iter().map(|p| f.value(p)).collect();
+                let mut values_solve = values.clone();
+                workspace.solve_in_place(&mut values_solve);
+                for (ei, x) in plan.estimators.iter().enumerate() {
+                    if !(sharing(&x) && fitted(x)) {
+                        continue;
+                    }
+                    let prior = x.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
+                    amplitudes[fi][ei] = x.method.amplitude(
+                        x.scale.expect("fitted"),
+                        &values,
+                        &values_solve,
+                        Some(&w),
+                        prior,
+                        inverse_diagonal.as_deref(),
+                    );
+                }
+            }
+        }
         weights.push(((m, e.design), w));
     }
     let weights_of = |e: &super::plan::PlannedEstimator| {
@@ -136,37 +182,78 @@ pub fn run_unit(
         })
     };
 
-    let mut estimates = Vec::with_capacity(plan.integrands.len());
-    for f in &plan.integrands {
+    let mut estimates = Vec::with_capacity(ni);
+    let mut uncertainty = Vec::with_capacity(ni);
+    let mut fitted = Vec::with_capacity(ni);
+    for (fi, f) in plan.integrands.iter().enumerate() {
         let values: Vec<Vec<f64>> = sets
             .iter()
             .map(|s| s.iter().map(|w| f.value(w)).collect())
             .collect();
-        let row: Vec<f64> = plan
-            .estimators
-            .iter()
-            .map(|e| {
-                let d = plan
-                    .designs
-                    .iter()
-                    .position(|&x| x == e.design)
-                    .expect("design is planned");
-                let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
+        let mut row = Vec::with_capacity(plan.estimators.len());
+        let mut sds = Vec::with_capacity(plan.estimators.len());
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            let d = plan
+                .designs
+                .iter()
+                .position(|&x| x == e.design)
+                .expect("design is planned");
+            let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
+            row.push(
                 e.method
-                    .estimate(e.design.density(), &sets[d], &values[d], weights_of(e), prior)
-            })
-            .collect();
+                    .estimate(e.design.density(), &sets[d], &values[d], weights_of(e), prior),
+            );
+            sds.push(e.method.uncertainty(
+                e.design.density(),
+                &sets[d],
+                &values[d],
+                weights_of(e),
+                e.scale.unwrap_or(Scale::Unit),
+                amplitudes[fi][ei].unwrap_or(1.0),
+            ));
+        }
         estimates.push(row);
+        uncertainty.push(sds);
+        fitted.push(amplitudes[fi].iter().map(Option::is_some).collect::<Vec<bool>>());
     }
+    let diagnostics: Vec<Option<crate::bmc::Diagnostics>> = plan
+        .estimators
+        .iter()
+        .map(|e| e.method.diagnostics(weights_of(e)))
+        .collect();
     let warnings: Vec<u32> = plan
         .estimators
         .iter()
-        .map(|e| weights_of(e).map_or(0, |w| w.diagnostics.warnings.len() as u32))
+        .zip(&diagnostics)
+        .map(|(_, d)| d.as_ref().map_or(0, |d| d.warnings.len() as u32))
         .collect();
     let mut messages: Vec<String> = weights
         .iter()
         .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
         .collect();
+    // Bayes–Sard's own Var₁ can be negative where BMC's is not (MC kernel means).
+    for (e, d) in plan.estimators.iter().zip(&diagnostics) {
+        if e.method == crate::estimator::Method::Bsq {
+            let d = d.as_ref().expect("BSQ has weights");
+            for w in &d.warnings {
+                if matches!(w, crate::bmc::NumericalWarning::NegativePosteriorVariance { .. }) {
+                    messages.push(w.message());
+                }
+            }
+        }
+    }
+    for (fi, row) in amplitudes.iter().enumerate() {
+        for (ei, a) in row.iter().enumerate() {
+            if *a == Some(0.0) {
+                messages.push(format!(
+                    "{} ({:?} on {})",
+                    crate::bmc::NumericalWarning::ZeroAmplitude.message(),
+                    plan.estimators[ei].label,
+                    plan.integrands[fi].name()
+                ));
+            }
+        }
+    }
     // A NaN or infinite estimate is numerical trouble too: reported here, and counted per
     // (integrand, estimator) row by [`UnitResult::warnings_for`].
     for (fi, row) in estimates.iter().enumerate() {
@@ -182,17 +269,10 @@ pub fn run_unit(
     }
     Ok(UnitResult {
         estimates,
-        posterior_sd: plan
-            .estimators
-            .iter()
-            .map(|e| e.method.posterior_sd(weights_of(e)))
-            .collect(),
-        diagnostics: plan
-            .estimators
-            .iter()
-            .map(|e| weights_of(e).map(|w| w.diagnostics.clone()))
-            .collect(),
+        uncertainty,
+        diagnostics,
         warnings,
         messages,
+        fitted,
     })
 }

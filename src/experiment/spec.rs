@@ -62,6 +62,10 @@ pub struct EstimatorSpec {
     /// [`super::sweep`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sweep: Option<std::collections::BTreeMap<String, Vec<serde_json::Value>>>,
+    /// Methods with weights (BMC, BMCP, BSQ): the kernel amplitude, `unit`, `ml` or `loo`
+    /// (math.md §7); default [`crate::bmc::Scale::DEFAULT`].
+    #[serde(default)]
+    pub scale: Option<crate::bmc::Scale>,
 }
 
 /// `"analytic"` or a number.
@@ -120,17 +124,28 @@ impl EstimatorSpec {
     }
 }
 
-/// `better` has lower error than `than` for every integrand and every N ≥ `from_n`.
+/// A check: a comparison (`better`, `than`, `from_n`, `alpha`: `better` has lower error than
+/// `than` for every integrand and every N ≥ `from_n`) or a calibration check (`calibrated`,
+/// `level`, `from_n`: the estimator's coverage at `level` lies in the binomial 99% band around
+/// `level` in every cell with N ≥ `from_n`).
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CheckSpec {
-    pub better: String,
-    pub than: String,
+    #[serde(default)]
+    pub better: Option<String>,
+    #[serde(default)]
+    pub than: Option<String>,
     #[serde(default)]
     pub from_n: Option<u64>,
     /// Level of the one-sided paired t-test; default 0.01.
     #[serde(default)]
     pub alpha: Option<f64>,
+    /// The label of the estimator whose calibration is checked.
+    #[serde(default)]
+    pub calibrated: Option<String>,
+    /// The interval level of a calibration check; default 0.95.
+    #[serde(default)]
+    pub level: Option<f64>,
 }
 
 /// An integrand: a name (`"cos3"`) or a family object (`{"type": "lobe", …}`).

@@ -8,12 +8,13 @@ use super::spec::EstimatorSpec;
 use serde_json::Value;
 
 /// The fields a sweep may vary: the estimator's options, and the kernel's parameters.
-pub const KEYS: [&str; 9] = [
+pub const KEYS: [&str; 10] = [
     "design",
     "noise",
     "kernel_mean",
     "kernel_mean_samples",
     "prior",
+    "scale",
     "kernel.type",
     "kernel.s",
     "kernel.sigma",

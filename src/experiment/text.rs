@@ -84,7 +84,43 @@ pub fn format_report(plan: &plan::Plan, report: &RunReport) -> String {
         s += &check_line(plan, o);
         s.push('\n');
     }
+    for o in &report.calibration {
+        s += &calibration_line(plan, o);
+        s.push('\n');
+    }
     s
+}
+
+fn calibration_line(plan: &plan::Plan, o: &summary::CalibrationOutcome) -> String {
+    let c = &o.check;
+    let head = format!(
+        "check {} calibrated at {} for N ≥ {} (coverage in the binomial 99% band {:.3}–{:.3})",
+        c.calibrated, c.level, c.from_n, o.band.0, o.band.1
+    );
+    if o.passed() {
+        let (lo, hi) = o
+            .cells
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+                (l.min(x.coverage), h.max(x.coverage))
+            });
+        format!("PASS {head}: {} cells, coverage {lo:.3}–{hi:.3}", o.cells.len())
+    } else {
+        let fails: Vec<String> = o
+            .cells
+            .iter()
+            .filter(|x| !x.passed)
+            .map(|x| {
+                format!(
+                    "{} N={}: coverage {:.3}",
+                    plan.integrands[x.integrand].name(),
+                    x.n,
+                    x.coverage
+                )
+            })
+            .collect();
+        format!("FAIL {head}: {}", fails.join("; "))
+    }
 }
 
 fn check_line(plan: &plan::Plan, o: &summary::CheckOutcome) -> String {

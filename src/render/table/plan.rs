@@ -362,7 +362,7 @@ mod tests {
         );
         assert_eq!(
             err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),
-            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp"
+            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bsq"
         );
         assert_eq!(
             err(&format!("{{{base}, \"spp\": [20, 0]}}")),
