@@ -297,14 +297,14 @@ pub fn bmc_weights(
     let diag = kernel.diagonal() + noise;
     // Column by column over structure-of-arrays points, so the kernel loop vectorises.
     let soa = crate::kernel::PointsSoa::new(points);
-    workspace.assemble_lower_by_columns(n, |j, col| {
-        kernel.fill_column(&soa, j, j, col);
-        col[0] = diag;
-    });
+    // Assembled straight into the factor's buffer (no copy of Q is kept).
     let FactorInfo {
         jitter,
         condition_estimate,
-    } = workspace.factor()?;
+    } = workspace.factor_with(n, |j, col| {
+        kernel.fill_column(&soa, j, j, col);
+        col[0] = diag;
+    })?;
     let mut weights = z.to_vec();
     workspace.solve_in_place(&mut weights);
     // One more O(N²) solve, for Bayes–Sard and its residuals.

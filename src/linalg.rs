@@ -32,13 +32,14 @@ pub struct NotPositiveDefinite {
     pub jitter: f64,
 }
 
-/// Reusable storage for `Q` (lower triangle) and its Cholesky factor.
+/// Reusable storage for `Q` and its Cholesky factor, in one matrix.
 ///
-/// The two matrices grow to the largest `n` seen and are then reused as `n × n` views, so a
-/// worker that alternates between sample counts never reallocates: memory stays at two
-/// `n_max²` matrices per worker, nothing else O(n²).
+/// `Q` is assembled (lower triangle) straight into the buffer the factorisation overwrites, so
+/// a worker holds one `n_max²` matrix (8 n² bytes), not a copy of `Q` beside its factor; a
+/// jitter retry assembles `Q` again, which costs less than keeping the copy. The buffer grows to
+/// the largest `n` seen and is then reused as an `n × n` view, so a worker that alternates
+/// between sample counts never reallocates.
 pub struct SpdWorkspace {
-    q: Mat<f64>,
     factor: Mat<f64>,
     n: usize,
     scratch: Option<MemBuffer>,
@@ -64,7 +65,6 @@ impl Default for SpdWorkspace {
 impl SpdWorkspace {
     pub fn new() -> Self {
         SpdWorkspace {
-            q: Mat::zeros(0, 0),
             factor: Mat::zeros(0, 0),
             n: 0,
             scratch: None,
@@ -72,25 +72,17 @@ impl SpdWorkspace {
         }
     }
 
-    /// Fills the lower triangle of the `n × n` matrix `Q` with `entry(i, j)` for `j ≤ i`.
-    pub fn assemble_lower(&mut self, n: usize, mut entry: impl FnMut(usize, usize) -> f64) {
-        self.assemble_lower_by_columns(n, |j, col| {
-            for (k, v) in col.iter_mut().enumerate() {
-                *v = entry(j + k, j);
-            }
-        });
-    }
-
-    /// Fills the lower triangle column by column: `fill(j, col)` writes `Q[j.., j]` into `col`.
+    /// Fills the lower triangle of the `n × n` matrix `Q` column by column into the factor's
+    /// buffer: `fill(j, col)` writes `Q[j.., j]` into `col`. (Timing and tests; the solves use
+    /// [`SpdWorkspace::factor_with`], which assembles and factors.)
     pub fn assemble_lower_by_columns(&mut self, n: usize, mut fill: impl FnMut(usize, &mut [f64])) {
-        if self.q.nrows() < n {
-            self.q = Mat::zeros(n, n);
+        if self.factor.nrows() < n {
             self.factor = Mat::zeros(n, n);
         }
         self.n = n;
         for j in 0..n {
             let col = self
-                .q
+                .factor
                 .col_mut(j)
                 .try_as_col_major_mut()
                 .expect("faer Mat columns are contiguous");
@@ -98,22 +90,44 @@ impl SpdWorkspace {
         }
     }
 
-    /// Factors `Q = L Lᵀ`, climbing the jitter ladder when Cholesky fails or its factor is
-    /// numerically singular (condition estimate above [`NUMERICALLY_SINGULAR`]).
-    pub fn factor(&mut self) -> Result<FactorInfo, NotPositiveDefinite> {
-        let n = self.n;
+    /// Assembles `Q` with `entry(i, j)` (`j ≤ i`) and factors it (see [`SpdWorkspace::factor_with`]).
+    pub fn factor_entries(
+        &mut self,
+        n: usize,
+        mut entry: impl FnMut(usize, usize) -> f64,
+    ) -> Result<FactorInfo, NotPositiveDefinite> {
+        self.factor_with(n, |j, col| {
+            for (k, v) in col.iter_mut().enumerate() {
+                *v = entry(j + k, j);
+            }
+        })
+    }
+
+    /// Assembles `Q` in place (`fill` as in [`SpdWorkspace::assemble_lower_by_columns`]) and
+    /// factors it, `Q = L Lᵀ`, climbing the jitter ladder when Cholesky fails or its factor is
+    /// numerically singular (condition estimate above [`NUMERICALLY_SINGULAR`]): each retry
+    /// assembles `Q` again, since the failed attempt overwrote it, and adds the jitter.
+    pub fn factor_with(
+        &mut self,
+        n: usize,
+        mut fill: impl FnMut(usize, &mut [f64]),
+    ) -> Result<FactorInfo, NotPositiveDefinite> {
         if self.scratch.is_none() || self.scratch_n < n {
             let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default());
             self.scratch = Some(MemBuffer::new(req));
             self.scratch_n = n;
         }
-        let mean_diag = (0..n).map(|i| self.q[(i, i)]).sum::<f64>() / n.max(1) as f64;
+        self.assemble_lower_by_columns(n, &mut fill);
+        let mean_diag = (0..n).map(|i| self.factor[(i, i)]).sum::<f64>() / n.max(1) as f64;
         let mut jitter = 0.0;
         for step in 0..=JITTER_STEPS {
             if step > 0 {
                 jitter = JITTER_START * 10f64.powi(step as i32 - 1) * mean_diag;
+                self.assemble_lower_by_columns(n, &mut fill);
+                for j in 0..n {
+                    self.factor[(j, j)] += jitter;
+                }
             }
-            self.copy_lower_with_jitter(jitter);
             let stack = MemStack::new(self.scratch.as_mut().expect("scratch allocated above"));
             let ok = llt::factor::cholesky_in_place(
                 self.factor.as_mut().submatrix_mut(0, 0, n, n),
@@ -140,16 +154,6 @@ impl SpdWorkspace {
             }
         }
         Err(NotPositiveDefinite { n, jitter })
-    }
-
-    fn copy_lower_with_jitter(&mut self, jitter: f64) {
-        let n = self.n;
-        for j in 0..n {
-            for i in j..n {
-                self.factor[(i, j)] = self.q[(i, j)];
-            }
-            self.factor[(j, j)] += jitter;
-        }
     }
 
     /// Solves `Q x = b` with the last factorisation (in place in `b`).
@@ -206,8 +210,7 @@ mod tests {
     fn solves_a_small_spd_system() {
         let a = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
         let mut ws = SpdWorkspace::new();
-        ws.assemble_lower(3, |i, j| a[i][j]);
-        let info = ws.factor().unwrap();
+        let info = ws.factor_entries(3, |i, j| a[i][j]).unwrap();
         assert_eq!(info.jitter, 0.0);
         let x_true = [1.0, -2.0, 0.5];
         let mut b: Vec<f64> = (0..3)
@@ -223,8 +226,7 @@ mod tests {
     #[test]
     fn singular_matrix_climbs_the_jitter_ladder() {
         let mut ws = SpdWorkspace::new();
-        ws.assemble_lower(2, |_, _| 1.0);
-        let info = ws.factor().unwrap();
+        let info = ws.factor_entries(2, |_, _| 1.0).unwrap();
         assert!(info.jitter > 0.0);
         assert!(info.condition_estimate > 1e3);
     }
@@ -242,8 +244,7 @@ mod tests {
                     1.0 / (1.0 + i as f64 + j as f64)
                 }
             };
-            ws.assemble_lower(n, a);
-            ws.factor().unwrap();
+            ws.factor_entries(n, a).unwrap();
             let x_true: Vec<f64> = (0..n).map(|i| 1.0 - 0.3 * i as f64).collect();
             let mut b: Vec<f64> = (0..n)
                 .map(|i| (0..n).map(|j| a(i, j) * x_true[j]).sum())
@@ -266,10 +267,9 @@ mod tests {
         let a = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
         let mut ws = SpdWorkspace::new();
         // A larger system first, so the buffers are bigger than n (as in a reused workspace).
-        ws.assemble_lower(5, |i, j| if i == j { 3.0 } else { 0.1 });
-        ws.factor().unwrap();
-        ws.assemble_lower(3, |i, j| a[i][j]);
-        ws.factor().unwrap();
+        ws.factor_entries(5, |i, j| if i == j { 3.0 } else { 0.1 })
+            .unwrap();
+        ws.factor_entries(3, |i, j| a[i][j]).unwrap();
         let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
             - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
             + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
@@ -286,8 +286,9 @@ mod tests {
     #[test]
     fn indefinite_matrix_is_an_error_not_a_panic() {
         let mut ws = SpdWorkspace::new();
-        ws.assemble_lower(2, |i, j| if i == j { 1.0 } else { -3.0 });
-        let e = ws.factor().unwrap_err();
+        let e = ws
+            .factor_entries(2, |i, j| if i == j { 1.0 } else { -3.0 })
+            .unwrap_err();
         assert!(e.to_string().contains("not positive definite"));
     }
 }
