@@ -154,7 +154,10 @@ impl AxisIntegrand {
             Profile::Cap { half_angle } => format!("disc light {half_angle}°"),
             Profile::Gaussian { sharpness } => format!("spherical Gaussian λ = {sharpness}"),
         };
-        format!("{what}, tilt {tilt}°{}", if self.cosine { " × cos θ" } else { "" })
+        format!(
+            "{what}, tilt {tilt}°{}",
+            if self.cosine { " × cos θ" } else { "" }
+        )
     }
 
     /// The axis's angle from the normal, in degrees.
