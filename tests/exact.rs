@@ -392,3 +392,50 @@ fn maps_are_integrated_cell_by_cell() {
         );
     }
 }
+
+/// A `pixel` integrand in an experiment is the renderer's integrand at that pixel in its local
+/// frame, and its truth is the quadrature's; bad pixels, channels and maps are one-line errors
+/// naming the field.
+#[test]
+fn pixel_integrands_resolve_to_the_renderers_integrand() {
+    use workbench::experiment::plan::{parse, resolve};
+    use workbench::integrand::Integrand;
+    let spec = |integrand: &str| {
+        format!(
+            r#"{{"name": "px", "integrands": [{integrand}], "estimators": [{{"label": "MC", "method": "mc"}}],
+                "samples": [4], "trials": 2, "seed": 1}}"#
+        )
+    };
+    let plan = resolve(&parse(&spec(r#"{"type": "pixel", "pixel": [20, 50], "width": 64, "height": 64, "env": "sky", "channel": "b"}"#)).unwrap()).unwrap();
+    let f = &plan.integrands[0];
+    assert_eq!(f.name(), "pixel-20-50-sky-b");
+    assert!(matches!(f, Integrand::Pixel { .. }));
+    let r = Renderer::new(64, 64, Environment::Sky);
+    let p = r.shading_point(20, 50).unwrap();
+    let q = exact::integrate(&p, &r.scene, &r.env, DEFAULT_TOLERANCE);
+    assert_eq!(f.integral(), q.value[2]);
+    let mut rng = stream(3, &[0]);
+    for _ in 0..1000 {
+        let (u1, u2): (f64, f64) = (rng.random(), rng.random());
+        let s = (1.0 - u1 * u1).sqrt();
+        let v = Vec3::new(s * (TAU * u2).cos(), s * (TAU * u2).sin(), u1);
+        assert_eq!(f.value(&v), p.integrand(&r.scene, &r.env, &v)[2]);
+    }
+    let bad = |integrand: &str| resolve(&parse(&spec(integrand)).unwrap()).unwrap_err();
+    assert_eq!(
+        bad(r#"{"type": "pixel", "pixel": [64, 0], "width": 64, "height": 64, "channel": "g"}"#),
+        "integrands[0]: pixel: [64, 0] is outside the 64×64 image (columns 0..64, rows 0..64)"
+    );
+    assert!(
+        bad(r#"{"type": "pixel", "pixel": [0, 0], "width": 64, "height": 64, "channel": "g"}"#)
+            .starts_with("integrands[0]: pixel: [0, 0] of the 64×64 image shows the background")
+    );
+    assert!(
+        bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "a"}"#)
+            .starts_with("integrands[0]: channel: ")
+    );
+    assert!(
+        bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "r", "env": "/nonexistent.hdr"}"#)
+            .starts_with("integrands[0]: env: /nonexistent.hdr: cannot read")
+    );
+}
