@@ -45,6 +45,10 @@ use crate::quadrature::GaussLegendre;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::LazyLock;
 
+/// Version of the quadrature, part of the exact reference's cache key: change it whenever a
+/// change could move any pixel by more than the tolerance.
+pub const VERSION: &str = "exact-quadrature v1";
+
 /// Default absolute tolerance for a pixel integral (every channel).
 pub const DEFAULT_TOLERANCE: f64 = 1e-9;
 
