@@ -24,16 +24,15 @@
 //! For each `θ` the azimuths where any of these curves crosses split `[0, 2π)` into arcs; on
 //! each arc visibility and `H(n)` membership are constant, and decided at the arc's midpoint by
 //! the renderer's own test ([`Scene::occluded`], `ω·n > 0`), so the analytic geometry only
-//! places the cuts. Visible arcs are merged and integrated in `φ` by adaptive Gauss–Legendre.
+//! places the cuts. Visible arcs are merged and integrated in `φ` by adaptive Gauss–Kronrod.
 //! The `θ` integral is split where the arc structure changes (tangencies `|B| = A`, the
 //! square's corners, the horizon, map rows) and each piece is mapped by
 //! `θ = c + h sin(πv/2)` so that the square-root behaviour of arc end points at tangencies
 //! becomes smooth, then integrated adaptively too.
 //!
-//! **Error estimate.** Each adaptive level compares a 20-point Gauss–Legendre value on an
-//! interval with the sum over its halves and accepts the halves when they differ by at most
-//! that interval's share of the tolerance (halved per bisection, so the shares add up to the
-//! total). The reported error is the sum of those differences over the outer (θ) integral plus
+//! **Error estimate.** Each adaptive interval compares the 21-point Gauss–Kronrod value with its
+//! embedded 10-point Gauss value and accepts the Kronrod value when they differ by at most that
+//! interval's share of the tolerance (halved per bisection, so the shares add up to the total). The reported error is the sum of those differences over the outer (θ) integral plus
 //! the integral of the inner (φ) integrals' own error sums: an estimate, not a strict bound,
 //! but one that the tests check against closed forms and an independent method.
 
@@ -41,9 +40,8 @@ use super::env::Environment;
 use super::integrator::ShadingPoint;
 use super::scene::{Rgb, Scene};
 use crate::geometry::Vec3;
-use crate::quadrature::GaussLegendre;
+use crate::quadrature::KRONROD21;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use std::sync::LazyLock;
 
 /// Version of the quadrature, part of the exact reference's cache key: change it whenever a
 /// change could move any pixel by more than the tolerance.
@@ -59,11 +57,10 @@ pub const MIN_TOLERANCE: f64 = 1e-13;
 /// Deepest bisection of one interval (2⁻⁴⁰ of it).
 const MAX_DEPTH: u32 = 40;
 
-/// Share of the tolerance given to the inner (φ) integrals: their errors, integrated over θ
-/// with `sin θ ≤ 1` over a length ≤ π, must stay well below the outer error.
-const INNER_SHARE: f64 = 0.02;
-
-static RULE: LazyLock<GaussLegendre> = LazyLock::new(|| GaussLegendre::new(20));
+/// Share of the tolerance given to each inner (φ) integral: its error is integrated over θ with
+/// weight `sin θ` (`∫ sin θ dθ ≤ 2`), so the inner errors add at most `2 · INNER_SHARE · tol`,
+/// and the outer (θ) integral gets the rest, `(1 − 2 · INNER_SHARE) · tol`.
+const INNER_SHARE: f64 = 0.1;
 
 /// The value of a pixel integral per channel with its estimated absolute error.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,7 +126,11 @@ impl Cuts<'_> {
             if dist > s.radius {
                 let c = d / dist;
                 let cos_beta = (1.0 - (s.radius / dist).powi(2)).sqrt();
-                push_tangencies(&c, cos_beta, &mut t);
+                // Only a cone that reaches into H(n) (angle to n below π/2 + β, i.e.
+                // c·n > −sin β) shapes the integrand; from the sphere itself it never does.
+                if c.dot(&self.n) > -(s.radius / dist) {
+                    push_tangencies(&c, cos_beta, &mut t);
+                }
             }
         }
         if let Some(g) = &self.scene.ground
@@ -152,7 +153,13 @@ impl Cuts<'_> {
             let rows = m.height - 1;
             t.extend((1..rows).map(|k| k as f64 * PI / rows as f64));
         }
-        t.retain(|x| (0.0..=PI).contains(x));
+        // Circles of constant θ meet H(n) only within π/2 of n's own polar angle: integrate
+        // there only (an empty circle still costs the arc search at every node).
+        let theta_n = self.n.y.clamp(-1.0, 1.0).acos();
+        let (lo, hi) = ((theta_n - FRAC_PI_2).max(0.0), (theta_n + FRAC_PI_2).min(PI));
+        t.push(lo);
+        t.push(hi);
+        t.retain(|x| (lo..=hi).contains(x));
         t.sort_by(f64::total_cmp);
         t.dedup_by(|a, b| (*a - *b).abs() <= 1e-15);
         t
@@ -232,10 +239,13 @@ impl Cuts<'_> {
     }
 }
 
-/// Adaptive Gauss–Legendre of a `K`-vector on `[a, b]`: bisect until a level's 20-point value
-/// and its halves' sum differ by at most the interval's share of `tol` in every one of the first
-/// `checked` components. Returns the sum of accepted halves, the sum of the accepted differences
-/// (the error estimate) and whether the depth limit was reached.
+/// Adaptive Gauss–Kronrod of a `K`-vector on `[a, b]`: on each interval the 21-point Kronrod
+/// value and its embedded 10-point Gauss value ([`KRONROD21`]) come from the same 21 integrand
+/// values; the interval is accepted when they differ by at most its share of `tol` in every one
+/// of the first `checked` components (shares halve per bisection, so they add up to `tol`), else
+/// bisected. Returns the sum of the accepted Kronrod values, the sum of the accepted differences
+/// (the error estimate: each is an estimate of the Gauss value's error, far above the Kronrod
+/// value's for smooth pieces) and whether the depth limit was reached.
 fn adaptive<const K: usize>(
     a: f64,
     b: f64,
@@ -243,40 +253,47 @@ fn adaptive<const K: usize>(
     checked: usize,
     f: &mut impl FnMut(f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
-    let rule = &*RULE;
-    let mut apply = |a: f64, b: f64| -> [f64; K] {
+    let (x, wk, wg) = KRONROD21;
+    let mut apply = |a: f64, b: f64| -> ([f64; K], f64) {
         let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
-        let mut s = [0.0; K];
-        for (&x, &w) in rule.nodes().iter().zip(rule.weights()) {
-            let v = f(c + h * x);
+        let mut kr = [0.0; K];
+        let mut ga = [0.0; K];
+        let centre = f(c);
+        for k in 0..K {
+            kr[k] = wk[10] * centre[k];
+        }
+        for i in 0..10 {
+            let (l, r) = (f(c - h * x[i]), f(c + h * x[i]));
             for k in 0..K {
-                s[k] += w * v[k];
+                let s = l[k] + r[k];
+                kr[k] += wk[i] * s;
+                if i % 2 == 1 {
+                    ga[k] += wg[i / 2] * s;
+                }
             }
         }
-        s.map(|v| v * h)
+        let diff = (0..checked)
+            .map(|k| (h * (kr[k] - ga[k])).abs())
+            .fold(0.0, f64::max);
+        (kr.map(|v| v * h), diff)
     };
     let mut total = [0.0; K];
     let mut error = 0.0;
     let mut limited = false;
-    let whole = apply(a, b);
-    let mut stack = vec![(a, b, whole, tol, 0u32)];
-    while let Some((a, b, whole, tol, depth)) = stack.pop() {
+    let mut stack = vec![(a, b, tol, 0u32)];
+    while let Some((a, b, tol, depth)) = stack.pop() {
+        let (value, diff) = apply(a, b);
         let m = 0.5 * (a + b);
-        let left = apply(a, m);
-        let right = apply(m, b);
-        let diff = (0..checked)
-            .map(|k| (left[k] + right[k] - whole[k]).abs())
-            .fold(0.0, f64::max);
         let stuck = depth >= MAX_DEPTH || m <= a || m >= b;
         if diff <= tol || stuck {
             limited |= stuck && diff > tol;
             for k in 0..K {
-                total[k] += left[k] + right[k];
+                total[k] += value[k];
             }
             error += diff;
         } else {
-            stack.push((a, m, left, 0.5 * tol, depth + 1));
-            stack.push((m, b, right, 0.5 * tol, depth + 1));
+            stack.push((a, m, 0.5 * tol, depth + 1));
+            stack.push((m, b, 0.5 * tol, depth + 1));
         }
     }
     (total, error, limited)
