@@ -372,10 +372,15 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     status!(
-        "render: {what}, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
+        "render: {what}, {}×{}: {} {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
         args.width,
         args.height,
+        if kind.is_some() {
+            "sample sets + render"
+        } else {
+            "quadrature"
+        },
         out.display(),
         png.display()
     );
