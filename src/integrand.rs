@@ -1,11 +1,13 @@
 //! Integrands with their exact integrals (math.md §1): `cos^k θ` here, the rendering-like
 //! families (lobe, cap, Gaussian about a tilted axis) in [`family`], and [`Integrand`], the one
-//! type experiments use.
+//! type experiments use; render-scene pixels in [`pixel`].
 
 pub mod family;
+pub mod pixel;
 
 use crate::geometry::Vec3;
 use family::AxisIntegrand;
+use pixel::PixelIntegrand;
 use std::f64::consts::TAU;
 
 /// An integrand of an experiment, with a name (a file name: `<name>.svg`) and its truth.
@@ -15,6 +17,8 @@ pub enum Integrand {
     Cos(CosPower),
     /// A family integrand with its name.
     Axis { name: String, f: AxisIntegrand },
+    /// A render-scene pixel's integrand in one channel, with its name.
+    Pixel { name: String, f: Box<PixelIntegrand> },
 }
 
 impl Integrand {
@@ -22,7 +26,7 @@ impl Integrand {
     pub fn name(&self) -> String {
         match self {
             Integrand::Cos(c) => c.name(),
-            Integrand::Axis { name, .. } => name.clone(),
+            Integrand::Axis { name, .. } | Integrand::Pixel { name, .. } => name.clone(),
         }
     }
 
@@ -31,6 +35,7 @@ impl Integrand {
         match self {
             Integrand::Cos(c) => c.display_name(),
             Integrand::Axis { f, .. } => f.display_name(),
+            Integrand::Pixel { f, .. } => f.display_name(),
         }
     }
 
@@ -40,6 +45,7 @@ impl Integrand {
         match self {
             Integrand::Cos(c) => c.value(w),
             Integrand::Axis { f, .. } => f.value(w),
+            Integrand::Pixel { f, .. } => f.value(w),
         }
     }
 
@@ -48,6 +54,7 @@ impl Integrand {
         match self {
             Integrand::Cos(c) => c.integral(),
             Integrand::Axis { f, .. } => f.integral(),
+            Integrand::Pixel { f, .. } => f.integral(),
         }
     }
 
@@ -56,6 +63,7 @@ impl Integrand {
         match self {
             Integrand::Cos(c) => c.constant_prior(),
             Integrand::Axis { f, .. } => f.integral() / TAU,
+            Integrand::Pixel { f, .. } => f.integral() / TAU,
         }
     }
 }

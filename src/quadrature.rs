@@ -137,9 +137,87 @@ pub fn chebyshev_integral(coefficients: &[f64]) -> f64 {
         .sum()
 }
 
+/// The 21-point Gauss–Kronrod rule on `[-1, 1]` and its embedded 10-point Gauss–Legendre rule
+/// (QUADPACK's `qk21`; Piessens et al., *QUADPACK*, Springer 1983): `(nodes, Kronrod weights,
+/// Gauss weights)` for the non-negative nodes, the node 0 last. The Gauss nodes are the odd
+/// entries (indices 1, 3, …, 9); the Kronrod rule is exact for polynomials of degree ≤ 31, the
+/// Gauss rule for degree ≤ 19, and `|K21 − G10|` estimates G10's error (so K21's is far smaller).
+// QUADPACK's published digits, kept verbatim so that they can be checked against the source;
+// the compiler rounds each to the nearest f64.
+#[allow(clippy::excessive_precision)]
+pub const KRONROD21: ([f64; 11], [f64; 11], [f64; 5]) = (
+    [
+        0.995_657_163_025_808_080_735_527_280_689_003,
+        0.973_906_528_517_171_720_077_964_012_084_452,
+        0.930_157_491_355_708_226_001_207_180_059_508,
+        0.865_063_366_688_984_510_732_096_688_423_493,
+        0.780_817_726_586_416_897_063_717_578_345_042,
+        0.679_409_568_299_024_406_234_327_365_114_874,
+        0.562_757_134_668_604_683_339_000_099_272_694,
+        0.433_395_394_129_247_190_799_265_943_165_784,
+        0.294_392_862_701_460_198_131_126_603_103_866,
+        0.148_874_338_981_631_210_884_826_001_129_720,
+        0.0,
+    ],
+    [
+        0.011_694_638_867_371_874_278_064_396_062_192,
+        0.032_558_162_307_964_727_478_818_972_459_390,
+        0.054_755_896_574_351_996_031_381_300_244_580,
+        0.075_039_674_810_919_952_767_043_140_916_190,
+        0.093_125_454_583_697_605_535_065_465_083_366,
+        0.109_387_158_802_297_641_899_210_590_325_805,
+        0.123_491_976_262_065_851_077_600_525_634_580,
+        0.134_709_217_311_473_325_928_054_001_771_707,
+        0.142_775_938_577_060_080_797_094_273_138_717,
+        0.147_739_104_901_338_491_374_841_515_972_068,
+        0.149_445_554_002_916_905_664_936_468_389_821,
+    ],
+    [
+        0.066_671_344_308_688_137_593_568_809_893_332,
+        0.149_451_349_150_580_593_145_776_339_657_697,
+        0.219_086_362_515_982_043_995_534_934_228_163,
+        0.269_266_719_309_996_355_091_226_921_569_469,
+        0.295_524_224_714_752_870_173_892_994_651_338,
+    ],
+);
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The Kronrod constants: the Gauss nodes and weights agree with [`gauss_legendre`]`(10)`,
+    /// and the rules integrate `x^k` exactly up to degree 31 (Kronrod) and 19 (Gauss).
+    #[test]
+    fn kronrod_21_is_exact_to_degree_31() {
+        let (x, wk, wg) = KRONROD21;
+        let (gx, gw) = gauss_legendre(10);
+        for (m, i) in (1..10).step_by(2).enumerate() {
+            assert!(
+                (x[i] - gx[9 - m]).abs() < 1e-15 && (wg[m] - gw[9 - m]).abs() < 1e-15,
+                "node {i}"
+            );
+        }
+        let kronrod = |k: i32| {
+            (0..10)
+                .map(|i| wk[i] * (x[i].powi(k) + (-x[i]).powi(k)))
+                .sum::<f64>()
+                + wk[10] * if k == 0 { 1.0 } else { 0.0 }
+        };
+        let gauss = |k: i32| {
+            (0..5)
+                .map(|m| wg[m] * (x[2 * m + 1].powi(k) + (-x[2 * m + 1]).powi(k)))
+                .sum::<f64>()
+        };
+        for k in 0..=31 {
+            let exact = if k % 2 == 1 { 0.0 } else { 2.0 / (k as f64 + 1.0) };
+            assert!((kronrod(k) - exact).abs() < 1e-15, "Kronrod, degree {k}");
+            if k <= 19 {
+                assert!((gauss(k) - exact).abs() < 1e-15, "Gauss, degree {k}");
+            }
+        }
+        // Not exact beyond: the test can tell a wrong constant from a right one.
+        assert!((kronrod(32) - 2.0 / 33.0).abs() > 1e-12);
+    }
 
     #[test]
     fn integrates_polynomials_exactly() {

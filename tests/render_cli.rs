@@ -267,3 +267,36 @@ fn out_may_not_overwrite_the_reference() {
         stderr(&o)
     );
 }
+
+/// `--integrator exact` takes no sampling options and a tolerance in range; the tolerance applies
+/// to nothing else. Each is one line, exit 2, before any work.
+#[test]
+fn exact_rejects_options_that_do_not_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (args, expected) in [
+        (
+            vec!["--integrator", "exact", "--spp", "4"],
+            "Error: --spp: does not apply to --integrator exact (the certified quadrature draws no samples)",
+        ),
+        (
+            vec!["--integrator", "exact", "--seed", "1"],
+            "Error: --seed: does not apply to --integrator exact (the certified quadrature draws no samples)",
+        ),
+        (
+            vec!["--integrator", "exact", "--tolerance", "1e-20"],
+            "Error: --tolerance: must be in [1e-13, 1e-2] (absolute, per pixel and channel), got 0.00000000000000000001",
+        ),
+        (
+            vec!["--integrator", "bmc", "--tolerance", "1e-6"],
+            "Error: --tolerance 0.000001: applies to --integrator exact, not bmc",
+        ),
+    ] {
+        let mut all = vec!["render", "--out", "x.exr", "--width", "8", "--height", "8"];
+        all.extend(args);
+        let o = workbench(d, &all);
+        assert_eq!(o.status.code(), Some(2));
+        assert_eq!(String::from_utf8_lossy(&o.stderr).trim_end(), expected);
+        assert!(!d.join("x.exr").exists());
+    }
+}

@@ -145,3 +145,51 @@ fn spec_errors_are_exit_2_before_any_work() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.json: cannot read"));
 }
+
+/// The default reference is exact: the table renders it by the certified quadrature, says so in
+/// its manifest and table, caches it under a key of its own, and the cached image equals
+/// `render --integrator exact` of the same size.
+#[test]
+fn the_default_reference_is_exact_and_matches_render_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = r#"{"name": "ex", "width": 16, "height": 12, "spp": [4], "repetitions": 1,
+                   "variants": [{"label": "MC", "integrator": "mc"}]}"#;
+    std::fs::write(d.join("ex.json"), spec).unwrap();
+    let o = workbench(d, &["render", "ex.json", "--results-dir", "out", "-q"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("reference (exact, tolerance 1e-9"), "{err}");
+    let manifest = std::fs::read_to_string(d.join("out/ex/manifest.json")).unwrap();
+    assert!(manifest.contains("\"integrator\": \"exact\""), "{manifest}");
+    let md = std::fs::read_to_string(d.join("out/ex/table.md")).unwrap();
+    assert!(md.contains("the exact reference"), "{md}");
+    let cached: Vec<_> = std::fs::read_dir(d.join("out/cache"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "exr"))
+        .collect();
+    assert_eq!(cached.len(), 1);
+    let o = workbench(
+        d,
+        &[
+            "render",
+            "--integrator",
+            "exact",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--out",
+            "ref.exr",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let a = workbench::render::Image::read(&cached[0], "cache").unwrap();
+    let b = workbench::render::Image::read(&d.join("ref.exr"), "ref").unwrap();
+    assert_eq!(a.data, b.data);
+    // Run again: the reference comes from the cache.
+    let o = workbench(d, &["render", "ex.json", "--results-dir", "out"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("reference from cache"));
+}

@@ -8,15 +8,20 @@ use std::process::ExitCode;
 use std::time::Instant;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
+use workbench::render::exact;
 use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::{Environment, Integrator, Renderer, check_size};
+
+/// `--spp` when none is given.
+const DEFAULT_SPP: usize = 40;
 use workbench::report::Reporter;
 
 /// Options of `workbench render`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
-    workbench render --integrator mc --spp 3000 --out ref.exr\n  \
+    workbench render --integrator exact --out ref.exr\n  \
+    workbench render --integrator mc --spp 3000 --out ref-mc.exr\n  \
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr\n  \
     workbench render experiments/render-table.json\n\n\
     Render-table fields are documented in the README (\"Tables\"); the scene in docs/render-scene.md.\n\n\
@@ -26,15 +31,19 @@ pub struct RenderArgs {
     /// reference and writes results/<name>/. Without it, one image is rendered to --out.
     #[arg(
         value_name = "SPEC.json",
-        conflicts_with_all = ["out", "integrator", "spp", "gps", "no_rotate", "width", "height", "env",
-                              "seed", "reference"]
+        conflicts_with_all = ["out", "integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
+                              "env", "seed", "reference"]
     )]
     pub spec: Option<PathBuf>,
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
-    pub integrator: IntegratorKind,
-    /// Samples per pixel (hemisphere directions per estimate).
-    #[arg(long, default_value_t = 40)]
-    pub spp: usize,
+    pub integrator: RenderIntegrator,
+    /// Samples per pixel (hemisphere directions per estimate) [default: 40]; not with `exact`.
+    #[arg(long)]
+    pub spp: Option<usize>,
+    /// `--integrator exact` only: absolute tolerance per pixel and channel of the certified
+    /// quadrature [default: 1e-9].
+    #[arg(long)]
+    pub tolerance: Option<f64>,
     /// Number of BMC sample sets ("GPs"); one is picked at random per pixel [default: 4].
     #[arg(long)]
     pub gps: Option<usize>,
@@ -50,9 +59,10 @@ pub struct RenderArgs {
     /// Lighting: `sky`, `white`, or an equirectangular Radiance .hdr / OpenEXR file.
     #[arg(long, default_value = "sky")]
     pub env: String,
-    /// Master seed: sample sets and per-pixel streams derive from it.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// Master seed: sample sets and per-pixel streams derive from it [default: 0]; not with
+    /// `exact`, which draws nothing.
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// The linear image (OpenEXR, .exr); a tone-mapped PNG is written beside it.
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
@@ -83,20 +93,43 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+/// What computes each pixel: an estimator of the family ([`IntegratorKind`]) or the certified
+/// quadrature (`exact`), which is not an estimator (no samples, no seed) and so not a `Method`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RenderIntegrator {
+    Estimator(IntegratorKind),
+    Exact,
+}
+
+impl std::fmt::Display for RenderIntegrator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RenderIntegrator::Estimator(k) => write!(f, "{k}"),
+            RenderIntegrator::Exact => f.write_str("exact"),
+        }
+    }
+}
+
 fn integrator_help() -> String {
     format!(
-        "The estimator of each pixel's illumination integral: {}",
+        "The estimator of each pixel's illumination integral: {}; or `exact`, every pixel by the \
+         certified quadrature (all three channels, to --tolerance)",
         IntegratorKind::names()
     )
 }
 
-fn parse_integrator(name: &str) -> Result<IntegratorKind, String> {
-    IntegratorKind::from_name(name).ok_or_else(|| {
-        format!(
-            "unknown integrator {name:?}; expected one of {}",
-            IntegratorKind::names()
-        )
-    })
+fn parse_integrator(name: &str) -> Result<RenderIntegrator, String> {
+    if name == "exact" {
+        return Ok(RenderIntegrator::Exact);
+    }
+    IntegratorKind::from_name(name)
+        .map(RenderIntegrator::Estimator)
+        .ok_or_else(|| {
+            format!(
+                "unknown integrator {name:?}; expected one of {}, exact",
+                IntegratorKind::names()
+            )
+        })
 }
 
 /// Runs `workbench render`.
@@ -140,25 +173,7 @@ pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
     out.with_file_name(name)
 }
 
-/// The error image's options, validated.
-struct ErrorOptions {
-    scale: ErrorScale,
-    max: f64,
-    colours: ColourMap,
-}
-
-/// A single render's options, checked before any work (the raw flags → a resolved form).
-struct Single<'a> {
-    out: &'a Path,
-    png: PathBuf,
-    error_png: PathBuf,
-    gps: usize,
-    error: ErrorOptions,
-}
-
-/// Every check a single render can make before it starts: names, sizes, counts, options that do
-/// not apply, and that no output is an input or another output.
-fn resolve_single(args: &RenderArgs) -> anyhow::Result<Single<'_>> {
+fn single(args: &RenderArgs) -> anyhow::Result<()> {
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     if out.extension().and_then(|e| e.to_str()) != Some("exr") {
@@ -169,8 +184,48 @@ fn resolve_single(args: &RenderArgs) -> anyhow::Result<Single<'_>> {
         .into());
     }
     check_size(args.width, args.height)?;
-    check_spp(args.integrator, args.spp, "--spp")?;
-    if !args.integrator.uses_sets() {
+    let kind = match args.integrator {
+        RenderIntegrator::Estimator(kind) => {
+            if let Some(t) = args.tolerance {
+                return Err(InputError::new(format!(
+                    "--tolerance {t}: applies to --integrator exact, not {kind}"
+                ))
+                .into());
+            }
+            Some(kind)
+        }
+        RenderIntegrator::Exact => {
+            // Sampling options are errors with the quadrature, not silently ignored.
+            let given = args
+                .spp
+                .map(|_| "--spp")
+                .or(args.seed.map(|_| "--seed"))
+                .or(args.gps.map(|_| "--gps"))
+                .or(args.no_rotate.then_some("--no-rotate"))
+                .or(args.model.given());
+            if let Some(flag) = given {
+                return Err(InputError::new(format!(
+                    "{flag}: does not apply to --integrator exact (the certified quadrature draws no samples)"
+                ))
+                .into());
+            }
+            let t = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
+            if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
+                return Err(InputError::new(format!(
+                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {t}",
+                    exact::MIN_TOLERANCE
+                ))
+                .into());
+            }
+            None
+        }
+    };
+    let spp = args.spp.unwrap_or(DEFAULT_SPP);
+    let seed = args.seed.unwrap_or(0);
+    if let Some(kind) = kind {
+        check_spp(kind, spp, "--spp")?;
+    }
+    if kind.is_some_and(|k| !k.uses_sets()) {
         // Options of the BMC integrators are errors with MC, not silently ignored.
         let given = args
             .gps
@@ -180,7 +235,7 @@ fn resolve_single(args: &RenderArgs) -> anyhow::Result<Single<'_>> {
         if let Some(flag) = given {
             return Err(InputError::new(format!(
                 "{flag}: applies to --integrator bmc and bmcp, not {}",
-                args.integrator.name()
+                args.integrator
             ))
             .into());
         }
@@ -196,11 +251,11 @@ fn resolve_single(args: &RenderArgs) -> anyhow::Result<Single<'_>> {
     if args.error_max.is_some() && args.error_scale != "absolute" {
         return Err(InputError::new("--error-max: applies to --error-scale absolute").into());
     }
-    let scale = match args.error_scale.as_str() {
+    let error_scale = match args.error_scale.as_str() {
         "absolute" => ErrorScale::Absolute,
         _ => ErrorScale::Normalised,
     };
-    let colours = match args.error_colours.as_str() {
+    let error_colours = match args.error_colours.as_str() {
         "grey" => ColourMap::Grey,
         _ => ColourMap::Viridis,
     };
@@ -229,32 +284,6 @@ fn resolve_single(args: &RenderArgs) -> anyhow::Result<Single<'_>> {
     for (flag, path) in &outputs {
         workbench::io::check_name_length(flag, path)?;
     }
-    Ok(Single {
-        out,
-        png,
-        error_png,
-        gps,
-        error: ErrorOptions {
-            scale,
-            max: error_max,
-            colours,
-        },
-    })
-}
-
-fn single(args: &RenderArgs) -> anyhow::Result<()> {
-    let Single {
-        out,
-        png,
-        error_png,
-        gps,
-        error,
-    } = resolve_single(args)?;
-    let outputs: Vec<(&str, &Path)> = vec![
-        ("--out", out),
-        ("--out (its PNG)", &png),
-        ("--out (its error image)", &error_png),
-    ];
     let env = Environment::from_arg(&args.env)?;
     // Fail on an unwritable output folder now, not after the render.
     let dir = match out.parent() {
@@ -263,7 +292,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     };
     workbench::io::check_writable_dir(&dir)?;
     let model_start = Instant::now();
-    let model = if args.integrator.uses_sets() {
+    let model = if kind.is_some_and(|k| k.uses_sets()) {
         Some(args.model.build()?)
     } else {
         None
@@ -285,14 +314,50 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     let mut files = FileSet::lock(&outputs, "use another --out")?;
 
     let model_seconds = model_start.elapsed().as_secs_f64();
-    let (image, seconds) = render_image(args, &renderer, gps, model.as_ref())?;
+    let start = Instant::now();
+    let pool = workbench::threads::pool(None)?;
+    let bar = Bar::new(args.quiet);
+    let (image, what) = match kind {
+        Some(kind) => {
+            let integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model.as_ref(), seed)?;
+            for line in workbench::render::table::runner::numerical_warnings(&integrator) {
+                status!("warning: {line}");
+            }
+            bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
+            let image = pool.install(|| renderer.render(&integrator, seed, &bar));
+            bar.finish();
+            (image, format!("{kind} {spp} spp"))
+        }
+        None => {
+            let tol = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
+            bar.start("rows", args.height as u64);
+            let (image, stats) = pool.install(|| renderer.render_exact(tol, &bar));
+            bar.finish();
+            let limited = if stats.depth_limited > 0 {
+                format!(
+                    "; {} pixel(s) reached the bisection depth limit (their error estimate counts it)",
+                    stats.depth_limited
+                )
+            } else {
+                String::new()
+            };
+            (
+                image,
+                format!(
+                    "exact (tolerance {tol:e}; largest error estimate {:.1e} at pixel ({}, {}){limited})",
+                    stats.max_error, stats.worst_pixel.0, stats.worst_pixel.1
+                ),
+            )
+        }
+    };
+    let seconds = start.elapsed().as_secs_f64();
 
     // Every file is written in full before any replaces its predecessor, so a failure (a full
     // disk) leaves the earlier image and PNGs together, as they were.
     files.stage(out, &image.to_exr()?)?;
     files.stage(&png, &image.to_png()?)?;
     let error_image = match &reference {
-        Some(r) => Some(image.error_png(r, error.scale, error.max, error.colours)?),
+        Some(r) => Some(image.error_png(r, error_scale, error_max, error_colours)?),
         None => None,
     };
     match &error_image {
@@ -307,12 +372,15 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     status!(
-        "render: {} {} spp, {}×{}: sample sets + render {seconds:.3} s (after {model_seconds:.3} s of set-up: \
+        "render: {what}, {}×{}: {} {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
-        args.integrator,
-        args.spp,
         args.width,
         args.height,
+        if kind.is_some() {
+            "sample sets + render"
+        } else {
+            "quadrature"
+        },
         out.display(),
         png.display()
     );
@@ -320,53 +388,25 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
     }
     if let Some(e) = &error_image {
+        let scale = match error_scale {
+            ErrorScale::Absolute if e.clamped > 0 => format!(
+                "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
+                short_number(e.scale_max),
+                e.clamped,
+                100.0 * e.clamped as f64 / (args.width * args.height) as f64
+            ),
+            ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
+            ErrorScale::Normalised => {
+                format!("scale 0–{}, the image's own maximum", short_number(e.scale_max))
+            }
+        };
         status!(
-            "render: error image → {} ({})",
+            "render: error image → {} (max error {} at pixel ({}, {}); {scale})",
             error_png.display(),
-            error_summary(e, error.scale, args.width * args.height)
+            short_number(e.max_error),
+            e.max_at.0,
+            e.max_at.1
         );
     }
     Ok(())
-}
-
-/// Builds the integrator (its sample sets, for estimators with weights) and renders, with the
-/// progress bar; returns the image and the seconds both took.
-fn render_image(
-    args: &RenderArgs,
-    renderer: &Renderer,
-    gps: usize,
-    model: Option<&workbench::bmc::BmcModel>,
-) -> anyhow::Result<(Image, f64)> {
-    let start = Instant::now();
-    let integrator = Integrator::build(args.integrator, args.spp, gps, !args.no_rotate, model, args.seed)?;
-    for line in workbench::render::table::runner::numerical_warnings(&integrator) {
-        status!("warning: {line}");
-    }
-    let bar = Bar::new(args.quiet);
-    bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
-    let pool = workbench::threads::pool(None)?;
-    let image = pool.install(|| renderer.render(&integrator, args.seed, &bar));
-    bar.finish();
-    let seconds = start.elapsed().as_secs_f64();
-    Ok((image, seconds))
-}
-
-/// `max error 0.579 at pixel (237, 169); scale 0–0.25, 3516 pixel(s) (5.4%) above it clamped`.
-fn error_summary(e: &workbench::render::image::ErrorImage, scale: ErrorScale, pixels: usize) -> String {
-    let scale = match scale {
-        ErrorScale::Absolute if e.clamped > 0 => format!(
-            "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
-            short_number(e.scale_max),
-            e.clamped,
-            100.0 * e.clamped as f64 / pixels as f64
-        ),
-        ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
-        ErrorScale::Normalised => format!("scale 0–{}, the image's own maximum", short_number(e.scale_max)),
-    };
-    format!(
-        "max error {} at pixel ({}, {}); {scale}",
-        short_number(e.max_error),
-        e.max_at.0,
-        e.max_at.1
-    )
 }

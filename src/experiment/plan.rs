@@ -5,8 +5,10 @@ use super::spec::*;
 use crate::bmc::{BmcModel, Scale};
 use crate::estimator::Method;
 use crate::integrand::family::{AxisIntegrand, Profile};
+use crate::integrand::pixel::PixelIntegrand;
 use crate::integrand::{CosPower, Integrand};
 use crate::model_spec::ResolvedModel;
+use crate::render::env::{EnvMap, Environment};
 use crate::rule::MAX_POINTS;
 use crate::sampling::{Design, SetDesign};
 use serde::Serialize;
@@ -448,7 +450,7 @@ fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
             return CosPower::parse(name).map(Integrand::Cos).ok_or_else(|| {
                 format!(
                     "unknown integrand {name:?} (expected cos, cos2, cos3, …: cos<k> with k a whole number \
-                     from 0 to 2147483647, or an object with \"type\": lobe, cap or gaussian)"
+                     from 0 to 2147483647, or an object with \"type\": lobe, cap, gaussian or pixel)"
                 )
             });
         }
@@ -471,6 +473,31 @@ fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
             axis,
             *cosine,
         ),
+        IntegrandSpec::Family(FamilySpec::Pixel {
+            name,
+            pixel,
+            width,
+            height,
+            env,
+            channel,
+        }) => {
+            let environment = match env.as_str() {
+                "sky" => Environment::Sky,
+                "white" => Environment::White,
+                path => EnvMap::load(std::path::Path::new(path))
+                    .map(Environment::Map)
+                    .map_err(|e| format!("env: {}", e.0.trim_start_matches("--env ")))?,
+            };
+            let f = PixelIntegrand::new(*pixel, *width, *height, environment, env, channel)?;
+            let name = match name {
+                Some(n) => {
+                    check_file_name(n).map_err(|m| format!("name: {m}"))?;
+                    n.clone()
+                }
+                None => f.default_name(),
+            };
+            return Ok(Integrand::Pixel { name, f: Box::new(f) });
+        }
         IntegrandSpec::Family(FamilySpec::Gaussian {
             name,
             axis,

@@ -167,7 +167,7 @@ impl<'de> Deserialize<'de> for IntegrandSpec {
                 .map(IntegrandSpec::Family)
                 .map_err(D::Error::custom),
             other => Err(D::Error::custom(format!(
-                "expected a name such as \"cos3\" or an object with a \"type\" (lobe, cap, gaussian), got {other}"
+                "expected a name such as \"cos3\" or an object with a \"type\" (lobe, cap, gaussian, pixel), got {other}"
             ))),
         }
     }
@@ -204,4 +204,28 @@ pub enum FamilySpec {
         #[serde(default)]
         cosine: bool,
     },
+    /// The render scene's integrand at pixel `[i, j]` (column, row from the top left) of a
+    /// `width × height` image under `env` (`sky`, `white` or a map file), one `channel` (`r`,
+    /// `g`, `b`): math.md §1 "Scene integrands".
+    Pixel {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        pixel: [usize; 2],
+        #[serde(default = "default_size")]
+        width: usize,
+        #[serde(default = "default_size")]
+        height: usize,
+        #[serde(default = "default_env")]
+        env: String,
+        channel: String,
+    },
+}
+
+/// The renderer's default image size.
+fn default_size() -> usize {
+    256
+}
+
+fn default_env() -> String {
+    "sky".into()
 }

@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod env;
+pub mod exact;
 pub mod image;
 pub mod integrator;
 pub mod renderer;

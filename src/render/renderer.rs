@@ -4,6 +4,7 @@
 
 use super::camera::Camera;
 use super::env::Environment;
+use super::exact;
 use super::image::Image;
 use super::integrator::neighbours::{first_pass, neighbour_prior};
 use super::integrator::{Integrator, ShadingPoint};
@@ -107,11 +108,51 @@ impl Renderer {
 
     /// The integral estimate at pixel `(i, j)`, or `None` if the primary ray hits nothing.
     pub fn pixel(&self, i: usize, j: usize, integrator: &Integrator, seed: u64, prior: Rgb) -> Option<Rgb> {
+        let p = self.shading_point(i, j)?;
+        let mut rng = stream(seed, &[PIXELS, (j * self.width + i) as u64]);
+        Some(integrator.estimate(&p, &self.scene, &self.env, &mut rng, prior))
+    }
+
+    /// The shading point of pixel `(i, j)`'s primary hit, or `None` if its ray hits nothing.
+    pub fn shading_point(&self, i: usize, j: usize) -> Option<ShadingPoint> {
         let dir = self.camera.ray(i, j);
         let hit = self.scene.intersect(&self.camera.origin, &dir)?;
-        let mut rng = stream(seed, &[PIXELS, (j * self.width + i) as u64]);
-        let p = ShadingPoint::new(&hit);
-        Some(integrator.estimate(&p, &self.scene, &self.env, &mut rng, prior))
+        Some(ShadingPoint::new(&hit))
+    }
+
+    /// Pixel `(i, j)`'s integral by the certified quadrature ([`exact::integrate`]) to the
+    /// absolute tolerance `tol`, or `None` if its ray hits nothing.
+    pub fn exact_pixel(&self, i: usize, j: usize, tol: f64) -> Option<exact::PixelIntegral> {
+        let p = self.shading_point(i, j)?;
+        Some(exact::integrate(&p, &self.scene, &self.env, tol))
+    }
+
+    /// The exact image: every hit pixel by the certified quadrature ([`exact::integrate`], all
+    /// three channels) to the absolute tolerance `tol`, the others `env(dir)`; rows in parallel,
+    /// deterministic (no randomness, and each pixel's work is independent of the others').
+    /// `progress` advances by one per row.
+    pub fn render_exact(&self, tol: f64, progress: &dyn Reporter) -> (Image, ExactStats) {
+        let pixels = self.rows(progress, |i, j| match self.exact_pixel(i, j, tol) {
+            Some(q) => (q.value, Some(q)),
+            None => (self.env.radiance(&self.camera.ray(i, j)), None),
+        });
+        let mut stats = ExactStats::default();
+        for (k, (_, q)) in pixels.iter().enumerate() {
+            if let Some(q) = q {
+                if q.error > stats.max_error {
+                    stats.max_error = q.error;
+                    stats.worst_pixel = (k % self.width, k / self.width);
+                }
+                stats.depth_limited += q.depth_limited as usize;
+                stats.evaluations += q.evaluations;
+            }
+        }
+        let image = Image {
+            width: self.width,
+            height: self.height,
+            data: pixels.into_iter().map(|(v, _)| v).collect(),
+        };
+        (image, stats)
     }
 
     /// `f(i, j)` for every pixel, rows in parallel, collected in row-major order.
@@ -126,4 +167,17 @@ impl Renderer {
             .collect();
         rows.into_iter().flatten().collect()
     }
+}
+
+/// What an exact render reports about its quadrature.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExactStats {
+    /// The largest estimated absolute error of any pixel and channel.
+    pub max_error: f64,
+    /// The pixel `(i, j)` with that error.
+    pub worst_pixel: (usize, usize),
+    /// Pixels where some interval reached the bisection depth limit.
+    pub depth_limited: usize,
+    /// Integrand evaluations in all.
+    pub evaluations: u64,
 }

@@ -180,7 +180,21 @@ impl ShadingPoint {
     #[inline]
     pub fn integrand(&self, scene: &Scene, env: &Environment, v: &Vec3) -> Rgb {
         let li = self.incident(scene, env, v);
-        [0, 1, 2].map(|c| li[c] * (self.albedo[c] / PI) * v.z)
+        self.shade(li, v.z)
+    }
+
+    /// The shading formula `L_i · (albedo/π) · cos`, per channel: the one definition shared by
+    /// [`ShadingPoint::integrand`] and the exact quadrature ([`crate::render::exact`]).
+    #[inline]
+    pub fn shade(&self, li: Rgb, cos: f64) -> Rgb {
+        [0, 1, 2].map(|c| li[c] * (self.albedo[c] / PI) * cos)
+    }
+
+    /// The integrand where the world direction `w` is known to be visible:
+    /// `env(w) · (albedo/π) · cos`, `cos = w·n`.
+    #[inline]
+    pub fn lit(&self, env: &Environment, w: &Vec3, cos: f64) -> Rgb {
+        self.shade(env.radiance(w), cos)
     }
 }
 

@@ -24,6 +24,8 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
             |v| serde_json::json!({"label": v.label, "integrator": v.kind, "gps": v.gps, "rotate": v.rotate}),
         )
         .collect();
+    let mut reference_json = plan.reference.json();
+    reference_json["cache"] = cache_path(plan, results).display().to_string().into();
     let json = serde_json::json!({
         "spec": plan.file.display().to_string(),
         "scene": SCENE_VERSION,
@@ -33,8 +35,7 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
         "env": plan.env_arg,
         "spp": plan.spp,
         "repetitions": plan.repetitions,
-        "reference": {"integrator": "mc", "spp": plan.reference.spp, "seed": plan.reference.seed,
-                      "cache": cache_path(plan, results).display().to_string()},
+        "reference": reference_json,
         "model": plan.model_json,
         "variants": variants,
         "render_seed": "mix(seed, [spp, repetition]), the same for every variant",
@@ -119,11 +120,11 @@ pub fn table_md(plan: &TablePlan, cells: &[Cell]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Mean RMSE (± half-width of the 95% Student-t interval) of {}×{} renders against an MC \
-         reference with {} spp; repetitions per spp: {}.\n",
+        "Mean RMSE (± half-width of the 95% Student-t interval) of {}×{} renders against {}; \
+         repetitions per spp: {}.\n",
         plan.width,
         plan.height,
-        plan.reference.spp,
+        plan.reference.describe(),
         plan.spp
             .iter()
             .zip(&plan.repetitions)

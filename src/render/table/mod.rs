@@ -155,13 +155,13 @@ impl runner::TableSink for FileSink<'_> {
 pub fn describe(plan: &TablePlan) -> String {
     let renders: usize = plan.repetitions.iter().sum::<usize>() * plan.variants.len();
     let mut s = format!(
-        "{}: {} variant(s) × {} spp value(s) = {renders} renders of {}×{} against an MC reference with {} spp\n",
+        "{}: {} variant(s) × {} spp value(s) = {renders} renders of {}×{} against {}\n",
         plan.name,
         plan.variants.len(),
         plan.spp.len(),
         plan.width,
         plan.height,
-        plan.reference.spp
+        plan.reference.describe()
     );
     let mut json: serde_json::Value =
         serde_json::from_slice(&export::manifest(plan, Path::new("results"))).expect("the manifest is JSON");

@@ -2,7 +2,7 @@
 //! one-line error naming the file, the JSON path, the value and what is accepted — the same
 //! form as experiment files.
 
-use super::spec::{Repetitions, TableSpec, VariantSpec};
+use super::spec::{ReferenceMethod, Repetitions, TableSpec, VariantSpec};
 use crate::bmc::BmcModel;
 use crate::error::InputError;
 use crate::render::env::Environment;
@@ -21,11 +21,39 @@ pub struct VariantPlan {
     pub rotate: bool,
 }
 
-/// The MC reference image.
+/// How the reference image is made.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ReferencePlan {
-    pub spp: usize,
-    pub seed: u64,
+pub enum ReferencePlan {
+    /// Every pixel by the certified quadrature (`render::exact`) to an absolute tolerance.
+    Exact { tolerance: f64 },
+    /// Uniform MC at `spp` samples per pixel from `seed` (its noise is in every RMSE).
+    Mc { spp: usize, seed: u64 },
+}
+
+impl ReferencePlan {
+    /// `the exact reference (certified quadrature, tolerance 1e-9)` or `an MC reference with
+    /// 3000 spp`, for tables, captions and `validate`.
+    pub fn describe(&self) -> String {
+        match self {
+            ReferencePlan::Exact { tolerance } => {
+                format!("the exact reference (certified quadrature, tolerance {tolerance:e})")
+            }
+            ReferencePlan::Mc { spp, .. } => format!("an MC reference with {spp} spp"),
+        }
+    }
+
+    /// What determines the image, for the manifest and the cache key.
+    pub fn json(&self) -> serde_json::Value {
+        match self {
+            ReferencePlan::Exact { tolerance } => serde_json::json!({
+                "integrator": "exact", "tolerance": tolerance,
+                "quadrature": crate::render::exact::VERSION,
+            }),
+            ReferencePlan::Mc { spp, seed } => {
+                serde_json::json!({"integrator": "mc", "spp": spp, "seed": seed})
+            }
+        }
+    }
 }
 
 /// A validated table: everything the run needs, defaults filled in.
@@ -55,7 +83,7 @@ pub const DEFAULT_SPP: [usize; 4] = [20, 40, 60, 80];
 pub const DEFAULT_REPETITIONS: usize = 10;
 /// Most repetitions per spp (a table of more would run for days).
 pub const MAX_REPETITIONS: usize = 10_000;
-/// Default spp of the MC reference (thesis §3.2.7).
+/// Default spp of an MC reference (thesis §3.2.7).
 pub const DEFAULT_REFERENCE_SPP: usize = 3000;
 /// Default image size.
 pub const DEFAULT_SIZE: usize = 256;
@@ -220,9 +248,45 @@ fn resolve_repetitions(reps: Option<&Repetitions>, n_spp: usize) -> Result<Vec<u
 
 fn resolve_reference(spec: &TableSpec, seed: u64) -> Result<ReferencePlan, String> {
     let r = spec.reference.unwrap_or(super::spec::ReferenceSpec {
+        method: None,
         spp: None,
         seed: None,
+        tolerance: None,
     });
+    let method = r.method.unwrap_or(if r.spp.is_some() || r.seed.is_some() {
+        ReferenceMethod::Mc
+    } else {
+        ReferenceMethod::Exact
+    });
+    if method == ReferenceMethod::Exact {
+        if let Some((field, value)) = r
+            .spp
+            .map(|v| ("spp", v.to_string()))
+            .or(r.seed.map(|v| ("seed", v.to_string())))
+        {
+            return Err(err(
+                format!("reference.{field}"),
+                format!("{value}: applies to \"method\": \"mc\", not \"exact\""),
+            ));
+        }
+        let tolerance = r.tolerance.unwrap_or(crate::render::exact::DEFAULT_TOLERANCE);
+        if !(crate::render::exact::MIN_TOLERANCE..=1e-2).contains(&tolerance) {
+            return Err(err(
+                "reference.tolerance",
+                format!(
+                    "must be in [{:e}, 1e-2] (absolute error per pixel and channel), got {tolerance}",
+                    crate::render::exact::MIN_TOLERANCE
+                ),
+            ));
+        }
+        return Ok(ReferencePlan::Exact { tolerance });
+    }
+    if let Some(t) = r.tolerance {
+        return Err(err(
+            "reference.tolerance",
+            format!("{t}: applies to \"method\": \"exact\", not \"mc\""),
+        ));
+    }
     let spp = r.spp.unwrap_or(DEFAULT_REFERENCE_SPP as u64);
     if spp == 0 || spp > MAX_MC_SPP as u64 {
         return Err(err(
@@ -230,7 +294,7 @@ fn resolve_reference(spec: &TableSpec, seed: u64) -> Result<ReferencePlan, Strin
             format!("must be in 1..={MAX_MC_SPP}, got {spp}"),
         ));
     }
-    Ok(ReferencePlan {
+    Ok(ReferencePlan::Mc {
         spp: spp as usize,
         seed: r.seed.unwrap_or_else(|| crate::rng::mix(seed, &[REFERENCE_SEED])),
     })
@@ -322,6 +386,40 @@ mod tests {
     }
 
     #[test]
+    fn reference_methods_resolve_and_key_the_cache_apart() {
+        let with = |reference: &str| {
+            parse(
+                &format!(
+                    r#"{{"name": "t", "reference": {reference}, "variants": [{{"integrator": "mc"}}]}}"#
+                ),
+                Path::new("t.json"),
+            )
+            .unwrap()
+        };
+        let exact = with(r#"{"method": "exact"}"#);
+        assert_eq!(exact.reference, ReferencePlan::Exact { tolerance: 1e-9 });
+        let loose = with(r#"{"tolerance": 1e-6}"#);
+        assert_eq!(loose.reference, ReferencePlan::Exact { tolerance: 1e-6 });
+        // Files from before the exact reference: spp alone means MC.
+        let old = with(r#"{"spp": 3000}"#);
+        assert!(matches!(old.reference, ReferencePlan::Mc { spp: 3000, .. }));
+        assert_eq!(with(r#"{"method": "mc", "spp": 3000}"#).reference, old.reference);
+        let keys: Vec<String> = [&exact, &loose, &old]
+            .iter()
+            .map(|p| super::super::reference::reference_key(p).0)
+            .collect();
+        assert!(
+            keys[0] != keys[1] && keys[0] != keys[2] && keys[1] != keys[2],
+            "{keys:?}"
+        );
+        assert!(
+            super::super::reference::reference_key(&exact)
+                .1
+                .contains("\"integrator\": \"exact\"")
+        );
+    }
+
+    #[test]
     fn defaults_are_filled_in() {
         let p = parse(
             r#"{"name": "t", "variants": [{"integrator": "mc"}, {"integrator": "bmc"}]}"#,
@@ -330,7 +428,8 @@ mod tests {
         .unwrap();
         assert_eq!(p.spp, DEFAULT_SPP);
         assert_eq!(p.repetitions, vec![DEFAULT_REPETITIONS; 4]);
-        assert_eq!((p.width, p.height, p.reference.spp), (256, 256, 3000));
+        assert_eq!((p.width, p.height), (256, 256));
+        assert_eq!(p.reference, ReferencePlan::Exact { tolerance: 1e-9 });
         assert_eq!(
             p.variants[0],
             VariantPlan {
@@ -397,6 +496,22 @@ mod tests {
         );
         assert!(
             err(&format!("{{{base}, \"reference\": {{\"spp\": 0}}}}")).starts_with("t.json: reference.spp:")
+        );
+        assert_eq!(
+            err(&format!(
+                "{{{base}, \"reference\": {{\"method\": \"exact\", \"spp\": 100}}}}"
+            )),
+            "t.json: reference.spp: 100: applies to \"method\": \"mc\", not \"exact\""
+        );
+        assert_eq!(
+            err(&format!(
+                "{{{base}, \"reference\": {{\"method\": \"mc\", \"tolerance\": 1e-6}}}}"
+            )),
+            "t.json: reference.tolerance: 0.000001: applies to \"method\": \"exact\", not \"mc\""
+        );
+        assert!(
+            err(&format!("{{{base}, \"reference\": {{\"tolerance\": 0}}}}"))
+                .starts_with("t.json: reference.tolerance: must be in [1e-13, 1e-2]")
         );
         assert!(err(r#"{"variants": []}"#).starts_with("t.json: missing field `name`"));
         assert_eq!(

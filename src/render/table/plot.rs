@@ -2,7 +2,7 @@
 //! marker) with its 95% intervals as bars, a dashed spp^(−1/2) guide through MC, and a legend
 //! below the chart that says what the bars and the reference are.
 
-use super::plan::TablePlan;
+use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
 use crate::estimator::Method;
 use crate::plot_style::{self as style, LegendEntry, Swatch};
@@ -39,10 +39,16 @@ fn dodge_factors(variants: usize) -> Vec<f64> {
 
 /// The caption's second line: what the RMSE is measured against.
 pub fn reference_caption(plan: &TablePlan) -> String {
-    format!(
-        "{}×{} renders against a reference rendered with uniform MC at {} spp (its own noise is in every RMSE)",
-        plan.width, plan.height, plan.reference.spp
-    )
+    match plan.reference {
+        ReferencePlan::Exact { tolerance } => format!(
+            "{}×{} renders against the exact reference (certified quadrature, every pixel to ±{tolerance:e})",
+            plan.width, plan.height
+        ),
+        ReferencePlan::Mc { spp, .. } => format!(
+            "{}×{} renders against a reference rendered with uniform MC at {spp} spp (its own noise is in every RMSE)",
+            plan.width, plan.height
+        ),
+    }
 }
 
 /// What the plot shows, computed before drawing: each variant's cells in spp order, the

@@ -1,7 +1,7 @@
 //! The table's reference image, cached as `<results>/cache/reference-<key>.exr` (with a `.json`
 //! describing it), `key` a hash of everything that determines it, so tables share it.
 
-use super::plan::TablePlan;
+use super::plan::{ReferencePlan, TablePlan};
 use crate::io::write_atomic;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
@@ -17,16 +17,18 @@ pub const SCENE_VERSION: &str = "render-scene v1";
 /// `(key, description)`: the description lists everything that determines the reference image;
 /// the key is its 64-bit FNV-1a hash in hex.
 pub fn reference_key(plan: &TablePlan) -> (String, String) {
-    let description = serde_json::to_string_pretty(&serde_json::json!({
+    // The MC description is exactly the one used before exact references existed, so earlier
+    // caches stay valid; the exact one adds the method, tolerance and quadrature version.
+    let mut json = serde_json::json!({
         "scene": SCENE_VERSION,
         "env": plan.env.key(),
         "width": plan.width,
         "height": plan.height,
-        "integrator": "mc",
-        "spp": plan.reference.spp,
-        "seed": plan.reference.seed,
-    }))
-    .expect("serialisable");
+    });
+    for (k, v) in plan.reference.json().as_object().expect("an object") {
+        json[k] = v.clone();
+    }
+    let description = serde_json::to_string_pretty(&json).expect("serialisable");
     (
         format!("{:016x}", crate::rng::label_id(&description)),
         description,
@@ -39,8 +41,8 @@ pub fn cache_path(plan: &TablePlan, results: &Path) -> PathBuf {
     results.join("cache").join(format!("reference-{key}.exr"))
 }
 
-/// The reference: read from the cache if present and sound, else rendered (MC, uniform) and
-/// cached. A damaged entry (unreadable, wrong size, non-finite pixels) is rendered again.
+/// The reference: read from the cache if present and sound, else rendered (exact, or uniform
+/// MC) and cached. A damaged entry (unreadable, wrong size, non-finite pixels) is rendered again.
 pub fn reference(
     plan: &TablePlan,
     renderer: &Renderer,
@@ -62,18 +64,34 @@ pub fn reference(
         }
     }
     let start = Instant::now();
-    let integrator = Integrator::mc(Design::Uniform, plan.reference.spp);
-    reporter.start(
-        "rows (reference)",
-        (renderer.passes(&integrator) * plan.height) as u64,
-    );
-    let image = renderer.render(&integrator, plan.reference.seed, reporter);
-    reporter.finish();
+    let (image, what) = match plan.reference {
+        ReferencePlan::Mc { spp, seed } => {
+            let integrator = Integrator::mc(Design::Uniform, spp);
+            reporter.start(
+                "rows (reference)",
+                (renderer.passes(&integrator) * plan.height) as u64,
+            );
+            let image = renderer.render(&integrator, seed, reporter);
+            reporter.finish();
+            (image, format!("mc, {spp} spp"))
+        }
+        ReferencePlan::Exact { tolerance } => {
+            reporter.start("rows (exact reference)", plan.height as u64);
+            let (image, stats) = renderer.render_exact(tolerance, reporter);
+            reporter.finish();
+            (
+                image,
+                format!(
+                    "exact, tolerance {tolerance:e}; largest error estimate {:.1e}",
+                    stats.max_error
+                ),
+            )
+        }
+    };
     write_atomic(&path, &image.to_exr()?)?;
     write_atomic(&path.with_extension("json"), reference_key(plan).1.as_bytes())?;
     reporter.note(&format!(
-        "render: reference (mc, {} spp) in {:.1} s → {}",
-        plan.reference.spp,
+        "render: reference ({what}) in {:.1} s → {}",
         start.elapsed().as_secs_f64(),
         path.display()
     ));

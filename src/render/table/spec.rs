@@ -4,7 +4,7 @@
 //! ```json
 //! { "name": "render-table", "seed": 0, "width": 256, "height": 256, "env": "sky",
 //!   "spp": [20, 40, 60, 80], "repetitions": 10,
-//!   "reference": { "spp": 3000, "seed": 1 },
+//!   "reference": { "method": "exact" },
 //!   "model": { "kernel": { "type": "sobolev", "s": 1.4 }, "noise": 0.01, "kernel_mean": "exact" },
 //!   "variants": [ { "label": "MC", "integrator": "mc" },
 //!                 { "label": "BMC 4 GP", "integrator": "bmc", "gps": 4, "rotate": true } ] }
@@ -38,7 +38,7 @@ pub struct TableSpec {
     /// Renders per spp: one number, or one per `spp` entry; default 10.
     #[serde(default)]
     pub repetitions: Option<Repetitions>,
-    /// The MC reference; default 3000 spp.
+    /// The reference; default exact (certified quadrature at 1e-9).
     #[serde(default)]
     pub reference: Option<ReferenceSpec>,
     /// The BMC model of the variants with weights; the experiments' fields.
@@ -64,14 +64,30 @@ pub struct VariantSpec {
     pub rotate: Option<bool>,
 }
 
-/// The MC reference image.
+/// The reference image: `{"method": "exact"}` (the default; optional `tolerance`) or
+/// `{"method": "mc", "spp": 3000}` (optional `seed`). Without `method`, `spp` or `seed` mean MC
+/// (the form of files written before the exact reference existed).
 #[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ReferenceSpec {
     #[serde(default)]
+    pub method: Option<ReferenceMethod>,
+    #[serde(default)]
     pub spp: Option<u64>,
     #[serde(default)]
     pub seed: Option<u64>,
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+}
+
+/// How the reference is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReferenceMethod {
+    /// Every pixel by the certified quadrature (`render::exact`).
+    Exact,
+    /// Uniform MC.
+    Mc,
 }
 
 /// `10` (every spp) or `[80, 40, 26, 20]` (one per spp).
