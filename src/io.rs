@@ -333,7 +333,7 @@ pub fn sweep_stale(dir: &Path) {
                 remove_any(&path);
             }
         } else if name.to_str().is_some_and(|n| n.starts_with(LOCK_PREFIX)) {
-            crate::output_set::remove_if_unlocked(&path);
+            remove_if_unlocked(&path);
         }
     }
 }
@@ -348,6 +348,34 @@ pub(crate) fn remove_any(path: &Path) {
             let _ = std::fs::remove_file(path);
         }
         Err(_) => {}
+    }
+}
+
+/// Removes a lock file nobody holds (left by a killed command). A command that opened it
+/// just before finds, once it has locked it, that it is no longer at its path, and starts over.
+pub(crate) fn remove_if_unlocked(path: &Path) {
+    let Ok(file) = std::fs::OpenOptions::new().read(true).open(path) else {
+        return;
+    };
+    if file.try_lock().is_ok() && same_inode(&file, path) {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// Whether `path` still names the open `file`.
+pub(crate) fn same_inode(file: &std::fs::File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (file.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (file, path);
+        true
     }
 }
 

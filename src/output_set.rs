@@ -60,7 +60,7 @@ impl Lock {
                 .open(&path)
                 .map_err(|e| Error::io(format!("creating the lock file {}", path.display()), e))?;
             match file.try_lock() {
-                Ok(()) if !same_inode(&file, &path) => continue,
+                Ok(()) if !crate::io::same_inode(&file, &path) => continue,
                 Ok(()) => {
                     // Only for the message a second command prints; the lock is the flock.
                     let _ = file.set_len(0);
@@ -110,34 +110,6 @@ impl Drop for Lock {
 fn locks_unsupported(e: &std::io::Error) -> bool {
     const ENOLCK: i32 = 37;
     e.kind() == std::io::ErrorKind::Unsupported || e.raw_os_error() == Some(ENOLCK)
-}
-
-/// Removes a lock file nobody holds (left by a killed command). A command that opened it
-/// just before finds, once it has locked it, that it is no longer at its path, and starts over.
-pub(crate) fn remove_if_unlocked(path: &Path) {
-    let Ok(file) = OpenOptions::new().read(true).open(path) else {
-        return;
-    };
-    if file.try_lock().is_ok() && same_inode(&file, path) {
-        let _ = std::fs::remove_file(path);
-    }
-}
-
-/// Whether `path` still names the open `file`.
-fn same_inode(file: &File, path: &Path) -> bool {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        match (file.metadata(), std::fs::metadata(path)) {
-            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
-            _ => false,
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = (file, path);
-        true
-    }
 }
 
 /// `prefix` followed by `name`, byte for byte (names need not be UTF-8).
@@ -463,7 +435,7 @@ fn manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
         for v in variants {
             let label = v.get("label")?.as_str()?;
             for s in spp {
-                names.push(crate::render::table::png_name(label, s.as_u64()? as usize));
+                names.push(crate::render::table::plan::png_name(label, s.as_u64()? as usize));
             }
         }
         return Some(names);
