@@ -144,6 +144,15 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
         v[key] = param.into();
         v["cosine"] = a.cosine.into();
     }
+    if let crate::integrand::Integrand::Pixel { f: p, .. } = f {
+        v["type"] = "pixel".into();
+        v["pixel"] = serde_json::json!(p.pixel);
+        v["width"] = p.width.into();
+        v["height"] = p.height.into();
+        v["env"] = p.env_name.clone().into();
+        v["channel"] = ["r", "g", "b"][p.channel].into();
+        v["truth_error_estimate"] = p.integral_error().into();
+    }
     v
 }
 
