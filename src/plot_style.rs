@@ -216,6 +216,47 @@ pub fn format_count(v: f64) -> String {
 /// Draws short unlabelled tick marks outside the plotting area `plot` (its pixel ranges, as
 /// from `ChartContext::plotting_area().get_pixel_range()`): at pixel columns `xs` under the x
 /// axis and pixel rows `ys` left of the y axis.
+/// A figure's white page split into its title block, its chart (`chart_height` pixels) and the
+/// legend below.
+#[allow(clippy::type_complexity)]
+pub fn layout<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    chart_height: u32,
+) -> Result<
+    (
+        DrawingArea<DB, Shift>,
+        DrawingArea<DB, Shift>,
+        DrawingArea<DB, Shift>,
+    ),
+    DrawingAreaErrorKind<DB::ErrorType>,
+> {
+    root.fill(&WHITE)?;
+    let (header, rest) = root.split_vertically(HEADER_HEIGHT);
+    let (chart, legend) = rest.split_vertically(chart_height);
+    Ok((header, chart, legend))
+}
+
+/// [`draw_minor_ticks`] at the chart's own coordinates: `x_minor` along the bottom axis,
+/// `y_minor` along the left one, `corner` the chart's lower-left data corner.
+pub fn chart_minor_ticks<'a, DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    x_minor: &[f64],
+    y_minor: &[f64],
+    corner: (f64, f64),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let plot = chart.plotting_area().get_pixel_range();
+    let xs: Vec<i32> = x_minor
+        .iter()
+        .map(|&x| chart.backend_coord(&(x, corner.1)).0)
+        .collect();
+    let ys: Vec<i32> = y_minor
+        .iter()
+        .map(|&y| chart.backend_coord(&(corner.0, y)).1)
+        .collect();
+    draw_minor_ticks(root, &plot, &xs, &ys)
+}
+
 pub fn draw_minor_ticks<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     plot: &(std::ops::Range<i32>, std::ops::Range<i32>),

@@ -89,9 +89,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (header, rest) = root.split_vertically(style::HEADER_HEIGHT);
-        let (chart_area, legend_area) = rest.split_vertically(CHART_HEIGHT);
+        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
         style::draw_header(
             &header,
             &format!("{}: calibration", plan.title),

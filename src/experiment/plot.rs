@@ -183,9 +183,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (header, rest) = root.split_vertically(style::HEADER_HEIGHT);
-        let (chart_area, legend_area) = rest.split_vertically(CHART_HEIGHT);
+        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
         style::draw_header(
             &header,
             &plan.title,
@@ -216,18 +214,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
             .light_line_style(TRANSPARENT)
             .set_all_tick_mark_size(6)
             .draw()?;
-        let plot = chart.plotting_area().get_pixel_range();
-        let xs: Vec<i32> = x_ticks
-            .minor
-            .iter()
-            .map(|&x| chart.backend_coord(&(x, y0)).0)
-            .collect();
-        let ys: Vec<i32> = y_ticks
-            .minor
-            .iter()
-            .map(|&y| chart.backend_coord(&(x0, y)).1)
-            .collect();
-        style::draw_minor_ticks(&root, &plot, &xs, &ys)?;
+        style::chart_minor_ticks(&root, &chart, &x_ticks.minor, &y_ticks.minor, (x0, y0))?;
 
         // Bands first, all of them, so that no band covers another series' line or markers.
         // Light fills keep overlaps close to white; the dashed edges in the series' colour say

@@ -220,9 +220,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (header, rest) = root.split_vertically(style::HEADER_HEIGHT);
-        let (chart_area, legend_area) = rest.split_vertically(CHART_HEIGHT);
+        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
         style::draw_header(
             &header,
             &format!("{}: mean RMSE against samples per pixel", plan.name),
@@ -250,18 +248,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::
             .light_line_style(TRANSPARENT)
             .set_all_tick_mark_size(6)
             .draw()?;
-        let plot = chart.plotting_area().get_pixel_range();
-        let xs: Vec<i32> = x_ticks
-            .minor
-            .iter()
-            .map(|&x| chart.backend_coord(&(x, y0)).0)
-            .collect();
-        let ys: Vec<i32> = y_ticks
-            .minor
-            .iter()
-            .map(|&y| chart.backend_coord(&(x0, y)).1)
-            .collect();
-        style::draw_minor_ticks(&root, &plot, &xs, &ys)?;
+        style::chart_minor_ticks(&root, &chart, &x_ticks.minor, &y_ticks.minor, (x0, y0))?;
 
         draw_variants(&mut chart, &root, &per_variant, &dodge, &guide)?;
         style::draw_legend(&legend_area, &legend)?;
