@@ -145,6 +145,41 @@ fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String 
 /// Checks every value and fills in defaults.
 pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     check_name(&spec.name)?;
+    let integrands = resolve_integrands(spec)?;
+    check_counts(spec)?;
+    let Estimators {
+        estimators,
+        models,
+        designs,
+    } = resolve_estimators(spec)?;
+    check_limits(spec, &integrands, &estimators, &designs)?;
+    let mut checks = Vec::new();
+    let mut calibration_checks = Vec::new();
+    for (i, c) in spec.checks.iter().enumerate() {
+        match resolve_check(spec, &estimators, i, c)? {
+            ResolvedCheck::Comparison(c) => checks.push(c),
+            ResolvedCheck::Calibration(c) => calibration_checks.push(c),
+        }
+    }
+    Ok(Plan {
+        fit_from_n: resolve_fit_from(spec)?,
+        name: spec.name.clone(),
+        title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
+        integrands,
+        estimators,
+        samples: spec.samples.iter().map(|&n| n as usize).collect(),
+        trials: spec.trials as usize,
+        seed: spec.seed,
+        checks,
+        calibration_checks,
+        models,
+        designs,
+    })
+}
+
+/// The integrands, each validated with its truth, under distinct names (and none named like
+/// another's calibration plot).
+fn resolve_integrands(spec: &ExperimentSpec) -> Result<Vec<Integrand>, String> {
     if spec.integrands.is_empty() {
         return Err(err("integrands", "must name at least one integrand"));
     }
@@ -179,6 +214,11 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ));
         }
     }
+    Ok(integrands)
+}
+
+/// Sample counts distinct and at least 1, trials at least 1, at least one estimator.
+fn check_counts(spec: &ExperimentSpec) -> Result<(), String> {
     if spec.samples.is_empty() {
         return Err(err("samples", "must list at least one sample count"));
     }
@@ -196,7 +236,19 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     if spec.estimators.is_empty() {
         return Err(err("estimators", "must list at least one estimator"));
     }
+    Ok(())
+}
 
+/// The planned estimators with the distinct models and designs they use.
+struct Estimators {
+    estimators: Vec<PlannedEstimator>,
+    models: Vec<Arc<BmcModel>>,
+    designs: Vec<SetDesign>,
+}
+
+/// Every estimator (sweeps expanded), validated; estimators with the same model and design share
+/// one model index.
+fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
     let mut estimators: Vec<PlannedEstimator> = Vec::new();
     let mut models: Vec<Arc<BmcModel>> = Vec::new();
     // Estimators with the same model and design share their weights; the key's index also
@@ -236,7 +288,21 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         }
         estimators.push(planned);
     }
+    Ok(Estimators {
+        estimators,
+        models,
+        designs,
+    })
+}
 
+/// Memory per worker thread (BMC's matrices, the sample sets of every design), the fewest points
+/// each method needs, and the number of rows.
+fn check_limits(
+    spec: &ExperimentSpec,
+    integrands: &[Integrand],
+    estimators: &[PlannedEstimator],
+    designs: &[SetDesign],
+) -> Result<(), String> {
     let max_n = *spec.samples.iter().max().expect("samples is not empty");
     let needs_weights = estimators.iter().any(|e| e.method.needs_weights());
     if needs_weights && max_n > MAX_POINTS as u64 {
@@ -312,109 +378,122 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ),
         ));
     }
+    Ok(())
+}
 
-    let mut checks = Vec::new();
-    let mut calibration_checks = Vec::new();
-    for (i, c) in spec.checks.iter().enumerate() {
-        let at = |field: &str| format!("checks[{i}].{field}");
-        let find = |label: &str, field: &str| {
-            estimators.iter().position(|e| e.label == label).ok_or_else(|| {
-                let known: Vec<_> = estimators.iter().map(|e| e.label.as_str()).collect();
-                err(
-                    at(field),
-                    format!(
-                        "no estimator is labelled {label:?} (labels: {})",
-                        known.join(", ")
-                    ),
-                )
-            })
-        };
-        let from_n = c.from_n.unwrap_or(1);
-        if from_n == 0 {
-            return Err(err(at("from_n"), "must be at least 1, got 0"));
-        }
-        if !spec.samples.iter().any(|&n| n >= from_n) {
-            return Err(err(
-                at("from_n"),
-                format!("{from_n} is above every sample count, so nothing is checked"),
-            ));
-        }
-        if let Some(label) = &c.calibrated {
-            for (field, given) in [
-                ("better", c.better.is_some()),
-                ("than", c.than.is_some()),
-                ("alpha", c.alpha.is_some()),
-            ] {
-                if given {
-                    return Err(err(
-                        at(field),
-                        "is not used by a calibration check (\"calibrated\" takes \"level\" and \"from_n\")",
-                    ));
-                }
-            }
-            let index = find(label, "calibrated")?;
-            let e = &estimators[index];
-            if let Some(&n) = spec
-                .samples
-                .iter()
-                .find(|&&n| n >= from_n && !e.method.has_interval(n as usize))
-            {
+/// A check: a paired comparison or a calibration check.
+enum ResolvedCheck {
+    Comparison(Check),
+    Calibration(CalibrationCheck),
+}
+
+/// Check `i`, naming its estimators by label.
+fn resolve_check(
+    spec: &ExperimentSpec,
+    estimators: &[PlannedEstimator],
+    i: usize,
+    c: &CheckSpec,
+) -> Result<ResolvedCheck, String> {
+    let at = |field: &str| format!("checks[{i}].{field}");
+    let find = |label: &str, field: &str| {
+        estimators.iter().position(|e| e.label == label).ok_or_else(|| {
+            let known: Vec<_> = estimators.iter().map(|e| e.label.as_str()).collect();
+            err(
+                at(field),
+                format!(
+                    "no estimator is labelled {label:?} (labels: {})",
+                    known.join(", ")
+                ),
+            )
+        })
+    };
+    let from_n = c.from_n.unwrap_or(1);
+    if from_n == 0 {
+        return Err(err(at("from_n"), "must be at least 1, got 0"));
+    }
+    if !spec.samples.iter().any(|&n| n >= from_n) {
+        return Err(err(
+            at("from_n"),
+            format!("{from_n} is above every sample count, so nothing is checked"),
+        ));
+    }
+    if let Some(label) = &c.calibrated {
+        for (field, given) in [
+            ("better", c.better.is_some()),
+            ("than", c.than.is_some()),
+            ("alpha", c.alpha.is_some()),
+        ] {
+            if given {
                 return Err(err(
-                    at("calibrated"),
-                    format!(
-                        "{label:?} (method {}) has no interval at N = {n}, so its calibration cannot be checked; \
-                         raise from_n",
-                        e.method
-                    ),
+                    at(field),
+                    "is not used by a calibration check (\"calibrated\" takes \"level\" and \"from_n\")",
                 ));
             }
-            let level = c.level.unwrap_or(0.95);
-            if !(level > 0.0 && level < 1.0) {
-                return Err(err(at("level"), format!("must be in (0, 1), got {level}")));
-            }
-            calibration_checks.push(CalibrationCheck {
-                calibrated: label.clone(),
-                level,
-                from_n: from_n as usize,
-                index,
-            });
-            continue;
         }
-        if c.level.is_some() {
+        let index = find(label, "calibrated")?;
+        let e = &estimators[index];
+        if let Some(&n) = spec
+            .samples
+            .iter()
+            .find(|&&n| n >= from_n && !e.method.has_interval(n as usize))
+        {
             return Err(err(
-                at("level"),
-                "is used only by a calibration check (\"calibrated\": LABEL)",
+                at("calibrated"),
+                format!(
+                    "{label:?} (method {}) has no interval at N = {n}, so its calibration cannot be checked; \
+                     raise from_n",
+                    e.method
+                ),
             ));
         }
-        let (Some(better), Some(than)) = (&c.better, &c.than) else {
-            return Err(err(
-                format!("checks[{i}]"),
-                "give \"better\" and \"than\" (a comparison) or \"calibrated\" (a calibration check)",
-            ));
-        };
-        let better_index = find(better, "better")?;
-        let than_index = find(than, "than")?;
-        if better_index == than_index {
-            return Err(err(at("than"), format!("{than:?} is compared with itself")));
+        let level = c.level.unwrap_or(0.95);
+        if !(level > 0.0 && level < 1.0) {
+            return Err(err(at("level"), format!("must be in (0, 1), got {level}")));
         }
-        let alpha = c.alpha.unwrap_or(0.01);
-        if !(alpha > 0.0 && alpha < 1.0) {
-            return Err(err(at("alpha"), format!("must be in (0, 1), got {alpha}")));
-        }
-        if spec.trials < 2 {
-            return Err(err(at("better"), "a paired test needs at least 2 trials"));
-        }
-        checks.push(Check {
-            better: better.clone(),
-            than: than.clone(),
+        return Ok(ResolvedCheck::Calibration(CalibrationCheck {
+            calibrated: label.clone(),
+            level,
             from_n: from_n as usize,
-            alpha,
-            better_index,
-            than_index,
-        });
+            index,
+        }));
     }
+    if c.level.is_some() {
+        return Err(err(
+            at("level"),
+            "is used only by a calibration check (\"calibrated\": LABEL)",
+        ));
+    }
+    let (Some(better), Some(than)) = (&c.better, &c.than) else {
+        return Err(err(
+            format!("checks[{i}]"),
+            "give \"better\" and \"than\" (a comparison) or \"calibrated\" (a calibration check)",
+        ));
+    };
+    let better_index = find(better, "better")?;
+    let than_index = find(than, "than")?;
+    if better_index == than_index {
+        return Err(err(at("than"), format!("{than:?} is compared with itself")));
+    }
+    let alpha = c.alpha.unwrap_or(0.01);
+    if !(alpha > 0.0 && alpha < 1.0) {
+        return Err(err(at("alpha"), format!("must be in (0, 1), got {alpha}")));
+    }
+    if spec.trials < 2 {
+        return Err(err(at("better"), "a paired test needs at least 2 trials"));
+    }
+    Ok(ResolvedCheck::Comparison(Check {
+        better: better.clone(),
+        than: than.clone(),
+        from_n: from_n as usize,
+        alpha,
+        better_index,
+        than_index,
+    }))
+}
 
-    let fit_from_n = match spec.fit_from_n {
+/// The smallest N of the slope fits: given, or the upper half of the grid.
+fn resolve_fit_from(spec: &ExperimentSpec) -> Result<usize, String> {
+    Ok(match spec.fit_from_n {
         None => super::fit::fit_from(&spec.samples.iter().map(|&n| n as usize).collect::<Vec<_>>()),
         Some(n) => {
             let fittable = spec.samples.iter().filter(|&&m| m >= n).count();
@@ -426,20 +505,6 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             }
             n as usize
         }
-    };
-    Ok(Plan {
-        fit_from_n,
-        name: spec.name.clone(),
-        title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
-        integrands,
-        estimators,
-        samples: spec.samples.iter().map(|&n| n as usize).collect(),
-        trials: spec.trials as usize,
-        seed: spec.seed,
-        checks,
-        calibration_checks,
-        models,
-        designs,
     })
 }
 
