@@ -184,64 +184,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         .into());
     }
     check_size(args.width, args.height)?;
-    let kind = match args.integrator {
-        RenderIntegrator::Estimator(kind) => {
-            if let Some(t) = args.tolerance {
-                return Err(InputError::new(format!(
-                    "--tolerance {t}: applies to --integrator exact, not {kind}"
-                ))
-                .into());
-            }
-            Some(kind)
-        }
-        RenderIntegrator::Exact => {
-            // Sampling options are errors with the quadrature, not silently ignored.
-            let given = args
-                .spp
-                .map(|_| "--spp")
-                .or(args.seed.map(|_| "--seed"))
-                .or(args.gps.map(|_| "--gps"))
-                .or(args.no_rotate.then_some("--no-rotate"))
-                .or(args.model.given());
-            if let Some(flag) = given {
-                return Err(InputError::new(format!(
-                    "{flag}: does not apply to --integrator exact (the certified quadrature draws no samples)"
-                ))
-                .into());
-            }
-            let t = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
-            if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
-                return Err(InputError::new(format!(
-                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {t}",
-                    exact::MIN_TOLERANCE
-                ))
-                .into());
-            }
-            None
-        }
-    };
-    let spp = args.spp.unwrap_or(DEFAULT_SPP);
-    let seed = args.seed.unwrap_or(0);
-    if let Some(kind) = kind {
-        check_spp(kind, spp, "--spp")?;
-    }
-    if kind.is_some_and(|k| !k.uses_sets()) {
-        // Options of the BMC integrators are errors with MC, not silently ignored.
-        let given = args
-            .gps
-            .map(|_| "--gps")
-            .or(args.no_rotate.then_some("--no-rotate"))
-            .or(args.model.given());
-        if let Some(flag) = given {
-            return Err(InputError::new(format!(
-                "{flag}: applies to --integrator bmc and bmcp, not {}",
-                args.integrator
-            ))
-            .into());
-        }
-    }
-    let gps = args.gps.unwrap_or(DEFAULT_GPS);
-    check_gps(gps, "--gps")?;
+    let (kind, spp, seed, gps) = check_sampling_options(args)?;
     if args.results_dir.is_some() {
         return Err(InputError::new(
             "--results-dir: applies to tables (render SPEC.json), not single images",
@@ -315,41 +258,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
 
     let model_seconds = model_start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let pool = workbench::threads::pool(None)?;
-    let bar = Bar::new(args.quiet);
-    let (image, what) = match kind {
-        Some(kind) => {
-            let integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model.as_ref(), seed)?;
-            for line in workbench::render::table::runner::numerical_warnings(&integrator) {
-                status!("warning: {line}");
-            }
-            bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
-            let image = pool.install(|| renderer.render(&integrator, seed, &bar));
-            bar.finish();
-            (image, format!("{kind} {spp} spp"))
-        }
-        None => {
-            let tol = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
-            bar.start("rows", args.height as u64);
-            let (image, stats) = pool.install(|| renderer.render_exact(tol, &bar));
-            bar.finish();
-            let limited = if stats.depth_limited > 0 {
-                format!(
-                    "; {} pixel(s) reached the bisection depth limit (their error estimate counts it)",
-                    stats.depth_limited
-                )
-            } else {
-                String::new()
-            };
-            (
-                image,
-                format!(
-                    "exact (tolerance {tol:e}; largest error estimate {:.1e} at pixel ({}, {}){limited})",
-                    stats.max_error, stats.worst_pixel.0, stats.worst_pixel.1
-                ),
-            )
-        }
-    };
+    let (image, what) = render_image(args, &renderer, kind, spp, gps, seed, model.as_ref())?;
     let seconds = start.elapsed().as_secs_f64();
 
     // Every file is written in full before any replaces its predecessor, so a failure (a full
@@ -388,25 +297,145 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
     }
     if let Some(e) = &error_image {
-        let scale = match error_scale {
-            ErrorScale::Absolute if e.clamped > 0 => format!(
-                "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
-                short_number(e.scale_max),
-                e.clamped,
-                100.0 * e.clamped as f64 / (args.width * args.height) as f64
-            ),
-            ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
-            ErrorScale::Normalised => {
-                format!("scale 0–{}, the image's own maximum", short_number(e.scale_max))
-            }
-        };
         status!(
-            "render: error image → {} (max error {} at pixel ({}, {}); {scale})",
+            "render: error image → {} ({})",
             error_png.display(),
-            short_number(e.max_error),
-            e.max_at.0,
-            e.max_at.1
+            error_summary(e, error_scale, args.width * args.height)
         );
     }
     Ok(())
+}
+
+/// The sampling options, checked against the integrator: `exact` takes none of them (only
+/// `--tolerance`), MC takes no set or model options. Returns the estimator (`None` for
+/// `exact`), spp, seed and number of sets.
+fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<IntegratorKind>, usize, u64, usize)> {
+    let kind = match args.integrator {
+        RenderIntegrator::Estimator(kind) => {
+            if let Some(t) = args.tolerance {
+                return Err(InputError::new(format!(
+                    "--tolerance {t}: applies to --integrator exact, not {kind}"
+                ))
+                .into());
+            }
+            Some(kind)
+        }
+        RenderIntegrator::Exact => {
+            // Sampling options are errors with the quadrature, not silently ignored.
+            let given = args
+                .spp
+                .map(|_| "--spp")
+                .or(args.seed.map(|_| "--seed"))
+                .or(args.gps.map(|_| "--gps"))
+                .or(args.no_rotate.then_some("--no-rotate"))
+                .or(args.model.given());
+            if let Some(flag) = given {
+                return Err(InputError::new(format!(
+                    "{flag}: does not apply to --integrator exact (the certified quadrature draws no samples)"
+                ))
+                .into());
+            }
+            let t = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
+            if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
+                return Err(InputError::new(format!(
+                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {t}",
+                    exact::MIN_TOLERANCE
+                ))
+                .into());
+            }
+            None
+        }
+    };
+    let spp = args.spp.unwrap_or(DEFAULT_SPP);
+    let seed = args.seed.unwrap_or(0);
+    if let Some(kind) = kind {
+        check_spp(kind, spp, "--spp")?;
+    }
+    if kind.is_some_and(|k| !k.uses_sets()) {
+        // Options of the BMC integrators are errors with MC, not silently ignored.
+        let given = args
+            .gps
+            .map(|_| "--gps")
+            .or(args.no_rotate.then_some("--no-rotate"))
+            .or(args.model.given());
+        if let Some(flag) = given {
+            return Err(InputError::new(format!(
+                "{flag}: applies to --integrator bmc and bmcp, not {}",
+                args.integrator
+            ))
+            .into());
+        }
+    }
+    let gps = args.gps.unwrap_or(DEFAULT_GPS);
+    check_gps(gps, "--gps")?;
+    Ok((kind, spp, seed, gps))
+}
+
+/// Renders with the estimator `kind` (its sample sets built first) or, for `None`, by the
+/// certified quadrature; returns the image and what made it, for the status line.
+fn render_image(
+    args: &RenderArgs,
+    renderer: &Renderer,
+    kind: Option<IntegratorKind>,
+    spp: usize,
+    gps: usize,
+    seed: u64,
+    model: Option<&workbench::bmc::BmcModel>,
+) -> anyhow::Result<(Image, String)> {
+    let pool = workbench::threads::pool(None)?;
+    let bar = Bar::new(args.quiet);
+    let (image, what) = match kind {
+        Some(kind) => {
+            let integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model, seed)?;
+            for line in workbench::render::table::runner::numerical_warnings(&integrator) {
+                status!("warning: {line}");
+            }
+            bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
+            let image = pool.install(|| renderer.render(&integrator, seed, &bar));
+            bar.finish();
+            (image, format!("{kind} {spp} spp"))
+        }
+        None => {
+            let tol = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
+            bar.start("rows", args.height as u64);
+            let (image, stats) = pool.install(|| renderer.render_exact(tol, &bar));
+            bar.finish();
+            let limited = if stats.depth_limited > 0 {
+                format!(
+                    "; {} pixel(s) reached the bisection depth limit (their error estimate counts it)",
+                    stats.depth_limited
+                )
+            } else {
+                String::new()
+            };
+            (
+                image,
+                format!(
+                    "exact (tolerance {tol:e}; largest error estimate {:.1e} at pixel ({}, {}){limited})",
+                    stats.max_error, stats.worst_pixel.0, stats.worst_pixel.1
+                ),
+            )
+        }
+    };
+    Ok((image, what))
+}
+
+/// `max error 0.579 at pixel (237, 169); scale 0–0.25, 3516 pixel(s) (5.4%) above it clamped`.
+fn error_summary(e: &workbench::render::image::ErrorImage, scale: ErrorScale, pixels: usize) -> String {
+    let scale = match scale {
+        ErrorScale::Absolute if e.clamped > 0 => format!(
+            "scale 0–{}, {} pixel(s) ({:.1}%) above it clamped",
+            short_number(e.scale_max),
+            e.clamped,
+            100.0 * e.clamped as f64 / pixels as f64
+        ),
+        ErrorScale::Absolute => format!("scale 0–{}", short_number(e.scale_max)),
+        ErrorScale::Normalised => format!("scale 0–{}, the image's own maximum", short_number(e.scale_max)),
+    };
+    format!(
+        "max error {} at pixel ({}, {}); {scale}",
+        short_number(e.max_error),
+        e.max_at.0,
+        e.max_at.1
+    )
 }
