@@ -223,16 +223,13 @@ impl BmcWeights {
             .filter(|w| !matches!(w, NumericalWarning::NegativePosteriorVariance { .. }))
             .cloned()
             .collect();
-        if posterior_variance < 0.0 {
-            warnings.push(NumericalWarning::NegativePosteriorVariance {
-                value: posterior_variance,
-            });
-        }
+        warnings.extend(negative_variance_warning(posterior_variance));
+        let stats = WeightStats::of(&weights);
         let diagnostics = Diagnostics {
-            weight_sum: weights.iter().sum(),
-            negative_weights: weights.iter().filter(|&&w| w < 0.0).count(),
-            min_weight: weights.iter().copied().fold(f64::INFINITY, f64::min),
-            max_weight: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            weight_sum: stats.sum,
+            negative_weights: stats.negative,
+            min_weight: stats.min,
+            max_weight: stats.max,
             posterior_variance,
             warnings,
             ..self.diagnostics.clone()
@@ -270,6 +267,33 @@ pub fn worst_case_error(
         wkw += wj * dot(weights, &column);
     }
     (prior_variance - 2.0 * dot(weights, z) + wkw).max(0.0).sqrt()
+}
+
+/// `Σ w_i`, how many are negative, the smallest and the largest weight.
+struct WeightStats {
+    sum: f64,
+    negative: usize,
+    min: f64,
+    max: f64,
+}
+
+impl WeightStats {
+    fn of(weights: &[f64]) -> Self {
+        WeightStats {
+            sum: weights.iter().sum(),
+            negative: weights.iter().filter(|&&w| w < 0.0).count(),
+            min: weights.iter().copied().fold(f64::INFINITY, f64::min),
+            max: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+}
+
+/// The counted warning for a negative raw posterior variance (math.md §7: clamp it to 0, count
+/// it), if it is one.
+fn negative_variance_warning(posterior_variance: f64) -> Option<NumericalWarning> {
+    (posterior_variance < 0.0).then_some(NumericalWarning::NegativePosteriorVariance {
+        value: posterior_variance,
+    })
 }
 
 /// The noise σ_n² must be finite and ≥ 0.
@@ -321,17 +345,14 @@ pub fn bmc_weights(
         });
     }
     let posterior_variance = prior_variance - dot(z, &weights);
-    if posterior_variance < 0.0 {
-        warnings.push(NumericalWarning::NegativePosteriorVariance {
-            value: posterior_variance,
-        });
-    }
+    warnings.extend(negative_variance_warning(posterior_variance));
+    let stats = WeightStats::of(&weights);
     let diagnostics = Diagnostics {
         n,
-        weight_sum: weights.iter().sum(),
-        negative_weights: weights.iter().filter(|&&w| w < 0.0).count(),
-        min_weight: weights.iter().copied().fold(f64::INFINITY, f64::min),
-        max_weight: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        weight_sum: stats.sum,
+        negative_weights: stats.negative,
+        min_weight: stats.min,
+        max_weight: stats.max,
         jitter,
         condition_estimate,
         prior_variance,
