@@ -16,6 +16,7 @@ pub mod kernel;
 pub mod kernel_mean;
 pub mod linalg;
 pub mod model_spec;
+pub mod nested_cholesky;
 pub mod output_set;
 pub mod plot_style;
 pub mod quadrature;
