@@ -24,6 +24,7 @@ pub mod render;
 pub mod report;
 pub mod rng;
 pub mod rule;
+pub mod sequential;
 pub mod sampling;
 pub mod stats;
 pub mod threads;

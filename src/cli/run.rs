@@ -54,6 +54,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     let report = ex::run_plan(&plan, &overrides, &Bar::new(args.quiet))?;
     stdout(&ex::format_report(&plan, &report))?;
+    stdout(&ex::adaptive::format_report(
+        &plan,
+        &report.stopping,
+        &report.tolerance_checks,
+    ))?;
     for (message, count) in &report.warnings {
         status!("warning: {count} weight set(s): {message}");
     }
@@ -64,7 +69,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         report.threads,
         if report.threads == 1 { "" } else { "s" }
     );
-    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed());
+    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed())
+        || report.tolerance_checks.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)
     } else {

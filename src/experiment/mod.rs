@@ -3,6 +3,8 @@
 //! spec (JSON) → [`plan::Plan`] (validated) → [`runner::run`] (parallel) → [`summary`] →
 //! [`export`] / [`plot`] (pure) → one atomic write per file.
 
+pub mod adaptive;
+pub mod adaptive_plot;
 pub mod coverage_plot;
 pub mod export;
 pub mod fit;
@@ -61,6 +63,9 @@ pub struct RunReport {
     pub cells: Vec<summary::CellSummary>,
     pub checks: Vec<summary::CheckOutcome>,
     pub calibration: Vec<summary::CalibrationOutcome>,
+    /// Tolerance estimators' cells and checks (empty without tolerance estimators).
+    pub stopping: Vec<adaptive::Cell>,
+    pub tolerance_checks: Vec<adaptive::CheckOutcome>,
     pub wall_seconds: f64,
     pub threads: usize,
     pub warnings: Vec<(String, usize)>,
@@ -112,6 +117,12 @@ pub fn run_plan(
         .iter()
         .map(|c| summary::evaluate_calibration(plan, &results, c))
         .collect();
+    let stopping = adaptive::summarize(plan, &results);
+    let tolerance_checks: Vec<_> = plan
+        .tolerance_checks
+        .iter()
+        .map(|c| adaptive::evaluate_check(plan, &stopping, c))
+        .collect();
 
     folder.write(
         "trials.csv",
@@ -128,7 +139,10 @@ pub fn run_plan(
         "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
         &export::fits_csv(plan, &cells),
     )?;
-    for (fi, f) in plan.integrands.iter().enumerate() {
+    // With only tolerance estimators every cell sits at its first stage, so error and coverage
+    // against N say nothing; `<integrand>-tolerance.svg` replaces them.
+    let only_tolerance = plan.estimators.iter().all(|e| e.tolerance.is_some());
+    for (fi, f) in plan.integrands.iter().enumerate().filter(|_| !only_tolerance) {
         let svg = plot::error_plot_svg(plan, &cells, fi)?;
         folder.write(
             &format!("{}.svg", f.name()),
@@ -147,14 +161,42 @@ pub fn run_plan(
             )?;
         }
     }
+    if !stopping.is_empty() {
+        folder.write(
+            "stopping_trials.csv",
+            "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance",
+            &adaptive::trials_csv(plan, &results),
+        )?;
+        folder.write(
+            "stopping_summary.csv",
+            "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance",
+            &adaptive::summary_csv(plan, &stopping),
+        )?;
+        for (fi, f) in plan.integrands.iter().enumerate() {
+            if let Some(svg) = adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
+                folder.write(
+                    &format!("{}-tolerance.svg", f.name()),
+                    &format!(
+                        "mean n used and share within the tolerance against the tolerance for {}, every tolerance estimator",
+                        f.name()
+                    ),
+                    svg.as_bytes(),
+                )?;
+            }
+        }
+    }
     folder.write(
         "timings.json",
         "wall-clock seconds and threads of the run (machine-dependent; not committed)",
         &export::timings_json(threads, wall_seconds),
     )?;
-    let manifest: serde_json::Value =
+    let mut manifest: serde_json::Value =
         serde_json::from_slice(&export::manifest_json(plan, &checks, &calibration))
             .expect("the manifest is JSON");
+    if !plan.tolerance_checks.is_empty() {
+        manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
+        manifest["tolerance_checks"] = adaptive::checks_json(plan, &tolerance_checks);
+    }
     folder.commit(manifest)?;
 
     let mut warnings: Vec<(String, usize)> = Vec::new();
@@ -180,6 +222,8 @@ pub fn run_plan(
         cells,
         checks,
         calibration,
+        stopping,
+        tolerance_checks,
         wall_seconds,
         threads,
         warnings,

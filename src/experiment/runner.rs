@@ -32,6 +32,9 @@ pub struct UnitResult {
     pub messages: Vec<String>,
     /// `fitted[integrand][estimator]`: the amplitude was fitted (`ml` or `loo`).
     pub fitted: Vec<Vec<bool>>,
+    /// `sequential[integrand][estimator]`: where a tolerance estimator stopped (None for the
+    /// others; [`super::adaptive`]).
+    pub sequential: Vec<Vec<Option<crate::sequential::Outcome>>>,
 }
 
 impl UnitResult {
@@ -116,11 +119,20 @@ pub fn run_unit(
     // computed: one O(N²) solve `Q⁻¹Y` per (weight set, integrand), shared by every estimator
     // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
     // estimator uses `loo`.
+    // Tolerance estimators extend the unit's set of their design (same stream, nested).
+    let adaptive = super::adaptive::run_unit(plan, n, trial, &|d, count| {
+        d.sample_set(
+            count,
+            &mut stream(plan.seed, &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64]),
+        )
+    })?;
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
     let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
     for e in &plan.estimators {
-        let Some(m) = e.model else { continue };
+        let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {
+            continue;
+        };
         if weights.iter().any(|(k, _)| *k == (m, e.design)) {
             continue;
         }
@@ -141,7 +153,9 @@ pub fn run_unit(
                 what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
                 source,
             })?;
-        let sharing = |x: &&super::plan::PlannedEstimator| x.model == Some(m) && x.design == e.design;
+        let sharing = |x: &&super::plan::PlannedEstimator| {
+            x.model == Some(m) && x.design == e.design && x.tolerance.is_none()
+        };
         let fitted = |x: &super::plan::PlannedEstimator| x.scale.is_some_and(|s| s != Scale::Unit);
         if plan.estimators.iter().filter(sharing).any(fitted) {
             let inverse_diagonal = plan
@@ -173,7 +187,7 @@ pub fn run_unit(
         weights.push(((m, e.design), w));
     }
     let weights_of = |e: &super::plan::PlannedEstimator| {
-        e.model.map(|m| {
+        e.model.filter(|_| e.tolerance.is_none()).map(|m| {
             &weights
                 .iter()
                 .find(|(k, _)| *k == (m, e.design))
@@ -193,6 +207,15 @@ pub fn run_unit(
         let mut row = Vec::with_capacity(plan.estimators.len());
         let mut sds = Vec::with_capacity(plan.estimators.len());
         for (ei, e) in plan.estimators.iter().enumerate() {
+            if let Some(run) = &adaptive[ei] {
+                let o = run.outcomes[fi];
+                row.push(o.estimate);
+                sds.push(o.uncertainty);
+                if run.fitted {
+                    amplitudes[fi][ei] = o.uncertainty.and_then(|u| u.amplitude);
+                }
+                continue;
+            }
             let d = plan
                 .designs
                 .iter()
@@ -219,7 +242,11 @@ pub fn run_unit(
     let diagnostics: Vec<Option<crate::bmc::Diagnostics>> = plan
         .estimators
         .iter()
-        .map(|e| e.method.diagnostics(weights_of(e)))
+        .zip(&adaptive)
+        .map(|(e, run)| match run {
+            Some(run) => run.diagnostics.clone(),
+            None => e.method.diagnostics(weights_of(e)),
+        })
         .collect();
     let warnings: Vec<u32> = plan
         .estimators
@@ -230,10 +257,17 @@ pub fn run_unit(
     let mut messages: Vec<String> = weights
         .iter()
         .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
+        .chain(
+            adaptive
+                .iter()
+                .flatten()
+                .filter_map(|r| r.diagnostics.as_ref())
+                .flat_map(|d| d.warnings.iter().map(|m| m.message())),
+        )
         .collect();
     // Bayes–Sard's own Var₁ can be negative where BMC's is not (MC kernel means).
     for (e, d) in plan.estimators.iter().zip(&diagnostics) {
-        if e.method == crate::estimator::Method::Bsq {
+        if e.method == crate::estimator::Method::Bsq && e.tolerance.is_none() {
             let d = d.as_ref().expect("BSQ has weights");
             for w in &d.warnings {
                 if matches!(w, crate::bmc::NumericalWarning::NegativePosteriorVariance { .. }) {
@@ -274,5 +308,8 @@ pub fn run_unit(
         warnings,
         messages,
         fitted,
+        sequential: (0..ni)
+            .map(|fi| adaptive.iter().map(|r| r.as_ref().map(|r| r.outcomes[fi])).collect())
+            .collect(),
     })
 }
