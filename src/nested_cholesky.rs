@@ -28,6 +28,7 @@ use faer::prelude::{Reborrow, ReborrowMut};
 use faer::{Accum, Mat, Par};
 
 /// The lower Cholesky factor of the leading `n × n` block of a growing SPD matrix.
+#[derive(Debug)]
 pub struct NestedCholesky {
     factor: Mat<f64>,
     n: usize,
@@ -193,6 +194,30 @@ impl NestedCholesky {
         llt::solve::solve_in_place(factor, rhs, Par::Seq, MemStack::new(&mut mem));
     }
 
+    /// Solves `Q_m x = b` for the leading `m × m` block (`m ≤ n`): its Cholesky factor is the
+    /// leading block of `L`, so every earlier stage can be solved with the last factor.
+    pub fn solve_leading_in_place(&self, m: usize, b: &mut [f64]) {
+        assert!(m <= self.n && b.len() == m, "leading block {m} of {}", self.n);
+        let rhs = faer::MatMut::from_column_major_slice_mut(b, m, 1);
+        let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(m, 1, Par::Seq));
+        let factor = self.factor.as_ref().submatrix(0, 0, m, m);
+        llt::solve::solve_in_place(factor, rhs, Par::Seq, MemStack::new(&mut mem));
+    }
+
+    /// Forward substitution `L y = b` for rows `from..b.len()` given `y[..from]` already in
+    /// `y` (`y.len() = b.len() ≤ n`): a nested right-hand side extends `L⁻¹b` as it grows, so
+    /// `bᵀQ⁻¹b = ‖L⁻¹b‖²` costs O(m²) in all over every stage up to `m`.
+    pub fn forward_extend(&self, b: &[f64], y: &mut [f64], from: usize) {
+        assert!(b.len() == y.len() && b.len() <= self.n && from <= b.len());
+        for i in from..b.len() {
+            let mut acc = b[i];
+            for (k, yk) in y[..i].iter().enumerate() {
+                acc -= self.factor[(i, k)] * yk;
+            }
+            y[i] = acc / self.factor[(i, i)];
+        }
+    }
+
     /// `diag(Q⁻¹)` of the factored block, `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` (as
     /// [`crate::linalg::SpdWorkspace::inverse_diagonal`]); O(n³), for the `loo` amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
@@ -282,6 +307,35 @@ mod tests {
         for (a, b) in x1.iter().zip(&x2) {
             assert!((a - b).abs() <= 1e-10 * norm, "{a} vs {b}");
         }
+    }
+
+    /// Leading-block solves and the incremental `L⁻¹b` agree with a factor of the block itself.
+    #[test]
+    fn leading_blocks_solve_earlier_stages() {
+        let q = gram(64, 0.01);
+        let mut nested = NestedCholesky::with_capacity(64);
+        nested.extend_to(16, filler(&q)).unwrap();
+        nested.extend_to(64, filler(&q)).unwrap();
+        let mut small = NestedCholesky::with_capacity(16);
+        small.extend_to(16, filler(&q)).unwrap();
+        let b: Vec<f64> = (0..64).map(|i| 1.0 + (i as f64).cos()).collect();
+        let (mut x1, mut x2) = (b[..16].to_vec(), b[..16].to_vec());
+        nested.solve_leading_in_place(16, &mut x1);
+        small.solve_in_place(&mut x2);
+        for (a, c) in x1.iter().zip(&x2) {
+            assert!((a - c).abs() <= 1e-12 * c.abs().max(1.0), "{a} vs {c}");
+        }
+        // bᵀQ⁻¹b = ‖L⁻¹b‖², built in two steps.
+        let mut y = vec![0.0; 64];
+        nested.forward_extend(&b[..16], &mut y[..16], 0);
+        let quad16: f64 = y[..16].iter().map(|v| v * v).sum();
+        assert!((quad16 - b[..16].iter().zip(&x2).map(|(p, r)| p * r).sum::<f64>()).abs() <= 1e-10 * quad16);
+        nested.forward_extend(&b, &mut y, 16);
+        let mut x = b.clone();
+        nested.solve_in_place(&mut x);
+        let quad: f64 = y.iter().map(|v| v * v).sum();
+        let direct: f64 = b.iter().zip(&x).map(|(p, r)| p * r).sum();
+        assert!((quad - direct).abs() <= 1e-10 * direct, "{quad} vs {direct}");
     }
 
     /// diag(Q⁻¹) of an extended factor equals the workspace's of the full matrix.

@@ -32,7 +32,7 @@ pub struct RenderArgs {
     #[arg(
         value_name = "SPEC.json",
         conflicts_with_all = ["out", "integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
-                              "env", "seed", "reference"]
+                              "env", "seed", "reference", "target_sd", "max_spp"]
     )]
     pub spec: Option<PathBuf>,
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
@@ -82,6 +82,14 @@ pub struct RenderArgs {
     /// Error image colours: viridis (perceptually uniform) or grey (black = 0).
     #[arg(long, requires = "reference", default_value = "viridis", value_parser = ["viridis", "grey"])]
     pub error_colours: String,
+    /// Adaptive sampling: each pixel doubles its samples from --spp (the first stage) until every
+    /// channel's stated standard deviation is at most this, or --max-spp is reached; `mc`,
+    /// `mc-cos` and `bmc` only. Writes <out>-spp.png (the samples each pixel took).
+    #[arg(long)]
+    pub target_sd: Option<f64>,
+    /// With --target-sd: the most samples a pixel may take (stages spp, 2 spp, … ≤ this).
+    #[arg(long)]
+    pub max_spp: Option<usize>,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Tables only: folder of the outputs (<dir>/<name>/) and of the reference cache
@@ -174,6 +182,9 @@ pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
 }
 
 fn single(args: &RenderArgs) -> anyhow::Result<()> {
+    if args.target_sd.is_some() || args.max_spp.is_some() {
+        return super::render_adaptive::single(args);
+    }
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     if out.extension().and_then(|e| e.to_str()) != Some("exr") {

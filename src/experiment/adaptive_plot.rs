@@ -2,7 +2,8 @@
 //! estimators (math.md §9): above, the mean number of points used against the tolerance; below,
 //! the share of trials whose actual error is within the tolerance, with the binomial 99% band
 //! around 0.95. Estimators that differ only in their tolerance (a sweep over `tolerance.abs`) form
-//! one series. Same look as [`super::coverage_plot`].
+//! one series per first stage N₀ (the experiment's sample counts). Same look as
+//! [`super::coverage_plot`].
 
 use super::adaptive::Cell;
 use super::plan::Plan;
@@ -25,17 +26,36 @@ struct Series {
 
 /// The SVG for integrand `fi`, or None when it has no tolerance cell.
 pub fn tolerance_plot_svg(plan: &Plan, cells: &[Cell], fi: usize) -> crate::Result<Option<String>> {
-    let first_n = match cells.iter().filter(|c| c.integrand == fi).map(|c| c.first_n).min() {
-        Some(n) => n,
-        None => return Ok(None),
-    };
-    draw(plan, cells, fi, first_n)
+    if !cells.iter().any(|c| c.integrand == fi) {
+        return Ok(None);
+    }
+    draw(plan, cells, fi)
         .map(Some)
         .map_err(|e| crate::Error::Encode(format!("drawing the tolerance plot: {e}")))
 }
 
+/// The series of integrand `fi`: one per group of estimators and first stage.
+fn series(plan: &Plan, cells: &[Cell], fi: usize) -> Vec<Series> {
+    let stages: Vec<usize> = {
+        let mut v: Vec<usize> = cells.iter().map(|c| c.first_n).collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let mut out = Vec::new();
+    for &n in &stages {
+        for mut s in series_at(plan, cells, fi, n) {
+            if stages.len() > 1 {
+                s.name = format!("{}, N₀ = {n}", s.name);
+            }
+            out.push(s);
+        }
+    }
+    out
+}
+
 /// The series of integrand `fi` at first stage `first_n`.
-fn series(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Vec<Series> {
+fn series_at(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Vec<Series> {
     let mut keys: Vec<String> = Vec::new();
     let mut labels: Vec<Vec<String>> = Vec::new();
     let mut out: Vec<Series> = Vec::new();
@@ -92,9 +112,9 @@ fn common_name(labels: &[String]) -> String {
     }
 }
 
-fn draw(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Result<String, Box<dyn std::error::Error>> {
+fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
     let integrand = &plan.integrands[fi];
-    let series = series(plan, cells, fi, first_n);
+    let series = series(plan, cells, fi);
     let tolerances: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
     let used: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
     let (x0, x1) = style::padded_log_range(&tolerances, 1.4);
@@ -130,8 +150,9 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Result<String
     legend.push(LegendEntry {
         swatch: Swatch::Text,
         text: format!(
-            "each trial starts at N = {first_n} and doubles N (keeping its points) until its 95% half-width \
-             is at most the tolerance or N would pass max_n; the rule sees the interval, never the truth"
+            "each trial starts at N₀ = {} and doubles N (keeping its points) until its 95% half-width \
+             is at most the tolerance or N would pass max_n; the rule sees the interval, never the truth",
+            plan.samples.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(" or ")
         ),
         wide: true,
     });
