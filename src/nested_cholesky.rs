@@ -1,4 +1,4 @@
-//! A Cholesky factor grown by blocks, for nested point sets (sequential BMC, math.md §4 and §9).
+//! A Cholesky factor grown by blocks, for nested point sets (sequential BMC: math.md §4, §7; [`crate::sequential`]).
 //!
 //! When a sample set grows from `n` to `m` points and keeps its first `n`, `Q` grows by a block
 //! border:

@@ -1,5 +1,5 @@
 //! Sequential estimation: grow a nested sample set by doubling until the estimator's own 95%
-//! interval is narrow enough (math.md §9).
+//! interval (math.md §7) is narrow enough; README, "Stopping at a tolerance".
 //!
 //! Stages `N₀, 2N₀, 4N₀, …` up to `max_n` (the last stage is the largest of these not above
 //! `max_n`). After each stage the estimator states its interval `Î ± q·sd` (the same law as a

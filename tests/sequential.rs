@@ -1,4 +1,4 @@
-//! Stopping at a tolerance (math.md §9): the stages, nested designs, the stopping rule, the
+//! Stopping at a tolerance ([`workbench::sequential`]): the stages, nested designs, the stopping rule, the
 //! weight sets of extended factors against fresh ones, and experiments with tolerance
 //! estimators end to end (outputs, the `within_tolerance` check, bad input).
 

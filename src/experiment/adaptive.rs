@@ -1,4 +1,4 @@
-//! Tolerance estimators in experiments (math.md §9, [`crate::sequential`]).
+//! Tolerance estimators in experiments ([`crate::sequential`]; README, "Stopping at a tolerance").
 //!
 //! An estimator with `"tolerance": {"abs": A, "max_n": M}` runs once per (N, trial) unit like
 //! any other, with the unit's N as its **first stage**: its nested set is the unit's own set for

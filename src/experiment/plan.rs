@@ -82,7 +82,7 @@ pub struct PlannedEstimator {
     pub prior: Option<Prior>,
     /// The kernel amplitude (methods with weights; math.md §7).
     pub scale: Option<Scale>,
-    /// Stop at a target uncertainty (math.md §9); the sample counts are then first stages.
+    /// Stop at a target uncertainty ([`crate::sequential`], intervals of math.md §7); the sample counts are then first stages.
     pub tolerance: Option<crate::sequential::Tolerance>,
     /// The resolved settings, for the manifest and `validate`.
     pub settings: ResolvedSettings,

@@ -66,7 +66,7 @@ pub struct EstimatorSpec {
     /// (math.md §7); default [`crate::bmc::Scale::DEFAULT`].
     #[serde(default)]
     pub scale: Option<crate::bmc::Scale>,
-    /// Stop at a target uncertainty (math.md §9): `{"abs": A, "max_n": M}`. The experiment's
+    /// Stop at a target uncertainty ([`crate::sequential`], intervals of math.md §7): `{"abs": A, "max_n": M}`. The experiment's
     /// sample counts are then this estimator's first stages; see [`super::adaptive`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<ToleranceSpec>,
