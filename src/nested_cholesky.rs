@@ -30,6 +30,8 @@ use faer::{Accum, Mat, Par};
 /// The lower Cholesky factor of the leading `n × n` block of a growing SPD matrix.
 #[derive(Debug)]
 pub struct NestedCholesky {
+    /// The most rows it may grow to.
+    capacity: usize,
     factor: Mat<f64>,
     n: usize,
     jitter: f64,
@@ -38,10 +40,12 @@ pub struct NestedCholesky {
 }
 
 impl NestedCholesky {
-    /// An empty factor with room for `capacity` rows.
+    /// An empty factor that may grow to `capacity` rows. Storage grows with the stages
+    /// actually factored (a trial that stops early never touches the largest stage's n² buffer).
     pub fn with_capacity(capacity: usize) -> Self {
         NestedCholesky {
-            factor: Mat::zeros(capacity, capacity),
+            capacity,
+            factor: Mat::zeros(0, 0),
             n: 0,
             jitter: 0.0,
             refactorisations: 0,
@@ -97,9 +101,15 @@ impl NestedCholesky {
         mut fill: impl FnMut(usize, usize, &mut [f64]),
     ) -> Result<(), NotPositiveDefinite> {
         let n = self.n;
-        assert!(m >= n && m <= self.factor.nrows(), "extend_to({m}) from {n}");
+        assert!(m >= n && m <= self.capacity, "extend_to({m}) from {n}, capacity {}", self.capacity);
         if m == n {
             return Ok(());
+        }
+        if m > self.factor.nrows() {
+            // Grow the buffer, keeping L₁₁ (the copy is O(n²), below the extension's cost).
+            let mut grown = Mat::zeros(m, m);
+            grown.as_mut().submatrix_mut(0, 0, n, n).copy_from(self.factor.as_ref().submatrix(0, 0, n, n));
+            self.factor = grown;
         }
         if n == 0 {
             return self.factor_from_scratch(m, &mut fill);
