@@ -26,6 +26,7 @@ pub mod rng;
 pub mod rule;
 pub mod sequential;
 pub mod sampling;
+pub mod schema;
 pub mod stats;
 pub mod threads;
 

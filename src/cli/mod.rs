@@ -8,6 +8,7 @@ mod render;
 mod render_adaptive;
 mod rule;
 mod run;
+mod schema;
 
 use clap::{Parser, Subcommand};
 use output::{is_broken_pipe, status};
@@ -40,6 +41,8 @@ enum Command {
     Rule(rule::RuleArgs),
     /// Render the sphere-on-a-plane scene with any estimator, or an RMSE-against-spp table.
     Render(render::RenderArgs),
+    /// Print the JSON Schema (draft 2020-12) of experiment files or render tables.
+    Schema(schema::SchemaArgs),
 }
 
 /// Entry point of the binary.
@@ -61,6 +64,7 @@ pub fn main() -> ExitCode {
         Command::Validate(args) => run::validate(&args),
         Command::Rule(args) => rule::rule(args),
         Command::Render(args) => render::render(args),
+        Command::Schema(args) => schema::schema(args),
     };
     match result {
         Ok(code) => code,
