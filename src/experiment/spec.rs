@@ -79,7 +79,8 @@ pub struct EstimatorSpec {
     /// (math.md §7); default [`crate::bmc::Scale::DEFAULT`].
     #[serde(default)]
     pub scale: Option<crate::bmc::Scale>,
-    /// Stop at a target uncertainty ([`crate::sequential`], intervals of math.md §7): `{"abs": A, "max_n": M}`. The experiment's
+    /// Stop at a target uncertainty ([`crate::sequential`]; intervals of math.md §7):
+    /// `{"abs": A, "max_n": M}`. The experiment's
     /// sample counts are then this estimator's first stages; see [`super::adaptive`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<ToleranceSpec>,
@@ -87,7 +88,7 @@ pub struct EstimatorSpec {
 
 /// `"tolerance": {"abs": 1e-3, "max_n": 1024}`: double N (keeping the earlier points) until the
 /// 95% half-width is at most `abs`, or `max_n` is reached.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ToleranceSpec {
     pub abs: f64,
