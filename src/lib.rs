@@ -24,9 +24,9 @@ pub mod render;
 pub mod report;
 pub mod rng;
 pub mod rule;
-pub mod sequential;
 pub mod sampling;
 pub mod schema;
+pub mod sequential;
 pub mod stats;
 pub mod threads;
 

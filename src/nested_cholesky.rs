@@ -101,14 +101,21 @@ impl NestedCholesky {
         mut fill: impl FnMut(usize, usize, &mut [f64]),
     ) -> Result<(), NotPositiveDefinite> {
         let n = self.n;
-        assert!(m >= n && m <= self.capacity, "extend_to({m}) from {n}, capacity {}", self.capacity);
+        assert!(
+            m >= n && m <= self.capacity,
+            "extend_to({m}) from {n}, capacity {}",
+            self.capacity
+        );
         if m == n {
             return Ok(());
         }
         if m > self.factor.nrows() {
             // Grow the buffer, keeping L₁₁ (the copy is O(n²), below the extension's cost).
             let mut grown = Mat::zeros(m, m);
-            grown.as_mut().submatrix_mut(0, 0, n, n).copy_from(self.factor.as_ref().submatrix(0, 0, n, n));
+            grown
+                .as_mut()
+                .submatrix_mut(0, 0, n, n)
+                .copy_from(self.factor.as_ref().submatrix(0, 0, n, n));
             self.factor = grown;
         }
         if n == 0 {
@@ -128,9 +135,20 @@ impl NestedCholesky {
         let l11 = top.rb().submatrix(0, 0, n, n);
         let (mut l21, mut s) = bottom.submatrix_mut(0, 0, m - n, m).split_at_col_mut(n);
         // L₂₁ᵀ = L₁₁⁻¹ Q₂₁ᵀ (forward substitution on the transposed view).
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(l11, l21.rb_mut().transpose_mut(), Par::Seq);
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            l11,
+            l21.rb_mut().transpose_mut(),
+            Par::Seq,
+        );
         // S = Q₂₂ − L₂₁ L₂₁ᵀ (only its lower triangle is read below).
-        faer::linalg::matmul::matmul(s.rb_mut(), Accum::Add, l21.rb(), l21.rb().transpose(), -1.0, Par::Seq);
+        faer::linalg::matmul::matmul(
+            s.rb_mut(),
+            Accum::Add,
+            l21.rb(),
+            l21.rb().transpose(),
+            -1.0,
+            Par::Seq,
+        );
         let ok = cholesky(s.rb_mut()).is_ok();
         self.n = m;
         if ok && self.condition_estimate() <= NUMERICALLY_SINGULAR {
@@ -241,8 +259,8 @@ impl NestedCholesky {
                 let xj = x[j] / self.factor[(j, j)];
                 x[j] = xj;
                 if xj != 0.0 {
-                    for k in j + 1..n {
-                        x[k] -= self.factor[(k, j)] * xj;
+                    for (k, xk) in x.iter_mut().enumerate().take(n).skip(j + 1) {
+                        *xk -= self.factor[(k, j)] * xj;
                     }
                 }
             }
@@ -253,7 +271,10 @@ impl NestedCholesky {
 
     /// `L[i, j]` of the factored block (`j ≤ i < n`), for tests.
     pub fn entry(&self, i: usize, j: usize) -> f64 {
-        assert!(j <= i && i < self.n, "L[{i}, {j}] is outside the factored lower triangle");
+        assert!(
+            j <= i && i < self.n,
+            "L[{i}, {j}] is outside the factored lower triangle"
+        );
         self.factor[(i, j)]
     }
 }
@@ -261,10 +282,20 @@ impl NestedCholesky {
 /// faer's in-place Cholesky of a square view (lower triangle), sequential.
 fn cholesky(a: faer::MatMut<'_, f64>) -> Result<(), ()> {
     let n = a.nrows();
-    let mut scratch = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default()));
-    llt::factor::cholesky_in_place(a, Default::default(), Par::Seq, MemStack::new(&mut scratch), Default::default())
-        .map(|_| ())
-        .map_err(|_| ())
+    let mut scratch = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
+        n,
+        Par::Seq,
+        Default::default(),
+    ));
+    llt::factor::cholesky_in_place(
+        a,
+        Default::default(),
+        Par::Seq,
+        MemStack::new(&mut scratch),
+        Default::default(),
+    )
+    .map(|_| ())
+    .map_err(|_| ())
 }
 
 #[cfg(test)]
@@ -296,7 +327,10 @@ mod tests {
         for m in [8, 16, 32, 64, 100] {
             nested.extend_to(m, filler(&q)).unwrap();
         }
-        assert_eq!((nested.n(), nested.jitter(), nested.refactorisations()), (100, 0.0, 0));
+        assert_eq!(
+            (nested.n(), nested.jitter(), nested.refactorisations()),
+            (100, 0.0, 0)
+        );
         let mut full = NestedCholesky::with_capacity(100);
         full.extend_to(100, filler(&q)).unwrap();
         let scale = (0..100).map(|i| full.entry(i, i).abs()).fold(0.0, f64::max);
@@ -384,7 +418,10 @@ mod tests {
         assert_eq!(direct.jitter(), 0.0, "Q + jI factors without more jitter");
         for c in 0..16 {
             for r in c..16 {
-                assert!((nested.entry(r, c) - direct.entry(r, c)).abs() <= 1e-9, "L[{r},{c}]");
+                assert!(
+                    (nested.entry(r, c) - direct.entry(r, c)).abs() <= 1e-9,
+                    "L[{r},{c}]"
+                );
             }
         }
     }

@@ -40,7 +40,11 @@ impl Tolerance {
     /// # Panics
     /// If `first` is 0 or above `max_n`.
     pub fn stages(&self, first: usize) -> Vec<usize> {
-        assert!(first >= 1 && first <= self.max_n, "first stage {first}, max_n {}", self.max_n);
+        assert!(
+            first >= 1 && first <= self.max_n,
+            "first stage {first}, max_n {}",
+            self.max_n
+        );
         let mut out = vec![first];
         while let Some(next) = out.last().unwrap().checked_mul(2).filter(|&m| m <= self.max_n) {
             out.push(next);
@@ -169,7 +173,11 @@ impl<'a> NestedWeights<'a> {
         if let Some(i) = self.stages.iter().position(|(n, _)| *n == m) {
             return Ok(i);
         }
-        assert!(m > self.factor.n(), "stage {m} requested after {}", self.factor.n());
+        assert!(
+            m > self.factor.n(),
+            "stage {m} requested after {}",
+            self.factor.n()
+        );
         let diag = self.model.kernel.diagonal() + self.model.noise;
         let soa = &self.soa;
         let kernel = &self.model.kernel;
@@ -216,7 +224,10 @@ pub struct Walker {
 /// Sequential BMC / BMCP / Bayes–Sard on the weight sets of `nested`, one run per walker and one
 /// outcome per integrand. The walkers move through the stages together, so each stage is
 /// factored once and the factor grows only as far as the slowest (walker, integrand) needs.
-pub fn weighted_together(walkers: &[Walker], nested: &mut NestedWeights<'_>) -> Result<Vec<WeightedRun>, NotPositiveDefinite> {
+pub fn weighted_together(
+    walkers: &[Walker],
+    nested: &mut NestedWeights<'_>,
+) -> Result<Vec<WeightedRun>, NotPositiveDefinite> {
     let count = nested.values.len();
     let mut all: Vec<usize> = walkers.iter().flat_map(|w| w.stages.iter().copied()).collect();
     all.sort_unstable();
@@ -236,23 +247,33 @@ pub fn weighted_together(walkers: &[Walker], nested: &mut NestedWeights<'_>) -> 
             let WeightedEstimator { method, scale } = walker.estimator;
             let final_stage = walker.stages.last() == Some(&m);
             let w = &stage.weights;
-            for fi in 0..count {
-                if outcomes[wi][fi].is_some() {
+            for (fi, slot) in outcomes[wi].iter_mut().enumerate() {
+                if slot.is_some() {
                     continue;
                 }
                 let (p, v) = (&nested.points[..m], &nested.values[fi][..m]);
                 let amplitude = if scale == Scale::Unit {
                     1.0
                 } else {
-                    let solved = &stage.values_solve.as_ref().expect("NestedWeights::new was told the scale")[fi];
+                    let solved = &stage
+                        .values_solve
+                        .as_ref()
+                        .expect("NestedWeights::new was told the scale")[fi];
                     method
-                        .amplitude(scale, v, solved, Some(w), walker.priors[fi], stage.inverse_diagonal.as_deref())
+                        .amplitude(
+                            scale,
+                            v,
+                            solved,
+                            Some(w),
+                            walker.priors[fi],
+                            stage.inverse_diagonal.as_deref(),
+                        )
                         .expect("weighted methods fit amplitudes")
                 };
                 let u = method.uncertainty(Design::Uniform, p, v, Some(w), scale, amplitude);
                 let met = meets(u.as_ref(), walker.abs);
                 if met || final_stage {
-                    outcomes[wi][fi] = Some(Outcome {
+                    *slot = Some(Outcome {
                         estimate: method.estimate(Design::Uniform, p, v, Some(w), walker.priors[fi]),
                         uncertainty: u,
                         n_used: m,
@@ -267,7 +288,10 @@ pub fn weighted_together(walkers: &[Walker], nested: &mut NestedWeights<'_>) -> 
         .into_iter()
         .zip(diagnostics)
         .map(|(o, d)| WeightedRun {
-            outcomes: o.into_iter().map(|o| o.expect("the last stage decides")).collect(),
+            outcomes: o
+                .into_iter()
+                .map(|o| o.expect("the last stage decides"))
+                .collect(),
             diagnostics: d.expect("at least one stage"),
         })
         .collect())

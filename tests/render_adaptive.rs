@@ -14,7 +14,11 @@ use workbench::rng::stream;
 use workbench::sampling::Design;
 
 fn model() -> BmcModel {
-    BmcModel::new(Kernel::Sobolev(Sobolev::new(1.4).unwrap()), 0.01, KernelMeanMode::Exact)
+    BmcModel::new(
+        Kernel::Sobolev(Sobolev::new(1.4).unwrap()),
+        0.01,
+        KernelMeanMode::Exact,
+    )
 }
 
 /// Every hit pixel used a stage size; where the rule stopped it, every channel's sd is within the
@@ -26,7 +30,11 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
     assert_eq!(settings.stages, vec![8, 16, 32, 64, 128]);
     let (bmc, jitter) = AdaptiveSampler::bmc(&settings, 2, true, &model(), 3).unwrap();
     assert_eq!(jitter, 0.0);
-    for sampler in [AdaptiveSampler::Mc(Design::Uniform), AdaptiveSampler::Mc(Design::Cosine), bmc] {
+    for sampler in [
+        AdaptiveSampler::Mc(Design::Uniform),
+        AdaptiveSampler::Mc(Design::Cosine),
+        bmc,
+    ] {
         let r = adaptive::render(&renderer, &sampler, &settings, 5, &Silent);
         let mut stopped_early = 0;
         for k in 0..r.spp.len() {
@@ -34,7 +42,12 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
                 None => assert_eq!(r.spp[k], 0),
                 Some(met) => {
                     assert!(settings.stages.contains(&r.spp[k]), "pixel {k}: {} spp", r.spp[k]);
-                    assert_eq!(met, r.sd[k].iter().all(|&s| s <= 0.03), "pixel {k}: {:?}", r.sd[k]);
+                    assert_eq!(
+                        met,
+                        r.sd[k].iter().all(|&s| s <= 0.03),
+                        "pixel {k}: {:?}",
+                        r.sd[k]
+                    );
                     if !met {
                         assert_eq!(r.spp[k], 128);
                     } else if r.spp[k] < 128 {
@@ -43,7 +56,10 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
                 }
             }
         }
-        assert!(stopped_early > 0 && r.mean_spp() > 8.0, "{sampler:?}: the rule never acted");
+        assert!(
+            stopped_early > 0 && r.mean_spp() > 8.0,
+            "{sampler:?}: the rule never acted"
+        );
         // Same seed, same image.
         let again = adaptive::render(&renderer, &sampler, &settings, 5, &Silent);
         assert_eq!(again.image, r.image);
@@ -82,7 +98,20 @@ fn the_command_writes_the_spp_map() {
     let size = ["--width", "20", "--height", "14"];
     let o = workbench(
         dir.path(),
-        &[&["render", "--integrator", "mc-cos", "--spp", "64", "--out", "ref.exr", "-q"], &size[..]].concat(),
+        &[
+            &[
+                "render",
+                "--integrator",
+                "mc-cos",
+                "--spp",
+                "64",
+                "--out",
+                "ref.exr",
+                "-q",
+            ],
+            &size[..],
+        ]
+        .concat(),
     );
     assert!(o.status.success(), "{}", stderr(&o));
     for integrator in ["bmc", "mc"] {
@@ -91,8 +120,20 @@ fn the_command_writes_the_spp_map() {
             dir.path(),
             &[
                 &[
-                    "render", "--integrator", integrator, "--target-sd", "0.05", "--max-spp", "64", "--spp", "8",
-                    "--reference", "ref.exr", "--out", &out, "-q",
+                    "render",
+                    "--integrator",
+                    integrator,
+                    "--target-sd",
+                    "0.05",
+                    "--max-spp",
+                    "64",
+                    "--spp",
+                    "8",
+                    "--reference",
+                    "ref.exr",
+                    "--out",
+                    &out,
+                    "-q",
                 ],
                 &size[..],
             ]
@@ -100,10 +141,19 @@ fn the_command_writes_the_spp_map() {
         );
         assert!(o.status.success(), "{integrator}: {}", stderr(&o));
         let text = stdout(&o);
-        for key in ["mean spp = ", "share of pixels meeting the target = ", "rmse = ", "within 1.96·target = "] {
+        for key in [
+            "mean spp = ",
+            "share of pixels meeting the target = ",
+            "rmse = ",
+            "within 1.96·target = ",
+        ] {
             assert!(text.contains(key), "{integrator}: {text}");
         }
-        for f in [format!("{integrator}.png"), format!("{integrator}-spp.png"), format!("{integrator}-error.png")] {
+        for f in [
+            format!("{integrator}.png"),
+            format!("{integrator}-spp.png"),
+            format!("{integrator}-error.png"),
+        ] {
             assert!(dir.path().join(&f).is_file(), "{f}");
         }
     }
@@ -116,13 +166,38 @@ fn bad_adaptive_options_are_exit_2() {
     let cases: [(&[&str], &str); 6] = [
         (&["--target-sd", "0.01"], "--target-sd: needs --max-spp"),
         (&["--max-spp", "64"], "--max-spp: applies to adaptive sampling"),
-        (&["--target-sd", "0", "--max-spp", "64"], "--target-sd: must be finite and > 0, got 0"),
-        (&["--target-sd", "0.01", "--max-spp", "8", "--spp", "16"], "--max-spp 8: is below the first stage --spp 16"),
-        (&["--target-sd", "0.01", "--max-spp", "64", "--integrator", "bmcp"], "not --integrator bmcp"),
-        (&["--target-sd", "0.01", "--max-spp", "64", "--integrator", "mc", "--spp", "1"], "--spp 1: the first stage of adaptive MC"),
+        (
+            &["--target-sd", "0", "--max-spp", "64"],
+            "--target-sd: must be finite and > 0, got 0",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "8", "--spp", "16"],
+            "--max-spp 8: is below the first stage --spp 16",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "64", "--integrator", "bmcp"],
+            "not --integrator bmcp",
+        ),
+        (
+            &[
+                "--target-sd",
+                "0.01",
+                "--max-spp",
+                "64",
+                "--integrator",
+                "mc",
+                "--spp",
+                "1",
+            ],
+            "--spp 1: the first stage of adaptive MC",
+        ),
     ];
     for (flags, expected) in cases {
-        let args = [&["render", "--out", "x.exr", "--width", "8", "--height", "8", "-q"], flags].concat();
+        let args = [
+            &["render", "--out", "x.exr", "--width", "8", "--height", "8", "-q"],
+            flags,
+        ]
+        .concat();
         let o = workbench(dir.path(), &args);
         assert_eq!(o.status.code(), Some(2), "{flags:?}: {}", stderr(&o));
         let err = stderr(&o);

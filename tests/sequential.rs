@@ -15,7 +15,11 @@ use workbench::sampling::{Design, SetDesign};
 use workbench::sequential::{self, NestedWeights, Tolerance, Walker, WeightedEstimator};
 
 fn model() -> BmcModel {
-    BmcModel::new(Kernel::Sobolev(Sobolev::new(1.4).unwrap()), 0.01, KernelMeanMode::Exact)
+    BmcModel::new(
+        Kernel::Sobolev(Sobolev::new(1.4).unwrap()),
+        0.01,
+        KernelMeanMode::Exact,
+    )
 }
 
 fn cos3(p: &Vec3) -> f64 {
@@ -41,7 +45,7 @@ fn nested_designs_keep_their_first_points() {
         let nested = small[..] == large[..16];
         assert_eq!(
             nested,
-            workbench::experiment::adaptive::is_nested(d),
+            workbench::experiment::tolerance::is_nested(d),
             "{}: first 16 points identical = {nested}",
             d.name()
         );
@@ -54,7 +58,10 @@ fn nested_designs_keep_their_first_points() {
 fn a_constant_integrand_stops_at_the_first_stage() {
     let pts = Design::Uniform.sample_set(256, &mut stream(1, &[]));
     let ones = vec![1.0; pts.len()];
-    let t = Tolerance { abs: 1e-9, max_n: 256 };
+    let t = Tolerance {
+        abs: 1e-9,
+        max_n: 256,
+    };
     let o = sequential::mc(Design::Uniform, &pts, &ones, &t.stages(8), t.abs);
     assert_eq!((o.n_used, o.met), (8, true));
     assert!((o.estimate - std::f64::consts::TAU).abs() < 1e-12);
@@ -92,12 +99,22 @@ fn the_rule_stops_where_the_interval_is_narrow_enough() {
     let u = Method::Mc
         .uncertainty(Design::Uniform, &pts[..n], &v[..n], None, Scale::Unit, 1.0)
         .unwrap();
-    assert_eq!(loose.estimate, Method::Mc.estimate(Design::Uniform, &pts[..n], &v[..n], None, 0.0));
+    assert_eq!(
+        loose.estimate,
+        Method::Mc.estimate(Design::Uniform, &pts[..n], &v[..n], None, 0.0)
+    );
     assert_eq!(loose.uncertainty, Some(u));
     assert!(sequential::half_width(&u) <= 0.3);
     // The stage before did not meet it (that is why it went on).
     let before = Method::Mc
-        .uncertainty(Design::Uniform, &pts[..n / 2], &v[..n / 2], None, Scale::Unit, 1.0)
+        .uncertainty(
+            Design::Uniform,
+            &pts[..n / 2],
+            &v[..n / 2],
+            None,
+            Scale::Unit,
+            1.0,
+        )
         .unwrap();
     assert!(sequential::half_width(&before) > 0.3);
 }
@@ -139,8 +156,17 @@ fn extended_weight_sets_match_fresh_ones() {
                 let est = method.estimate(Design::Uniform, &pts[..n], v, Some(&w), prior);
                 let got = o.uncertainty.unwrap();
                 let what = format!("{method} {} at N = {n}", scale.name());
-                assert!((o.estimate - est).abs() <= 1e-9 * est.abs(), "{what}: {} vs {est}", o.estimate);
-                assert!((got.sd - u.sd).abs() <= 1e-9 * u.sd.max(1e-12), "{what}: sd {} vs {}", got.sd, u.sd);
+                assert!(
+                    (o.estimate - est).abs() <= 1e-9 * est.abs(),
+                    "{what}: {} vs {est}",
+                    o.estimate
+                );
+                assert!(
+                    (got.sd - u.sd).abs() <= 1e-9 * u.sd.max(1e-12),
+                    "{what}: sd {} vs {}",
+                    got.sd,
+                    u.sd
+                );
                 assert_eq!(got.dof, u.dof, "{what}");
             }
         }
@@ -170,16 +196,28 @@ fn experiments_stop_at_a_tolerance_and_check_it() {
     write(
         dir.path(),
         "pass.json",
-        &spec(estimators, "[8, 16]", r#"{"within_tolerance": "BMC", "level": 0.95}"#),
+        &spec(
+            estimators,
+            "[8, 16]",
+            r#"{"within_tolerance": "BMC", "level": 0.95}"#,
+        ),
     );
     let o = workbench(dir.path(), &["run", "pass.json", "-q", "--out", "p"]);
     assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
-    assert!(stdout(&o).contains("PASS check BMC within tolerance"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("PASS check BMC within tolerance"),
+        "{}",
+        stdout(&o)
+    );
     let p = dir.path().join("p");
     assert!(p.join("cos3-tolerance.svg").is_file() && p.join("cos3.svg").is_file());
     let (h, rows) = read_csv(&p.join("stopping_trials.csv"));
     let col = |name: &str| h.iter().position(|c| c == name).unwrap();
-    assert_eq!(rows.len(), 2 * 2 * 60, "two tolerance estimators, two first stages");
+    assert_eq!(
+        rows.len(),
+        2 * 2 * 60,
+        "two tolerance estimators, two first stages"
+    );
     let (th, trials) = read_csv(&p.join("trials.csv"));
     let tcol = |name: &str| th.iter().position(|c| c == name).unwrap();
     for r in &rows {
@@ -204,7 +242,9 @@ fn experiments_stop_at_a_tolerance_and_check_it() {
     }
     let (sh, summary) = read_csv(&p.join("stopping_summary.csv"));
     assert_eq!(summary.len(), 4);
-    let mean_n: f64 = summary[0][sh.iter().position(|c| c == "mean_n_used").unwrap()].parse().unwrap();
+    let mean_n: f64 = summary[0][sh.iter().position(|c| c == "mean_n_used").unwrap()]
+        .parse()
+        .unwrap();
     let expect: f64 = rows
         .iter()
         .filter(|r| r[col("estimator")] == "MC" && r[col("first_n")] == "8")
@@ -216,11 +256,19 @@ fn experiments_stop_at_a_tolerance_and_check_it() {
     write(
         dir.path(),
         "fail.json",
-        &spec(estimators, "[8, 16]", r#"{"within_tolerance": "MC", "level": 0.999}"#),
+        &spec(
+            estimators,
+            "[8, 16]",
+            r#"{"within_tolerance": "MC", "level": 0.999}"#,
+        ),
     );
     let o = workbench(dir.path(), &["run", "fail.json", "-q", "--out", "f"]);
     assert_eq!(o.status.code(), Some(1), "{}{}", stdout(&o), stderr(&o));
-    assert!(stdout(&o).contains("FAIL check MC within tolerance"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("FAIL check MC within tolerance"),
+        "{}",
+        stdout(&o)
+    );
 }
 
 /// Bad tolerances are one line naming the file and JSON path, exit 2, nothing written.
@@ -229,15 +277,55 @@ fn bad_tolerances_are_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let mc = |tol: &str| format!(r#"{{"label": "MC", "method": "mc", "tolerance": {tol}}}"#);
     let cases: Vec<(String, &str)> = vec![
-        (spec(&mc(r#"{"abs": 0, "max_n": 64}"#), "[8]", ""), "estimators[0].tolerance.abs: must be a positive finite number, got 0"),
-        (spec(&mc(r#"{"abs": -1e-3, "max_n": 64}"#), "[8]", ""), "estimators[0].tolerance.abs: must be a positive"),
-        (spec(&mc(r#"{"abs": 0.1, "max_n": 8}"#), "[8, 16]", ""), "estimators[0].tolerance.max_n: 8 is below the first stage N = 16 (samples[1])"),
-        (spec(&mc(r#"{"abs": 0.1, "max_n": 64}"#), "[1, 8]", ""), "estimators[0].tolerance: method mc has no interval at the first stage N = 1 (samples[0])"),
-        (spec(r#"{"label": "S", "method": "mc", "design": "stratified", "tolerance": {"abs": 0.1, "max_n": 64}}"#, "[8]", ""), "estimators[0].design: \"stratified\" is not nested"),
-        (spec(r#"{"label": "B", "method": "bmc", "kernel_mean": "mc", "tolerance": {"abs": 0.1, "max_n": 64}}"#, "[8]", ""), "estimators[0].kernel_mean:"),
+        (
+            spec(&mc(r#"{"abs": 0, "max_n": 64}"#), "[8]", ""),
+            "estimators[0].tolerance.abs: must be a positive finite number, got 0",
+        ),
+        (
+            spec(&mc(r#"{"abs": -1e-3, "max_n": 64}"#), "[8]", ""),
+            "estimators[0].tolerance.abs: must be a positive",
+        ),
+        (
+            spec(&mc(r#"{"abs": 0.1, "max_n": 8}"#), "[8, 16]", ""),
+            "estimators[0].tolerance.max_n: 8 is below the first stage N = 16 (samples[1])",
+        ),
+        (
+            spec(&mc(r#"{"abs": 0.1, "max_n": 64}"#), "[1, 8]", ""),
+            "estimators[0].tolerance: method mc has no interval at the first stage N = 1 (samples[0])",
+        ),
+        (
+            spec(
+                r#"{"label": "S", "method": "mc", "design": "stratified", "tolerance": {"abs": 0.1, "max_n": 64}}"#,
+                "[8]",
+                "",
+            ),
+            "estimators[0].design: \"stratified\" is not nested",
+        ),
+        (
+            spec(
+                r#"{"label": "B", "method": "bmc", "kernel_mean": "mc", "tolerance": {"abs": 0.1, "max_n": 64}}"#,
+                "[8]",
+                "",
+            ),
+            "estimators[0].kernel_mean:",
+        ),
         (spec(&mc(r#"{"abs": 0.1}"#), "[8]", ""), "max_n"),
-        (spec(r#"{"label": "MC", "method": "mc"}"#, "[8]", r#"{"within_tolerance": "MC"}"#), "checks[0].within_tolerance: \"MC\" has no \"tolerance\""),
-        (spec(&mc(r#"{"abs": 0.1, "max_n": 64}"#), "[8]", r#"{"within_tolerance": "MC", "alpha": 0.1}"#), "checks[0].alpha: is not used by a tolerance check"),
+        (
+            spec(
+                r#"{"label": "MC", "method": "mc"}"#,
+                "[8]",
+                r#"{"within_tolerance": "MC"}"#,
+            ),
+            "checks[0].within_tolerance: \"MC\" has no \"tolerance\"",
+        ),
+        (
+            spec(
+                &mc(r#"{"abs": 0.1, "max_n": 64}"#),
+                "[8]",
+                r#"{"within_tolerance": "MC", "alpha": 0.1}"#,
+            ),
+            "checks[0].alpha: is not used by a tolerance check",
+        ),
     ];
     for (i, (text, expected)) in cases.iter().enumerate() {
         let file = format!("bad{i}.json");

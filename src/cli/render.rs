@@ -1,7 +1,7 @@
 //! `workbench render`: one image (`--out x.exr`) or a table (`workbench render SPEC.json`).
 
 use super::model_args::ModelArgs;
-use super::output::{status, stdout};
+use super::output::{sibling_png, status, stdout};
 use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -173,17 +173,31 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `x.exr` → `x<suffix>.png`, keeping the stem's bytes as they are (a name need not be UTF-8).
-pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
-    let mut name = out.file_stem().unwrap_or_default().to_os_string();
-    name.push(suffix);
-    name.push(".png");
-    out.with_file_name(name)
-}
-
 fn single(args: &RenderArgs) -> anyhow::Result<()> {
     if args.target_sd.is_some() || args.max_spp.is_some() {
-        return super::render_adaptive::single(args);
+        return super::render_adaptive::single(&super::render_adaptive::AdaptiveArgs {
+            target_sd: args.target_sd,
+            max_spp: args.max_spp,
+            integrator: match args.integrator {
+                RenderIntegrator::Estimator(k) => Ok(k),
+                other => Err(other.to_string()),
+            },
+            spp: args.spp,
+            gps: args.gps,
+            no_rotate: args.no_rotate,
+            width: args.width,
+            height: args.height,
+            env: &args.env,
+            seed: args.seed,
+            out: args.out.as_ref().expect("clap requires --out without a spec"),
+            reference: args.reference.as_ref(),
+            error_max: args.error_max,
+            grey: args.error_colours == "grey",
+            unused: (args.tolerance.map(|_| "--tolerance"))
+                .or(args.results_dir.as_ref().map(|_| "--results-dir")),
+            model: &args.model,
+            quiet: args.quiet,
+        });
     }
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");

@@ -2,9 +2,10 @@
 //! ([`workbench::render::adaptive`]), its PNG, the spp map `x-spp.png` and, with `--reference`,
 //! the RMSE, the share of pixel channels within `1.96 T` and the error image.
 
-use super::output::{status, stdout};
+use super::model_args::ModelArgs;
+use super::output::{sibling_png, status, stdout};
 use super::progress::Bar;
-use super::render::{RenderArgs, RenderIntegrator, sibling_png};
+use std::path::PathBuf;
 use std::time::Instant;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
@@ -17,8 +18,31 @@ use workbench::report::Reporter;
 /// The first stage when `--spp` is not given.
 const DEFAULT_FIRST_SPP: usize = 16;
 
+/// The options of `render` that an adaptive single image reads (built by `render`'s `single`).
+pub struct AdaptiveArgs<'a> {
+    pub target_sd: Option<f64>,
+    pub max_spp: Option<usize>,
+    /// The estimator, or the name of what was asked for instead (`exact`).
+    pub integrator: Result<IntegratorKind, String>,
+    pub spp: Option<usize>,
+    pub gps: Option<usize>,
+    pub no_rotate: bool,
+    pub width: usize,
+    pub height: usize,
+    pub env: &'a str,
+    pub seed: Option<u64>,
+    pub out: &'a PathBuf,
+    pub reference: Option<&'a PathBuf>,
+    pub error_max: Option<f64>,
+    pub grey: bool,
+    /// A flag given that adaptive images do not take (`--tolerance`, `--results-dir`).
+    pub unused: Option<&'static str>,
+    pub model: &'a ModelArgs,
+    pub quiet: bool,
+}
+
 /// Validates every option, then renders and writes the image set.
-pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
+pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let (target_sd, max_spp) = match (args.target_sd, args.max_spp) {
         (Some(t), Some(m)) => (t, m),
         (Some(_), None) => {
@@ -28,15 +52,24 @@ pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
             .into());
         }
         (None, _) => {
-            return Err(InputError::new("--max-spp: applies to adaptive sampling; give --target-sd too").into());
+            return Err(
+                InputError::new("--max-spp: applies to adaptive sampling; give --target-sd too").into(),
+            );
         }
     };
     if !(target_sd.is_finite() && target_sd > 0.0) {
         return Err(InputError::new(format!("--target-sd: must be finite and > 0, got {target_sd}")).into());
     }
-    let kind = match args.integrator {
-        RenderIntegrator::Estimator(k) if k == IntegratorKind::MC || k == IntegratorKind::MC_COS || k == IntegratorKind::BMC => k,
-        other => {
+    let kind = match &args.integrator {
+        Ok(k) if [IntegratorKind::MC, IntegratorKind::MC_COS, IntegratorKind::BMC].contains(k) => *k,
+        Ok(other) => {
+            return Err(InputError::new(format!(
+                "--target-sd: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
+                 (mc, mc-cos or bmc), not --integrator {other}"
+            ))
+            .into());
+        }
+        Err(other) => {
             return Err(InputError::new(format!(
                 "--target-sd: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
                  (mc, mc-cos or bmc), not --integrator {other}"
@@ -69,13 +102,12 @@ pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
             return Err(InputError::new(format!("{flag}: applies to --integrator bmc, not {kind}")).into());
         }
     }
-    if args.results_dir.is_some() || args.tolerance.is_some() {
-        let flag = if args.tolerance.is_some() { "--tolerance" } else { "--results-dir" };
+    if let Some(flag) = args.unused {
         return Err(InputError::new(format!("{flag}: does not apply to an adaptive single image")).into());
     }
     let gps = args.gps.unwrap_or(DEFAULT_GPS);
     check_gps(gps, "--gps")?;
-    let out = args.out.as_ref().expect("clap requires --out without a spec");
+    let out = args.out;
     if out.extension().and_then(|e| e.to_str()) != Some("exr") {
         return Err(InputError::new(format!(
             "--out {}: the linear image is OpenEXR; use a name ending in .exr",
@@ -94,11 +126,11 @@ pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
         ("--out (its error image)", &error_png),
     ];
     let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
-    if let Some(r) = &args.reference {
+    if let Some(r) = args.reference {
         inputs.push(("--reference", r));
     }
-    if !matches!(args.env.as_str(), "sky" | "white") {
-        inputs.push(("--env", std::path::Path::new(&args.env)));
+    if !matches!(args.env, "sky" | "white") {
+        inputs.push(("--env", std::path::Path::new(args.env)));
     }
     workbench::io::check_distinct(&outputs, &inputs)?;
     for (flag, path) in &outputs {
@@ -108,13 +140,13 @@ pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
     if !(error_max.is_finite() && error_max > 0.0) {
         return Err(InputError::new(format!("--error-max: must be finite and > 0, got {error_max}")).into());
     }
-    let env = Environment::from_arg(&args.env)?;
+    let env = Environment::from_arg(args.env)?;
     let dir = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
     workbench::io::check_writable_dir(&dir)?;
-    let reference = match &args.reference {
+    let reference = match args.reference {
         Some(path) => Some(Image::read(path, "--reference")?),
         None => None,
     };
@@ -158,7 +190,12 @@ pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
     let seconds = start.elapsed().as_secs_f64();
 
     let (map, black) = result.spp_as_norms();
-    let spp_image = map.error_png(&black, ErrorScale::Absolute, settings.max_spp() as f64, ColourMap::Viridis)?;
+    let spp_image = map.error_png(
+        &black,
+        ErrorScale::Absolute,
+        settings.max_spp() as f64,
+        ColourMap::Viridis,
+    )?;
     files.stage(out, &result.image.to_exr()?)?;
     files.stage(&png, &result.image.to_png()?)?;
     files.stage(&spp_png, &spp_image.png)?;
@@ -168,7 +205,7 @@ pub fn single(args: &RenderArgs) -> anyhow::Result<()> {
                 r,
                 ErrorScale::Absolute,
                 error_max,
-                if args.error_colours == "grey" {
+                if args.grey {
                     ColourMap::Grey
                 } else {
                     ColourMap::Viridis

@@ -69,7 +69,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         report.threads,
         if report.threads == 1 { "" } else { "s" }
     );
-    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed())
+    let failed = report.checks.iter().any(|c| !c.passed())
+        || report.calibration.iter().any(|c| !c.passed())
         || report.tolerance_checks.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)

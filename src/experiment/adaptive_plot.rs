@@ -99,7 +99,8 @@ fn common_name(labels: &[String]) -> String {
     }
     let prefix: String = first[..len].iter().collect();
     // The placeholder's value starts where the labels differ: drop its common digits too.
-    let trimmed = prefix.trim_end_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | '=' | ' ' | ':'));
+    let trimmed = prefix
+        .trim_end_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | '=' | ' ' | ':'));
     let trimmed = trimmed
         .strip_suffix("tolerance")
         .or_else(|| trimmed.strip_suffix("tol"))
@@ -152,7 +153,11 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> Result<String, Box<dyn std::e
         text: format!(
             "each trial starts at N₀ = {} and doubles N (keeping its points) until its 95% half-width \
              is at most the tolerance or N would pass max_n; the rule sees the interval, never the truth",
-            plan.samples.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(" or ")
+            plan.samples
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(" or ")
         ),
         wide: true,
     });

@@ -5,6 +5,7 @@
 
 pub mod adaptive;
 pub mod adaptive_plot;
+pub mod adaptive_unit;
 pub mod coverage_plot;
 pub mod export;
 pub mod fit;
@@ -15,6 +16,7 @@ pub mod spec;
 pub mod summary;
 pub mod sweep;
 pub mod text;
+pub mod tolerance;
 
 pub use text::{describe, format_report};
 

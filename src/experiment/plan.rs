@@ -42,7 +42,7 @@ pub struct Plan {
     /// Calibration checks (`"calibrated"` entries of `checks`).
     pub calibration_checks: Vec<CalibrationCheck>,
     /// Tolerance checks (`"within_tolerance"` entries of `checks`; [`super::adaptive`]).
-    pub tolerance_checks: Vec<super::adaptive::ToleranceCheck>,
+    pub tolerance_checks: Vec<super::tolerance::ToleranceCheck>,
     /// Distinct BMC models; estimators that share one share its weights within a trial.
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
@@ -164,7 +164,11 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     let mut tolerance_checks = Vec::new();
     for (i, c) in spec.checks.iter().enumerate() {
         if c.within_tolerance.is_some() {
-            tolerance_checks.push(super::adaptive::resolve_check(spec, &estimators, i, c)?);
+            let labels: Vec<(&str, bool)> = estimators
+                .iter()
+                .map(|e| (e.label.as_str(), e.tolerance.is_some()))
+                .collect();
+            tolerance_checks.push(super::tolerance::resolve_check(spec, &labels, i, c)?);
             continue;
         }
         match resolve_check(spec, &estimators, i, c)? {
@@ -283,7 +287,14 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
         }
         paths.push(path.clone());
         let (mut planned, model) = resolve_estimator(e, &at)?;
-        planned.tolerance = super::adaptive::resolve_tolerance(e, &planned, &spec.samples, &at)?;
+        planned.tolerance = super::tolerance::resolve_tolerance(
+            e,
+            planned.method,
+            planned.design,
+            &spec.samples,
+            MAX_UNIT_POINTS,
+            &at,
+        )?;
         planned.settings.tolerance = planned.tolerance;
         if let Some(model) = model {
             let key = (model, planned.design);

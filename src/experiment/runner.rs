@@ -120,10 +120,13 @@ pub fn run_unit(
     // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
     // estimator uses `loo`.
     // Tolerance estimators extend the unit's set of their design (same stream, nested).
-    let adaptive = super::adaptive::run_unit(plan, n, trial, &|d, count| {
+    let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
         d.sample_set(
             count,
-            &mut stream(plan.seed, &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64]),
+            &mut stream(
+                plan.seed,
+                &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
+            ),
         )
     })?;
     let ni = plan.integrands.len();
@@ -309,7 +312,12 @@ pub fn run_unit(
         messages,
         fitted,
         sequential: (0..ni)
-            .map(|fi| adaptive.iter().map(|r| r.as_ref().map(|r| r.outcomes[fi])).collect())
+            .map(|fi| {
+                adaptive
+                    .iter()
+                    .map(|r| r.as_ref().map(|r| r.outcomes[fi]))
+                    .collect()
+            })
             .collect(),
     })
 }

@@ -325,7 +325,13 @@ fn mc_pixel(
                 m2[c] += d * (x - mean[c]);
             }
         }
-        let sd = m2.map(|s| if n > 1 { (s / (n - 1) as f64 / n as f64).sqrt() } else { f64::INFINITY });
+        let sd = m2.map(|s| {
+            if n > 1 {
+                (s / (n - 1) as f64 / n as f64).sqrt()
+            } else {
+                f64::INFINITY
+            }
+        });
         let met = sd.iter().all(|&s| s <= settings.target_sd);
         if met || stage == last {
             return PixelEstimate {
@@ -350,7 +356,11 @@ fn bmc_pixel(
     settings: &AdaptiveSettings,
     rng: &mut WorkbenchRng,
 ) -> PixelEstimate {
-    let s = if sets.len() > 1 { rng.random_range(0..sets.len()) } else { 0 };
+    let s = if sets.len() > 1 {
+        rng.random_range(0..sets.len())
+    } else {
+        0
+    };
     let phi = if rotate { TAU * rng.random::<f64>() } else { 0.0 };
     let (sin, cos) = phi.sin_cos();
     let set = &sets[s];
