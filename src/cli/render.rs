@@ -6,6 +6,7 @@ use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
+use workbench::bmc::Scale;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
 use workbench::render::exact;
@@ -13,7 +14,6 @@ use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image, 
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::uncertainty::{PixelSds, coverage, coverage_map_png};
 use workbench::render::{Environment, Integrator, Renderer, check_size};
-use workbench::bmc::Scale;
 
 /// `--spp` when none is given.
 const DEFAULT_SPP: usize = 40;

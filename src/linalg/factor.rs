@@ -34,7 +34,11 @@ impl CholeskyFactor {
     /// (`b.len() == n · columns`), by forward and back substitution with `L`: O(n²) per column.
     pub fn solve_columns_in_place(&self, b: &mut [f64], columns: usize) {
         let n = self.n();
-        assert_eq!(b.len(), n * columns, "right-hand sides: n × columns, column-major");
+        assert_eq!(
+            b.len(),
+            n * columns,
+            "right-hand sides: n × columns, column-major"
+        );
         let mut rhs = faer::MatMut::from_column_major_slice_mut(b, n, columns);
         let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, columns, Par::Seq));
         llt::solve::solve_in_place(self.l.as_ref(), rhs.as_mut(), Par::Seq, MemStack::new(&mut mem));
@@ -53,8 +57,8 @@ impl CholeskyFactor {
                 let xj = x[j] / self.l[(j, j)];
                 x[j] = xj;
                 if xj != 0.0 {
-                    for k in j + 1..n {
-                        x[k] -= self.l[(k, j)] * xj;
+                    for (k, xk) in x.iter_mut().enumerate().skip(j + 1) {
+                        *xk -= self.l[(k, j)] * xj;
                     }
                 }
             }
@@ -77,7 +81,8 @@ mod tests {
         ws.factor_entries(3, |i, j| a[i][j]).unwrap();
         let kept = ws.keep_factor();
         let diag = ws.inverse_diagonal();
-        ws.factor_entries(2, |i, j| if i == j { 7.0 } else { 1.0 }).unwrap();
+        ws.factor_entries(2, |i, j| if i == j { 7.0 } else { 1.0 })
+            .unwrap();
         let x = [[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]];
         let mut b: Vec<f64> = x
             .iter()

@@ -77,6 +77,25 @@ impl Image {
         (sum / (3 * self.data.len()) as f64).sqrt()
     }
 
+    /// The RMSE over the pixels where `mask` (row-major) is true: `sqrt(mean((a − b)²))` over
+    /// their three channels; NaN for an empty mask.
+    pub fn rmse_masked(&self, reference: &Image, mask: &[bool]) -> f64 {
+        assert_eq!((self.width, self.height), (reference.width, reference.height));
+        assert_eq!(mask.len(), self.data.len(), "one mask entry per pixel");
+        let (mut sum, mut n) = (0.0, 0usize);
+        for ((a, b), _) in self
+            .data
+            .iter()
+            .zip(&reference.data)
+            .zip(mask)
+            .filter(|(_, m)| **m)
+        {
+            sum += (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>();
+            n += 3;
+        }
+        (sum / n as f64).sqrt()
+    }
+
     /// An [`InputError`] unless `other` (read from `what`) has this image's size.
     pub fn check_same_size(&self, other: &Image, what: &str) -> Result<(), InputError> {
         if (self.width, self.height) == (other.width, other.height) {
@@ -155,7 +174,14 @@ impl Image {
         max_error: f64,
         map: ColourMap,
     ) -> crate::Result<ErrorImage> {
-        scalar_png(&self.error_norms(reference), self.width, self.height, scale, max_error, map)
+        scalar_png(
+            &self.error_norms(reference),
+            self.width,
+            self.height,
+            scale,
+            max_error,
+            map,
+        )
     }
 }
 
@@ -212,7 +238,12 @@ pub fn scalar_png(
 /// An 8-bit RGB picture (row-major `width × height` colours) with, on its right, a legend of
 /// colour swatches, each labelled (digits, `.`, `e`, `-`, `+` only: the bitmap font has no
 /// letters), top to bottom: for categorical maps such as the coverage map.
-pub fn legend_png(colours: &[[u8; 3]], width: usize, height: usize, legend: &[([u8; 3], &str)]) -> crate::Result<Vec<u8>> {
+pub fn legend_png(
+    colours: &[[u8; 3]],
+    width: usize,
+    height: usize,
+    legend: &[([u8; 3], &str)],
+) -> crate::Result<Vec<u8>> {
     assert_eq!(colours.len(), width * height, "one colour per pixel");
     let s = (height / 96).clamp(1, 3);
     let chars = legend.iter().map(|(_, l)| l.chars().count()).max().unwrap_or(0);

@@ -6,7 +6,9 @@ use super::camera::Camera;
 use super::env::Environment;
 use super::exact;
 use super::image::Image;
-use super::integrator::neighbours::{NeighbourPrior, PixelGeometry, edge_aware_prior, first_pass, neighbour_prior};
+use super::integrator::neighbours::{
+    NeighbourPrior, PixelGeometry, edge_aware_prior, first_pass, neighbour_prior,
+};
 use super::integrator::{Integrator, ShadingPoint};
 use super::scene::{Rgb, Scene};
 use super::uncertainty::PixelSds;
@@ -83,7 +85,12 @@ impl Renderer {
 
     /// [`Renderer::render`] and the sd each pixel's estimator states per channel (the integrator
     /// must come from [`Integrator::with_uncertainty`]); the image is the one `render` gives.
-    pub fn render_with_sd(&self, integrator: &Integrator, seed: u64, progress: &dyn Reporter) -> (Image, PixelSds) {
+    pub fn render_with_sd(
+        &self,
+        integrator: &Integrator,
+        seed: u64,
+        progress: &dyn Reporter,
+    ) -> (Image, PixelSds) {
         assert!(
             integrator.uncertainty.is_some(),
             "render_with_sd needs Integrator::with_uncertainty"
@@ -166,7 +173,14 @@ impl Renderer {
     }
 
     /// [`Renderer::pixel`] with the stated uncertainty ([`Integrator::estimate_with_sd`]).
-    fn pixel_with_sd(&self, i: usize, j: usize, integrator: &Integrator, seed: u64, prior: Rgb) -> Option<PixelOut> {
+    fn pixel_with_sd(
+        &self,
+        i: usize,
+        j: usize,
+        integrator: &Integrator,
+        seed: u64,
+        prior: Rgb,
+    ) -> Option<PixelOut> {
         let p = self.shading_point(i, j)?;
         let mut rng = stream(seed, &[PIXELS, (j * self.width + i) as u64]);
         Some(integrator.estimate_with_sd(&p, &self.scene, &self.env, &mut rng, prior))

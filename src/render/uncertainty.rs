@@ -145,7 +145,12 @@ pub const BACKGROUND: [u8; 3] = [40, 40, 40];
 /// `0`). Calibrated 95% intervals leave about 14% of pixels orange (1 − 0.95³) and almost none
 /// red if the channels' errors were independent; they are strongly correlated here (one set of
 /// directions serves all three), so fewer are orange and red marks where the model is wrong.
-pub fn coverage_map_png(image: &Image, reference: &Image, sds: &PixelSds, level: f64) -> crate::Result<Vec<u8>> {
+pub fn coverage_map_png(
+    image: &Image,
+    reference: &Image,
+    sds: &PixelSds,
+    level: f64,
+) -> crate::Result<Vec<u8>> {
     let q = sds.quantile(level);
     let colours: Vec<[u8; 3]> = (0..image.data.len())
         .map(|k| match sds.channels_covered(image, reference, q, k) {

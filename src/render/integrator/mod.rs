@@ -284,9 +284,8 @@ impl Integrator {
     /// standard error of its mean).
     pub fn with_uncertainty(mut self, scale: Scale, model: Option<&BmcModel>) -> crate::Result<Self> {
         if let Some(sets) = &mut self.sets {
-            let model = model.ok_or_else(|| {
-                InputError::new(format!("--integrator {}: needs a BMC model", self.kind))
-            })?;
+            let model = model
+                .ok_or_else(|| InputError::new(format!("--integrator {}: needs a BMC model", self.kind)))?;
             sets.keep_solvers(model, scale)?;
         }
         self.uncertainty = Some(scale);
@@ -339,7 +338,8 @@ impl Integrator {
             }
         }
         let method = self.kind.method;
-        let estimate = [0, 1, 2].map(|c| method.estimate(self.kind.design, &points, &values[c], weights, prior[c]));
+        let estimate =
+            [0, 1, 2].map(|c| method.estimate(self.kind.design, &points, &values[c], weights, prior[c]));
         let Some(scale) = self.uncertainty else {
             return (estimate, None);
         };

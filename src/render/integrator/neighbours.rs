@@ -36,16 +36,19 @@ pub struct PixelGeometry {
 }
 
 /// Normal exponent `α` of the edge-aware weights `(n·n_k)^α`. At 32 a neighbour whose normal
-/// differs by 10° keeps 0.61 of the weight, by 20° 0.14, by 30° 0.01: neighbours on the same
-/// smooth surface (normals at most a few degrees apart at 256×256, except right at the sphere's
-/// rim) count fully, across a crease they do not. Chosen by measurement (README, "Edge-aware
-/// BMCP": α ∈ {8, 32, 128} with τ = 0.05 changed the RMSE at edges by under 1%).
+/// differs by 10° keeps 0.61 of the weight, by 20° 0.14, by 30° 0.01: neighbours on one smooth
+/// surface count (almost) fully — in the default scene at 256×256 the largest angle between
+/// the normals of two neighbouring pixels of one surface is 9.4°, at the sphere's rim — and
+/// across a crease they do not.
 pub const EDGE_NORMAL_EXPONENT: f64 = 32.0;
 
 /// Relative depth jump `τ` beyond which a neighbour is on another surface: `|t_k − t| > τ t`.
-/// Between neighbouring pixels of one surface of this scene the depth changes by under 3%
-/// (largest at the sphere's grazing rim, 256×256); from the sphere to the ground behind it by
-/// 20% or more. 0.05 lies between.
+/// In the default scene at 256×256 neighbouring pixels of one surface differ in depth by at
+/// most 2.6% (the sphere's grazing rim), so 0.05 never splits a surface; across the sphere's
+/// silhouette the jump can be as small as 1.9% (where the sphere meets the ground), so there
+/// the normal test does the rejecting (every such pair has normals facing apart), and the depth
+/// test guards the case it cannot see: parallel surfaces at different depths.
+/// `tests/render.rs` (`edge_weights_separate_the_scene_surfaces`) measures both margins.
 pub const EDGE_DEPTH_TOLERANCE: f64 = 0.05;
 
 /// Normals closer than this cosine (30°) count as the same surface for the edge mask.
@@ -162,13 +165,14 @@ pub fn edge_mask(geometry: &[Option<PixelGeometry>], width: usize, height: usize
             let Some(g) = geometry[j * width + i] else {
                 continue;
             };
-            mask[j * width + i] = four_neighbours(width, height, i, j).any(|(ii, jj)| match geometry[jj * width + ii] {
-                None => true,
-                Some(k) => {
-                    g.normal.dot(&k.normal) < EDGE_MASK_COSINE
-                        || (k.depth - g.depth).abs() > EDGE_DEPTH_TOLERANCE * g.depth
-                }
-            });
+            mask[j * width + i] =
+                four_neighbours(width, height, i, j).any(|(ii, jj)| match geometry[jj * width + ii] {
+                    None => true,
+                    Some(k) => {
+                        g.normal.dot(&k.normal) < EDGE_MASK_COSINE
+                            || (k.depth - g.depth).abs() > EDGE_DEPTH_TOLERANCE * g.depth
+                    }
+                });
         }
     }
     mask
@@ -204,7 +208,10 @@ mod tests {
         let plain = neighbour_prior(&e, 3, 3, 1, 1);
         let edge = edge_aware_prior(&e, &g, 3, 3, 1, 1);
         for c in 0..3 {
-            assert!((plain[c] - edge[c]).abs() <= 1e-15 * plain[c].abs(), "{plain:?} vs {edge:?}");
+            assert!(
+                (plain[c] - edge[c]).abs() <= 1e-15 * plain[c].abs(),
+                "{plain:?} vs {edge:?}"
+            );
         }
         // Only neighbours weighed equally reduce to the mean: tilt one by 10°.
         let mut tilted = g.clone();
@@ -237,14 +244,20 @@ mod tests {
         // Pixel (1, 0) of a 3×1 image: left neighbour behind, right one the same surface.
         let e = vec![Some([9.0; 3]), None, Some([1.0, 2.0, 3.0])];
         let g = vec![Some(ground_behind), Some(here), Some(here)];
-        assert_eq!(edge_aware_prior(&e, &g, 3, 1, 1, 0), [1.0 / TAU, 2.0 / TAU, 3.0 / TAU]);
+        assert_eq!(
+            edge_aware_prior(&e, &g, 3, 1, 1, 0),
+            [1.0 / TAU, 2.0 / TAU, 3.0 / TAU]
+        );
         let g = vec![Some(ground_behind), Some(here), Some(facing_away)];
         assert_eq!(edge_aware_prior(&e, &g, 3, 1, 1, 0), [0.0; 3]);
         // The edge mask marks the middle pixel (a rejected neighbour) and both ends (theirs).
         assert_eq!(edge_mask(&g, 3, 1), vec![true, true, true]);
         let flat = vec![Some(here); 3];
         assert_eq!(edge_mask(&flat, 3, 1), vec![false; 3]);
-        assert_eq!(edge_mask(&[None, Some(here), Some(here)], 3, 1), vec![false, true, false]);
+        assert_eq!(
+            edge_mask(&[None, Some(here), Some(here)], 3, 1),
+            vec![false, true, false]
+        );
     }
 
     #[test]
