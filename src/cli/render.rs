@@ -25,6 +25,7 @@ use workbench::report::Reporter;
     workbench render --integrator exact --out ref.exr\n  \
     workbench render --integrator mc --spp 3000 --out ref-mc.exr\n  \
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr\n  \
+    workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr --sd-out bmc-sd.exr\n  \
     workbench render experiments/render-table.json\n\n\
     Render-table fields are documented in the README (\"Tables\"); the scene in docs/render-scene.md.\n\n\
     Exit codes: 0 success; 2 any error (bad input, I/O).")]
