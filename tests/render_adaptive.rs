@@ -163,7 +163,7 @@ fn the_command_writes_the_spp_map() {
 #[test]
 fn bad_adaptive_options_are_exit_2() {
     let dir = tempfile::tempdir().unwrap();
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 8] = [
         (&["--target-sd", "0.01"], "--target-sd: needs --max-spp"),
         (&["--max-spp", "64"], "--max-spp: applies to adaptive sampling"),
         (
@@ -190,6 +190,14 @@ fn bad_adaptive_options_are_exit_2() {
                 "1",
             ],
             "--spp 1: the first stage of adaptive MC",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "64", "--sd-out", "sd.exr"],
+            "--sd-out: does not apply to an adaptive single image",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "64", "--scale", "unit"],
+            "--scale: does not apply to an adaptive single image",
         ),
     ];
     for (flags, expected) in cases {

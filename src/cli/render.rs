@@ -215,7 +215,14 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             error_max: args.error_max,
             grey: args.error_colours.as_deref() == Some("grey"),
             unused: (args.tolerance.map(|_| "--tolerance"))
-                .or(args.results_dir.as_ref().map(|_| "--results-dir")),
+                .or(args.results_dir.as_ref().map(|_| "--results-dir"))
+                .or(args.sd_out.as_ref().map(|_| "--sd-out"))
+                .or(args.scale.as_ref().map(|_| "--scale"))
+                .or(args
+                    .error_scale
+                    .as_ref()
+                    .filter(|v| v.as_str() != "absolute")
+                    .map(|_| "--error-scale")),
             model: &args.model,
             quiet: args.quiet,
         });
