@@ -165,12 +165,11 @@ impl RingFactor {
             })
             .collect();
         let dft = Dft::new(per_ring);
-        // spectra[f][pair(a, b)] = (B_f)_ab for a ≥ b, f ≤ M/2, frequency-major so that each
-        // block is assembled from one contiguous row; two pairs per complex transform (both
-        // sequences are real and even, so their transforms are real and separate), written out
-        // a batch of pairs at a time to keep the transposition cache-friendly.
-        let pairs: Vec<(usize, usize)> = (0..rings).flat_map(|a| (0..=a).map(move |b| (a, b))).collect();
-        let mut spectra = vec![0.0; pairs.len() * (half + 1)];
+        // (B_f)_ab for a ≥ b, f ≤ M/2, written straight into the blocks. Two pairs per complex
+        // transform (both sequences are real and even, so their transforms are real and
+        // separate); pairs column by column (b, then a ≥ b), a batch at a time, so that each
+        // block receives a contiguous run of a column per batch.
+        let pairs: Vec<(usize, usize)> = (0..rings).flat_map(|b| (b..rings).map(move |a| (a, b))).collect();
         let (mut re, mut im, mut scratch) = (vec![0.0; per_ring], vec![0.0; per_ring], Vec::new());
         let fill = |(a, b): (usize, usize), out: &mut [f64]| {
             kernel.fill_against(&ring_points[b], 0, &Vec3::new(s[a], 0.0, z[a]), &mut out[..=half]);
@@ -182,31 +181,27 @@ impl RingFactor {
             }
         };
         const BATCH: usize = 16;
-        let pair_count = pairs.len();
         let mut batch = vec![0.0; BATCH * (half + 1)];
-        for (batch_index, batch_pairs) in pairs.chunks(BATCH).enumerate() {
-            for (chunk_index, chunk) in batch_pairs.chunks(2).enumerate() {
-                fill(chunk[0], &mut re);
-                match chunk.get(1) {
-                    Some(&p) => fill(p, &mut im),
-                    None => im.fill(0.0),
+        let mut assemble = |factors: &mut [Mat<f64>]| {
+            for batch_pairs in pairs.chunks(BATCH) {
+                for (chunk_index, chunk) in batch_pairs.chunks(2).enumerate() {
+                    fill(chunk[0], &mut re);
+                    match chunk.get(1) {
+                        Some(&p) => fill(p, &mut im),
+                        None => im.fill(0.0),
+                    }
+                    dft.transform(&mut re, &mut im, false, &mut scratch);
+                    for (k, part) in [&re, &im].into_iter().enumerate().take(chunk.len()) {
+                        let p = 2 * chunk_index + k;
+                        batch[p * (half + 1)..(p + 1) * (half + 1)].copy_from_slice(&part[..=half]);
+                    }
                 }
-                dft.transform(&mut re, &mut im, false, &mut scratch);
-                for (k, part) in [&re, &im].into_iter().enumerate().take(chunk.len()) {
-                    let p = 2 * chunk_index + k;
-                    batch[p * (half + 1)..(p + 1) * (half + 1)].copy_from_slice(&part[..=half]);
+                for (f, l) in factors.iter_mut().enumerate() {
+                    for (p, &(a, b)) in batch_pairs.iter().enumerate() {
+                        l[(a, b)] = batch[p * (half + 1) + f];
+                    }
                 }
             }
-            let first = batch_index * BATCH;
-            for f in 0..=half {
-                for p in 0..batch_pairs.len() {
-                    spectra[f * pair_count + first + p] = batch[p * (half + 1) + f];
-                }
-            }
-        }
-        let pair_index = |a: usize, b: usize| {
-            let (a, b) = if a >= b { (a, b) } else { (b, a) };
-            a * (a + 1) / 2 + b
         };
         // Every diagonal entry of Q is κ(0) + σ_n².
         let mean_diag = kernel.diagonal() + noise;
@@ -218,15 +213,14 @@ impl RingFactor {
         ));
         let mut jitter = 0.0;
         for step in 0..=JITTER_STEPS {
+            // Each attempt assembles the blocks again: a failed factorisation overwrote them.
+            assemble(&mut factors);
             if step > 0 {
                 jitter = JITTER_START * 10f64.powi(step as i32 - 1) * mean_diag;
             }
             let mut ok = true;
-            for (f, l) in factors.iter_mut().enumerate() {
+            for l in factors.iter_mut() {
                 for b in 0..rings {
-                    for a in b..rings {
-                        l[(a, b)] = spectra[f * pair_count + pair_index(a, b)];
-                    }
                     l[(b, b)] += jitter;
                 }
                 ok = llt::factor::cholesky_in_place(

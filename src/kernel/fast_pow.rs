@@ -139,7 +139,11 @@ mod tests {
             let rel = ((pow(x, p) - want) / want).abs();
             let scale = 1.0 + (p * x.ln()).abs();
             worst = worst.max(rel / scale);
-            assert!(rel <= 1e-15 * scale, "x={x:e} p={p}: relative error {rel:e} > {:e}", 1e-15 * scale);
+            assert!(
+                rel <= 1e-15 * scale,
+                "x={x:e} p={p}: relative error {rel:e} > {:e}",
+                1e-15 * scale
+            );
             // The scalar path without the dispatch gives the same bits.
             assert_eq!(pow(x, p).to_bits(), pow_inline(x, p).to_bits());
         };
