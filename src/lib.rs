@@ -25,6 +25,7 @@ pub mod ring_solver;
 pub mod rng;
 pub mod rule;
 pub mod sampling;
+pub mod schema;
 pub mod stats;
 pub mod threads;
 
