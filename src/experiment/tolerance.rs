@@ -9,11 +9,11 @@ use serde::Serialize;
 
 /// Whether a design's first N points are the same whatever the final N, so that a stage can
 /// extend the one before it: i.i.d. points and the Sobol sequence are; the Fibonacci lattice
-/// and the jittered grid depend on N.
+/// the jittered grid and the rings depend on N.
 pub fn is_nested(design: SetDesign) -> bool {
     match design {
         SetDesign::Iid(_) | SetDesign::Sobol => true,
-        SetDesign::Fibonacci | SetDesign::Stratified => false,
+        SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Rings => false,
     }
 }
 
