@@ -132,13 +132,17 @@ fn results_folder_holds_one_run_after_another_experiment() {
     assert_eq!(
         listing(&d.join("o")),
         [
+            "cos-cost.svg",
             "cos-coverage.svg",
             "cos.svg",
+            "cos2-cost.svg",
             "cos2-coverage.svg",
             "cos2.svg",
             "fits.csv",
             "manifest.json",
             "summary.csv",
+            "timings-summary.csv",
+            "timings-trials.csv",
             "timings.json",
             "trials.csv"
         ]

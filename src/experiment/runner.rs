@@ -11,6 +11,7 @@ use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
 use crate::sampling::SetDesign;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// Stream identifiers under the experiment's seed.
 const SAMPLES_STREAM: u64 = 1;
@@ -32,6 +33,22 @@ pub struct UnitResult {
     pub messages: Vec<String>,
     /// `fitted[integrand][estimator]`: the amplitude was fitted (`ml` or `loo`).
     pub fitted: Vec<Vec<bool>>,
+    /// What each estimator cost ([`Cost`]); wall-clock, so outside the byte-identical outputs.
+    pub cost: Cost,
+}
+
+/// Wall-clock seconds of one unit, split so that work shared between estimators is visible.
+#[derive(Debug, Clone, Default)]
+pub struct Cost {
+    /// `weight_set[estimator]`: seconds to compute the estimator's weight set (and the fitted
+    /// amplitudes that use its factor); an estimator sharing the set with others shows the
+    /// same figure (0 for MC).
+    pub weight_set: Vec<f64>,
+    /// `seconds[integrand][estimator]`: what the estimator alone would have cost on this
+    /// integrand: drawing its points, its weight set, evaluating the integrand, combining.
+    pub seconds: Vec<Vec<f64>>,
+    /// `evaluations[integrand][estimator]`: integrand evaluations the estimator needs.
+    pub evaluations: Vec<Vec<u64>>,
 }
 
 impl UnitResult {
@@ -63,23 +80,28 @@ impl Results {
 
 /// Runs every unit; `tick` is called once per finished unit (for a progress bar).
 pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> crate::Result<Results> {
-    let units = plan.samples.len() * plan.trials;
+    let units: Vec<usize> = (0..plan.samples.len() * plan.trials).collect();
+    Ok(Results {
+        units: run_units(plan, &units, tick)?,
+    })
+}
+
+/// Runs the given units (`u = n_index · trials + trial`) in parallel; results in their order.
+pub fn run_units(plan: &Plan, units: &[usize], tick: &(dyn Fn() + Sync)) -> crate::Result<Vec<UnitResult>> {
     thread_local! {
         // One workspace per worker thread for the whole run (map_init would make one per
         // work split, churning allocations of n_max² matrices).
         static WORKSPACE: std::cell::RefCell<SpdWorkspace> = std::cell::RefCell::new(SpdWorkspace::new());
     }
-    let results: Vec<crate::Result<UnitResult>> = (0..units)
-        .into_par_iter()
-        .map(|u| {
+    let results: Vec<crate::Result<UnitResult>> = units
+        .par_iter()
+        .map(|&u| {
             let r = WORKSPACE.with_borrow_mut(|ws| run_unit(plan, u / plan.trials, u % plan.trials, ws));
             tick();
             r
         })
         .collect();
-    Ok(Results {
-        units: results.into_iter().collect::<crate::Result<_>>()?,
-    })
+    results.into_iter().collect()
 }
 
 /// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`.
@@ -90,17 +112,21 @@ pub fn run_unit(
     workspace: &mut SpdWorkspace,
 ) -> crate::Result<UnitResult> {
     let n = plan.samples[n_index];
+    let mut sample_seconds = Vec::with_capacity(plan.designs.len());
     let sets: Vec<Vec<crate::geometry::Vec3>> = plan
         .designs
         .iter()
         .map(|&d| {
-            d.sample_set(
+            let clock = Instant::now();
+            let set = d.sample_set(
                 n,
                 &mut stream(
                     plan.seed,
                     &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
                 ),
-            )
+            );
+            sample_seconds.push(clock.elapsed().as_secs_f64());
+            set
         })
         .collect();
     let set_of = |d: SetDesign| {
@@ -119,11 +145,13 @@ pub fn run_unit(
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
     let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
+    let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model else { continue };
         if weights.iter().any(|(k, _)| *k == (m, e.design)) {
             continue;
         }
+        let clock = Instant::now();
         let mut rng = stream(
             plan.seed,
             &[
@@ -171,6 +199,7 @@ pub fn run_unit(
             }
         }
         weights.push(((m, e.design), w));
+        weight_seconds.push(clock.elapsed().as_secs_f64());
     }
     let weights_of = |e: &super::plan::PlannedEstimator| {
         e.model.map(|m| {
@@ -182,17 +211,38 @@ pub fn run_unit(
         })
     };
 
+    let weight_set_seconds: Vec<f64> = plan
+        .estimators
+        .iter()
+        .map(|e| {
+            e.model.map_or(0.0, |m| {
+                weight_seconds[weights
+                    .iter()
+                    .position(|(k, _)| *k == (m, e.design))
+                    .expect("computed above")]
+            })
+        })
+        .collect();
     let mut estimates = Vec::with_capacity(ni);
     let mut uncertainty = Vec::with_capacity(ni);
     let mut fitted = Vec::with_capacity(ni);
+    let mut seconds = Vec::with_capacity(ni);
     for (fi, f) in plan.integrands.iter().enumerate() {
+        let mut evaluate_seconds = Vec::with_capacity(sets.len());
         let values: Vec<Vec<f64>> = sets
             .iter()
-            .map(|s| s.iter().map(|w| f.value(w)).collect())
+            .map(|s| {
+                let clock = Instant::now();
+                let v = s.iter().map(|w| f.value(w)).collect();
+                evaluate_seconds.push(clock.elapsed().as_secs_f64());
+                v
+            })
             .collect();
         let mut row = Vec::with_capacity(plan.estimators.len());
         let mut sds = Vec::with_capacity(plan.estimators.len());
+        let mut costs = Vec::with_capacity(plan.estimators.len());
         for (ei, e) in plan.estimators.iter().enumerate() {
+            let clock = Instant::now();
             let d = plan
                 .designs
                 .iter()
@@ -211,7 +261,14 @@ pub fn run_unit(
                 e.scale.unwrap_or(Scale::Unit),
                 amplitudes[fi][ei].unwrap_or(1.0),
             ));
+            costs.push(
+                sample_seconds[d]
+                    + weight_set_seconds[ei]
+                    + evaluate_seconds[d]
+                    + clock.elapsed().as_secs_f64(),
+            );
         }
+        seconds.push(costs);
         estimates.push(row);
         uncertainty.push(sds);
         fitted.push(amplitudes[fi].iter().map(Option::is_some).collect::<Vec<bool>>());
@@ -267,6 +324,7 @@ pub fn run_unit(
             }
         }
     }
+    let evaluations = vec![vec![n as u64; plan.estimators.len()]; ni];
     Ok(UnitResult {
         estimates,
         uncertainty,
@@ -274,5 +332,10 @@ pub fn run_unit(
         warnings,
         messages,
         fitted,
+        cost: Cost {
+            weight_set: weight_set_seconds,
+            seconds,
+            evaluations,
+        },
     })
 }
