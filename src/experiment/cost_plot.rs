@@ -1,7 +1,9 @@
 //! One SVG per integrand, `<integrand>-cost.svg`: each estimator's mean absolute error against
-//! its mean wall-clock seconds per trial, log–log, one point per N — the equal-time comparison
+//! its median wall-clock seconds per trial, log–log, one point per N — the equal-time comparison
 //! ("is BMC worth it at equal time?"). An estimator below another at the same seconds is the
-//! better buy. Wall-clock, so machine-dependent: the file is written but never committed. Same
+//! better buy. The median, not the mean, of the seconds: on a busy machine a preempted trial
+//! takes milliseconds, which would swamp the mean of an estimator that needs microseconds.
+//! Wall-clock, so machine-dependent: the file is written but never committed. Same
 //! look as [`super::plot`].
 
 use super::plan::Plan;
@@ -23,7 +25,7 @@ pub fn cost_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Re
 /// time below the clock's resolution).
 fn drawable(c: &CellSummary) -> bool {
     let ok = |v: f64| v.is_finite() && v > 0.0;
-    ok(c.mean_seconds) && ok(c.mean_abs_error)
+    ok(c.median_seconds) && ok(c.mean_abs_error)
 }
 
 fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
@@ -38,7 +40,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
             s
         })
         .collect();
-    let xs: Vec<f64> = series.iter().flatten().map(|c| c.mean_seconds).collect();
+    let xs: Vec<f64> = series.iter().flatten().map(|c| c.median_seconds).collect();
     let ys: Vec<f64> = series.iter().flatten().map(|c| c.mean_abs_error).collect();
     let (x0, x1) = style::padded_log_range(&xs, 1.5);
     let (y0, y1) = style::padded_log_range(&ys, 1.5);
@@ -61,8 +63,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
     legend.push(LegendEntry {
         swatch: Swatch::Text,
         text: format!(
-            "one point per N: mean |Î − I| over the {} trials against the mean wall-clock seconds per trial of \
-             the estimator alone (drawing its points, its weight set — shared sets counted in full for each \
+            "one point per N: mean |Î − I| over the {} trials against the median wall-clock seconds per trial \
+             of the estimator alone (drawing its points, its weight set — shared sets counted in full for each \
              estimator — evaluating the integrand, combining); machine-dependent",
             plan.trials
         ),
@@ -78,7 +80,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
             &header,
             &format!("{}: error at equal cost", plan.title),
             &format!(
-                "integrand {name}: mean absolute error against mean seconds per trial; {} trials per N",
+                "integrand {name}: mean absolute error against median seconds per trial; {} trials per N",
                 plan.trials
             ),
         )?;
@@ -94,7 +96,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
             )?;
         chart
             .configure_mesh()
-            .x_desc("mean wall-clock seconds per trial  [s]")
+            .x_desc("median wall-clock seconds per trial  [s]")
             .y_desc(format!("mean absolute error |Î − I| of ∫ {name} dω  [sr]"))
             .x_label_formatter(&|x| style::format_tick(*x, x_decimal))
             .y_label_formatter(&|y| style::format_tick(*y, y_decimal))
@@ -110,7 +112,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
                 continue;
             }
             let colour = style::colour(ei);
-            let line: Vec<(f64, f64)> = s.iter().map(|c| (c.mean_seconds, c.mean_abs_error)).collect();
+            let line: Vec<(f64, f64)> = s.iter().map(|c| (c.median_seconds, c.mean_abs_error)).collect();
             chart.draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))?;
             for p in line {
                 let at = chart.backend_coord(&p);

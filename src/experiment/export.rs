@@ -9,16 +9,18 @@ use super::summary::{CalibrationOutcome, CellSummary, CheckOutcome};
 use std::fmt::Write;
 
 /// `timings-summary.csv`: per (integrand, estimator, N), the mean absolute error against the
-/// mean integrand evaluations and wall-clock seconds per trial (the estimator alone, and its
-/// weight set, which estimators with the same model and design share). Machine-dependent.
+/// mean integrand evaluations and wall-clock seconds per trial (its weight set's mean, which
+/// estimators with the same model and design share, and the estimator alone: mean and
+/// median). Machine-dependent.
 pub fn timings_summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
     let mut s = String::from(
-        "integrand,estimator,n,trials,mean_abs_error,mean_evaluations,mean_weight_set_seconds,mean_seconds\n",
+        "integrand,estimator,n,trials,mean_abs_error,mean_evaluations,mean_weight_set_seconds,mean_seconds,\
+         median_seconds\n",
     );
     for c in cells {
         writeln!(
             s,
-            "{},{},{},{},{:?},{:?},{:?},{:?}",
+            "{},{},{},{},{:?},{:?},{:?},{:?},{:?}",
             plan.integrands[c.integrand].name(),
             csv_field(&plan.estimators[c.estimator].label),
             c.n,
@@ -26,7 +28,8 @@ pub fn timings_summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
             c.mean_abs_error,
             c.mean_evaluations,
             c.mean_weight_set_seconds,
-            c.mean_seconds
+            c.mean_seconds,
+            c.median_seconds as f32
         )
         .expect("writing to a String");
     }

@@ -86,7 +86,7 @@ pub fn write_set(
         folder.write(
             &format!("{}-cost.svg", f.name()),
             &format!(
-                "mean absolute error against mean seconds per trial for {} (machine-dependent; not committed)",
+                "mean absolute error against median seconds per trial for {} (machine-dependent; not committed)",
                 f.name()
             ),
             svg.as_bytes(),

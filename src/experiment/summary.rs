@@ -28,9 +28,11 @@ pub struct CellSummary {
     pub warnings: u64,
     /// Mean integrand evaluations per trial (deterministic).
     pub mean_evaluations: f64,
-    /// Mean wall-clock seconds per trial of the estimator alone, and of its weight set
-    /// (machine-dependent: `timings-summary.csv` only).
+    /// Mean and median wall-clock seconds per trial of the estimator alone, and the mean of
+    /// its weight set's (machine-dependent: `timings-summary.csv` only). The median shrugs off
+    /// the trials a busy machine preempted.
     pub mean_seconds: f64,
+    pub median_seconds: f64,
     pub mean_weight_set_seconds: f64,
 }
 
@@ -50,7 +52,8 @@ pub struct RowValues {
 }
 
 /// One cell's running state. Keeps two `f64` per trial (the absolute error and the stated sd,
-/// which medians, quantiles and the paired tests need) and counters for the rest.
+/// which medians, quantiles and the paired tests need), one `f32` (the seconds, for their
+/// median) and counters for the rest.
 #[derive(Debug, Clone)]
 struct CellState {
     errors: Vec<f64>,
@@ -64,11 +67,13 @@ struct CellState {
     warnings: u64,
     evaluations: u64,
     seconds: f64,
+    /// Each trial's seconds, for the median (single precision is plenty for a clock reading).
+    trial_seconds: Vec<f32>,
     weight_set_seconds: f64,
 }
 
 /// Per-cell summaries built row by row, in trial order within each cell, so that memory grows
-/// by 16 bytes per row (not by whole rows) and every statistic is the same as from all rows
+/// by 20 bytes per row (not by whole rows) and every statistic is the same as from all rows
 /// at once.
 #[derive(Debug, Clone)]
 pub struct Accumulator {
@@ -98,12 +103,14 @@ impl Accumulator {
             warnings: 0,
             evaluations: 0,
             seconds: 0.0,
+            trial_seconds: Vec::new(),
             weight_set_seconds: 0.0,
         };
         let mut cells = vec![cell; count];
         for c in &mut cells {
             c.errors.reserve_exact(plan.trials);
             c.sds.reserve_exact(plan.trials);
+            c.trial_seconds.reserve_exact(plan.trials);
         }
         Accumulator {
             estimators: plan.estimators.len(),
@@ -126,6 +133,7 @@ impl Accumulator {
         c.warnings += u64::from(row.warnings);
         c.evaluations += row.evaluations;
         c.seconds += row.seconds;
+        c.trial_seconds.push(row.seconds as f32);
         c.weight_set_seconds += row.weight_set_seconds;
         match row.sd {
             Some((sd, dof)) if c.all_sd => {
@@ -216,6 +224,8 @@ fn summarize_cell(
         quantile_sorted(&ratios, 0.5)
     });
     let trials = errors.len();
+    let mut seconds: Vec<f64> = c.trial_seconds.iter().map(|&x| f64::from(x)).collect();
+    seconds.sort_by(f64::total_cmp);
     CellSummary {
         integrand,
         estimator,
@@ -232,6 +242,7 @@ fn summarize_cell(
         warnings: c.warnings,
         mean_evaluations: c.evaluations as f64 / trials as f64,
         mean_seconds: c.seconds / trials as f64,
+        median_seconds: quantile_sorted(&seconds, 0.5),
         mean_weight_set_seconds: c.weight_set_seconds / trials as f64,
     }
 }
