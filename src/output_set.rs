@@ -287,6 +287,7 @@ impl ResultFolder {
         let file = File::create(&path).map_err(failed)?;
         let mut writer = std::io::BufWriter::with_capacity(1 << 16, file);
         fill(&mut writer)?;
+        crate::io::injected_failure(&path).map_err(failed)?;
         let file = writer.into_inner().map_err(|e| failed(e.into_error()))?;
         file.sync_all().map_err(failed)?;
         self.files.insert(name.into(), description.into());
@@ -294,12 +295,13 @@ impl ResultFolder {
     }
 
     /// Where one of [`PARTIAL_FILES`] goes: straight in the folder (created if need be), so
-    /// that it survives the command being interrupted.
+    /// that it survives the command failing or being interrupted. As the user named the
+    /// folder, for messages.
     pub fn partial_path(&self, name: &str) -> Result<PathBuf> {
         assert!(PARTIAL_FILES.contains(&name), "{name} is not a partial file");
         std::fs::create_dir_all(&self.target)
             .map_err(|e| Error::io(format!("creating folder {}", self.shown.display()), e))?;
-        Ok(self.target.join(name))
+        Ok(self.shown.join(name))
     }
 
     /// Writes one of [`PARTIAL_FILES`] straight into the folder (atomically), so that it

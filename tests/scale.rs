@@ -102,7 +102,42 @@ fn shards_merge_to_the_bytes_of_one_run_whatever_the_count_order_and_threads() {
         assert_eq!(costs.lines().count(), 1 + 2 * 4 * 3, "{costs}");
         let trials = std::fs::read_to_string(d.join(&merged).join("timings-trials.csv")).unwrap();
         assert_eq!(trials.lines().count(), 1 + 2 * 4 * 3 * 13);
+        check_cost_rows(&d.join(&merged).join("timings-trials.csv"));
     }
+}
+
+/// Every row: N evaluations, 0 ≤ weight-set seconds ≤ seconds (0 for MC), and BMC and BMCP,
+/// which share one weight set, show the same weight-set seconds in the same trial.
+fn check_cost_rows(path: &Path) {
+    let (header, rows) = read_csv(path);
+    assert_eq!(
+        header,
+        [
+            "integrand",
+            "estimator",
+            "n",
+            "trial",
+            "evaluations",
+            "weight_set_seconds",
+            "seconds"
+        ]
+    );
+    let mut bmc = std::collections::HashMap::new();
+    for r in &rows {
+        let (set, total): (f64, f64) = (r[5].parse().unwrap(), r[6].parse().unwrap());
+        assert_eq!(r[4], r[2], "evaluations = N: {r:?}");
+        assert!(0.0 <= set && set <= total && total < 10.0, "{r:?}");
+        if r[1] == "MC" {
+            assert_eq!(set, 0.0, "{r:?}");
+        }
+        if r[1] == "BMC" || r[1] == "BMCP" {
+            let key = (r[0].clone(), r[2].clone(), r[3].clone());
+            if let Some(other) = bmc.insert(key, set) {
+                assert_eq!(other, set, "BMC and BMCP share their weight set: {r:?}");
+            }
+        }
+    }
+    assert_eq!(bmc.len(), 2 * 3 * 13);
 }
 
 #[test]
