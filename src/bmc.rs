@@ -15,7 +15,7 @@ pub const DEFAULT_NOISE: f64 = 0.01;
 /// The kernel amplitude `λ` of the prior `f ~ GP(f̄, λk)` (nugget scaled too, so `Q` becomes
 /// `λQ`): the weights and estimates do not depend on it, only the posterior variance
 /// `λ · Var₁` does (math.md §7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Scale {
     /// `λ = 1` (the thesis): `Î ± z sqrt(Var₁)`. Not equivariant: multiplying `f` by 1000

@@ -24,6 +24,7 @@ pub mod report;
 pub mod rng;
 pub mod rule;
 pub mod sampling;
+pub mod schema;
 pub mod stats;
 pub mod threads;
 

@@ -18,7 +18,7 @@ pub const DEFAULT_SE_SIGMA: f64 = 1.0;
 pub const DEFAULT_SE_LENGTH: f64 = 0.5;
 
 /// `{"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(tag = "type", deny_unknown_fields)]
 pub enum KernelSpec {
     #[serde(rename = "sobolev")]
@@ -36,7 +36,7 @@ pub enum KernelSpec {
 }
 
 /// How the kernel means are obtained, by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum KernelMeanName {
     /// The exact, tabulated `z(μ)` (math.md §4).
@@ -60,7 +60,7 @@ impl KernelMeanName {
 }
 
 /// The model fields as given; `None` means "the default".
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -8,6 +8,7 @@ mod progress;
 mod render;
 mod rule;
 mod run;
+mod schema;
 
 use clap::{Parser, Subcommand};
 use output::{is_broken_pipe, status};
@@ -42,6 +43,8 @@ enum Command {
     Rule(rule::RuleArgs),
     /// Render the sphere-on-a-plane scene with any estimator, or an RMSE-against-spp table.
     Render(render::RenderArgs),
+    /// Print the JSON Schema (draft 2020-12) of experiment files or render tables.
+    Schema(schema::SchemaArgs),
 }
 
 /// Entry point of the binary.
@@ -64,6 +67,7 @@ pub fn main() -> ExitCode {
         Command::Merge(args) => merge::merge(args),
         Command::Rule(args) => rule::rule(args),
         Command::Render(args) => render::render(args),
+        Command::Schema(args) => schema::schema(args),
     };
     match result {
         Ok(code) => code,

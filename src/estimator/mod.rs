@@ -20,7 +20,7 @@ use crate::sampling::Design;
 use serde::{Deserialize, Serialize};
 
 /// An estimator of `∫_H f dω` from values on a sample set.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// Classical Monte Carlo, `Î = (1/N) Σ f(ω_i)/p(ω_i)` ([`mc`]).

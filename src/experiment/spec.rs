@@ -5,23 +5,36 @@
 use crate::estimator::Method;
 pub use crate::model_spec::{KernelMeanName, KernelSpec, ModelSpec};
 use crate::sampling::SetDesign;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// An experiment file. See the README ("Experiment files") for every field.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentSpec {
+    /// The JSON Schema this file follows (`workbench schema experiment`), for editors; ignored
+    /// by the tool and never written back.
+    #[serde(rename = "$schema", default, skip_serializing)]
+    pub schema: Option<String>,
     /// Folder name under `results/`: letters, digits, `-`, `_`, `.`; not starting with `.`.
+    #[schemars(regex(pattern = r"^[A-Za-z0-9_-][A-Za-z0-9._-]*$"), length(max = 100))]
     pub name: String,
     /// Plot title; defaults to the name.
     #[serde(default)]
     pub title: Option<String>,
     /// Integrands: names `cos`, `cos2`, `cos3`, … (`cos<k>` for any k ≥ 0) or family objects.
+    #[schemars(length(min = 1))]
     pub integrands: Vec<IntegrandSpec>,
+    /// The estimators compared, each with a unique `label`.
+    #[schemars(length(min = 1))]
     pub estimators: Vec<EstimatorSpec>,
-    /// Sample counts N.
+    /// Sample counts N, each at least 1 and listed once.
+    #[schemars(length(min = 1), inner(range(min = 1)))]
     pub samples: Vec<u64>,
+    /// Independent trials per N.
+    #[schemars(range(min = 1))]
     pub trials: u64,
+    /// Master seed: every random stream derives from it.
     pub seed: u64,
     #[serde(default)]
     pub checks: Vec<CheckSpec>,
@@ -32,14 +45,14 @@ pub struct ExperimentSpec {
 }
 
 /// One estimator of the comparison.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct EstimatorSpec {
     /// Unique name in outputs and checks.
     pub label: String,
-    /// One of [`Method::ALL`] by name.
+    /// The estimator's method by name (see `Method`).
     pub method: Method,
-    /// Sampling design, one of [`SetDesign::ALL`] by name; default `uniform`.
+    /// Sampling design by name; default `uniform`.
     #[serde(default)]
     pub design: Option<SetDesign>,
     /// BMC/BMCP only; default Sobolev with s = 1.4.
@@ -69,7 +82,7 @@ pub struct EstimatorSpec {
 }
 
 /// `"analytic"` or a number.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, JsonSchema)]
 #[serde(untagged)]
 pub enum PriorSpec {
     Named(PriorName),
@@ -106,7 +119,7 @@ impl<'de> Deserialize<'de> for PriorSpec {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum PriorName {
     Analytic,
@@ -128,7 +141,7 @@ impl EstimatorSpec {
 /// `than` for every integrand and every N ≥ `from_n`) or a calibration check (`calibrated`,
 /// `level`, `from_n`: the estimator's coverage at `level` lies in the binomial 99% band around
 /// `level` in every cell with N ≥ `from_n`).
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CheckSpec {
     #[serde(default)]
@@ -149,7 +162,7 @@ pub struct CheckSpec {
 }
 
 /// An integrand: a name (`"cos3"`) or a family object (`{"type": "lobe", …}`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
 #[serde(untagged)]
 pub enum IntegrandSpec {
     Named(String),
@@ -174,7 +187,7 @@ impl<'de> Deserialize<'de> for IntegrandSpec {
 }
 
 /// A rendering-like integrand about a tilted axis (math.md §1, "Rendering-like integrands").
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum FamilySpec {
     /// `max(0, ω·a)^e · (ω·n)^m`.

@@ -455,10 +455,9 @@ mod tests {
     #[test]
     fn errors_name_file_path_and_value() {
         let base = r#""name": "t", "variants": [{"integrator": "mc"}]"#;
-        assert!(
-            err(&format!("{{{base}, \"colour\": 1}}"))
-                .starts_with("t.json: colour: unknown field `colour`, expected one of `name`, `seed`")
-        );
+        assert!(err(&format!("{{{base}, \"colour\": 1}}")).starts_with(
+            "t.json: colour: unknown field `colour`, expected one of `$schema`, `name`, `seed`"
+        ));
         assert_eq!(
             err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),
             "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bsq"

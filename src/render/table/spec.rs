@@ -12,12 +12,17 @@
 
 use crate::model_spec::ModelSpec;
 use crate::render::integrator::IntegratorKind;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// A render table. See the README ("Tables") for every field.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TableSpec {
+    /// The JSON Schema this file follows (`workbench schema render-table`), for editors;
+    /// ignored by the tool and never written back.
+    #[serde(rename = "$schema", default, skip_serializing)]
+    pub schema: Option<String>,
     /// Output folder name under the results folder: A–Z, a–z, 0–9, `-`, `_`.
     pub name: String,
     /// Master seed; default 0.
@@ -48,13 +53,13 @@ pub struct TableSpec {
 }
 
 /// One row of the table.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct VariantSpec {
     /// Row label; default the integrator's name.
     #[serde(default)]
     pub label: Option<String>,
-    /// One of [`IntegratorKind::all`] by name.
+    /// The per-pixel integrator by name.
     pub integrator: IntegratorKind,
     /// Sample sets (integrators with weights only); default 4.
     #[serde(default)]
@@ -67,7 +72,7 @@ pub struct VariantSpec {
 /// The reference image: `{"method": "exact"}` (the default; optional `tolerance`) or
 /// `{"method": "mc", "spp": 3000}` (optional `seed`). Without `method`, `spp` or `seed` mean MC
 /// (the form of files written before the exact reference existed).
-#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReferenceSpec {
     #[serde(default)]
@@ -81,7 +86,7 @@ pub struct ReferenceSpec {
 }
 
 /// How the reference is computed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ReferenceMethod {
     /// Every pixel by the certified quadrature (`render::exact`).
@@ -91,7 +96,7 @@ pub enum ReferenceMethod {
 }
 
 /// `10` (every spp) or `[80, 40, 26, 20]` (one per spp).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
 #[serde(untagged)]
 pub enum Repetitions {
     All(u64),
