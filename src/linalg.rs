@@ -8,6 +8,9 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::{Mat, Par};
 
+mod factor;
+pub use factor::CholeskyFactor;
+
 /// The jitter ladder: after a failed factorisation, `JITTER_START · mean(diag Q)` is added to the
 /// diagonal, growing tenfold per step, at most `JITTER_STEPS` times (so up to `1e-4 · mean(diag)`).
 pub const JITTER_START: f64 = 1e-12;

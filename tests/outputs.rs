@@ -526,7 +526,9 @@ fn half_replaced_result_set_table_failing_at_the_end_keeps_its_rows_apart() {
         1 + 2 * 3,
         "every render's row: {partial}"
     );
-    assert!(partial.starts_with("variant,integrator,gps,rotate,spp,repetition,seed,rmse\n"));
+    assert!(partial.starts_with(
+        "variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,coverage95_edges\n"
+    ));
     assert_eq!(listing(&d.join("out")), ["cache", "t"]);
     // The next complete table replaces the folder, partial rows included.
     ok(&workbench(d, &["render", "t.json", "--results-dir", "out", "-q"]));

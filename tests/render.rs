@@ -159,6 +159,7 @@ fn one_sample_along_the_normal_shows_the_sky_reflected() {
         kind: IntegratorKind::BMC,
         spp: 1,
         sets: Some(BmcSets::from_points(vec![vec![Vec3::z()]], false, &m, 0).unwrap()),
+        uncertainty: None,
     };
     let w = sets(&integ).sets[0].weights.weights[0];
     let img = r.render(&integ, 0, &hidden());
@@ -279,4 +280,178 @@ fn rmse_falls_with_spp_and_bmc_beats_mc() {
         );
         previous = mean;
     }
+}
+
+/// The per-pixel posterior sd (`render --sd-out`) is math.md §7 computed from scratch: at a
+/// ground pixel and a sphere pixel, `Q` assembled entry by entry, inverted densely (an
+/// independent check, not the Cholesky path), `λ̂ = rᵀQ⁻¹r / dof`, `Var₁ = V̂ − zᵀQ⁻¹z` (plus
+/// §8's term for Bayes–Sard) and `sd = sqrt(λ̂ Var₁)`, for BMC, BMCP with a prior and
+/// Bayes–Sard, every amplitude scale, every channel; the estimate is the one without sds.
+#[test]
+fn pixel_sd_matches_a_dense_computation() {
+    use workbench::bmc::Scale;
+    use workbench::render::integrator::ShadingPoint;
+    use workbench::rng::stream;
+    let r = Renderer::new(32, 32, Environment::Sky);
+    let m = model();
+    let spp = 12;
+    for kind in [
+        IntegratorKind::BMC,
+        IntegratorKind::BMCP,
+        IntegratorKind::from_name("bsq").unwrap(),
+    ] {
+        for scale in [Scale::Unit, Scale::Ml, Scale::Loo] {
+            let plain = bmc(kind, spp, 2, true, &m, 5);
+            let integ = plain.clone().with_uncertainty(scale, Some(&m)).unwrap();
+            for (i, j) in [(16, 28), (16, 12)] {
+                let p: ShadingPoint = r.shading_point(i, j).expect("a hit pixel");
+                let prior = if kind.method.uses_prior() {
+                    [0.1, 0.2, 0.05]
+                } else {
+                    [0.0; 3]
+                };
+                let mut rng = stream(3, &[i as u64, j as u64]);
+                let (value, sd) = integ.estimate_with_sd(&p, &r.scene, &r.env, &mut rng.clone(), prior);
+                assert_eq!(
+                    value,
+                    plain.estimate(&p, &r.scene, &r.env, &mut rng.clone(), prior)
+                );
+                let sd = sd.expect("an integrator with uncertainty states an sd");
+                let (set, points) = sets(&integ).pick(&mut rng);
+                let n = points.len();
+                let q = nalgebra::DMatrix::from_fn(n, n, |a, b| {
+                    m.kernel.eval(&set.points[a], &set.points[b]) + if a == b { m.noise } else { 0.0 }
+                });
+                let qi = q.try_inverse().expect("Q is invertible");
+                let z = nalgebra::DVector::from_iterator(n, set.points.iter().map(|x| m.table().z(x.z)));
+                let ones = nalgebra::DVector::from_element(n, 1.0);
+                let mut var1 = m.prior_variance() - z.dot(&(&qi * &z));
+                if kind.name() == "bsq" {
+                    let gap = std::f64::consts::TAU - ones.dot(&(&qi * &z));
+                    var1 += gap * gap / ones.dot(&(&qi * &ones));
+                }
+                for c in 0..3 {
+                    let y = nalgebra::DVector::from_iterator(
+                        n,
+                        points.iter().map(|v| p.integrand(&r.scene, &r.env, v)[c]),
+                    );
+                    let offset = match kind.name().as_str() {
+                        "bmc" => 0.0,
+                        "bmcp" => prior[c],
+                        _ => ones.dot(&(&qi * &y)) / ones.dot(&(&qi * &ones)),
+                    };
+                    let res = &y - &ones * offset;
+                    let solved = &qi * &res;
+                    let dof = if kind.name() == "bsq" { n - 1 } else { n };
+                    let lambda = match scale {
+                        Scale::Unit => 1.0,
+                        Scale::Ml => res.dot(&solved) / dof as f64,
+                        Scale::Loo => {
+                            (0..n).map(|a| solved[a] * solved[a] / qi[(a, a)]).sum::<f64>() / n as f64
+                        }
+                    };
+                    let want = (lambda * var1).sqrt();
+                    assert!(
+                        (sd[c].sd - want).abs() <= 1e-8 * want,
+                        "{kind} {scale:?} pixel ({i}, {j}) channel {c}: {} vs {want}",
+                        sd[c].sd
+                    );
+                    assert_eq!(sd[c].dof, (scale == Scale::Ml).then_some(dof));
+                }
+            }
+        }
+    }
+}
+
+/// `render_with_sd` gives the image `render` gives, bit for bit, with sds on exactly the hit
+/// pixels (positive there, 0 on the background), for the plain and the edge-aware BMCP.
+#[test]
+fn render_with_sd_keeps_the_image() {
+    use workbench::bmc::Scale;
+    let r = Renderer::new(24, 24, Environment::Sky);
+    let m = model();
+    for kind in [
+        IntegratorKind::BMC,
+        IntegratorKind::BMCP,
+        IntegratorKind::BMCP_EDGE,
+    ] {
+        let plain = bmc(kind, 10, 3, true, &m, 8);
+        let image = r.render(&plain, 4, &hidden());
+        let integ = plain.with_uncertainty(Scale::Ml, Some(&m)).unwrap();
+        let (again, sds) = r.render_with_sd(&integ, 4, &hidden());
+        assert_eq!(image, again, "{kind}");
+        assert_eq!(sds.dof, Some(10));
+        let hit: Vec<bool> = r.geometry().iter().map(Option::is_some).collect();
+        assert_eq!(sds.hit, hit);
+        // A zero sd is a zero fitted amplitude (every sample of the channel occluded), counted.
+        let mut zero = 0;
+        for (k, s) in sds.sd.data.iter().enumerate() {
+            if hit[k] {
+                assert!(
+                    s.iter().all(|&v| v >= 0.0 && v.is_finite()),
+                    "{kind} pixel {k}: {s:?}"
+                );
+                zero += s.iter().filter(|&&v| v == 0.0).count();
+            } else {
+                assert_eq!(*s, [0.0; 3]);
+            }
+        }
+        assert_eq!(zero, sds.zero_amplitude, "{kind}");
+        assert!(
+            zero * 20 < 3 * hit.iter().filter(|&&h| h).count(),
+            "{kind}: {zero} zero sds"
+        );
+    }
+}
+
+/// The edge-aware prior's depth tolerance separates the default scene's surfaces at 256×256:
+/// every pair of 4-neighbours on the same surface (same albedo) is within it, and every pair
+/// across the sphere's silhouette gets weight 0 (a normal facing away or a depth jump).
+/// Prints the margins (`--nocapture`) behind the README's justification of the defaults.
+#[test]
+fn edge_weights_separate_the_scene_surfaces() {
+    use workbench::render::integrator::neighbours::{EDGE_DEPTH_TOLERANCE, edge_weight};
+    let r = Renderer::new(256, 256, Environment::Sky);
+    let g = r.geometry();
+    let albedo: Vec<Option<[f64; 3]>> = (0..256 * 256)
+        .map(|k| {
+            r.scene
+                .intersect(&r.camera.origin, &r.camera.ray(k % 256, k / 256))
+                .map(|h| h.albedo)
+        })
+        .collect();
+    let (mut same_jump, mut same_cos, mut cross_pairs, mut cross_min_jump) =
+        (0.0f64, 1.0f64, 0, f64::INFINITY);
+    let mut cross_by_normal = 0;
+    for j in 0..256 {
+        for i in 0..256 {
+            let k = j * 256 + i;
+            let Some(a) = g[k] else { continue };
+            for (ii, jj) in [(i + 1, j), (i, j + 1)] {
+                if ii >= 256 || jj >= 256 {
+                    continue;
+                }
+                let Some(b) = g[jj * 256 + ii] else { continue };
+                let jump = (b.depth - a.depth).abs() / a.depth;
+                if albedo[k] == albedo[jj * 256 + ii] {
+                    same_jump = same_jump.max(jump);
+                    same_cos = same_cos.min(a.normal.dot(&b.normal));
+                    assert!(edge_weight(&a, &b) > 0.0, "same surface at ({i}, {j})");
+                } else {
+                    cross_pairs += 1;
+                    cross_min_jump = cross_min_jump.min(jump);
+                    cross_by_normal += usize::from(a.normal.dot(&b.normal) <= 0.0);
+                    assert_eq!(edge_weight(&a, &b), 0.0, "across the silhouette at ({i}, {j})");
+                    assert_eq!(edge_weight(&b, &a), 0.0, "across the silhouette at ({i}, {j})");
+                }
+            }
+        }
+    }
+    println!(
+        "same surface: largest relative depth jump {same_jump:.4}, largest normal angle {:.2}°; \
+         {cross_pairs} pairs across the silhouette: smallest depth jump {cross_min_jump:.4}, \
+         {cross_by_normal} with normals facing apart",
+        same_cos.acos().to_degrees()
+    );
+    assert!(same_jump < EDGE_DEPTH_TOLERANCE && cross_pairs > 100);
 }

@@ -300,3 +300,174 @@ fn exact_rejects_options_that_do_not_apply() {
         assert!(!d.join("x.exr").exists());
     }
 }
+
+/// `--sd-out` and `--scale` that cannot apply are exit 2 with one line naming the flag and
+/// value, before any work and without writing anything.
+#[test]
+fn sd_out_bad_input_is_exit_2() {
+    assert_input_error(
+        &[
+            "render",
+            "--integrator",
+            "mc",
+            "--sd-out",
+            "s.exr",
+            "--out",
+            "a.exr",
+        ],
+        &["--sd-out s.exr: needs an integrator with a posterior (bmc, bmcp, bmcp-edge or bsq), not mc"],
+    );
+    assert_input_error(
+        &[
+            "render",
+            "--integrator",
+            "exact",
+            "--sd-out",
+            "s.exr",
+            "--out",
+            "a.exr",
+        ],
+        &[
+            "--sd-out s.exr: needs an integrator with a posterior",
+            "not exact",
+        ],
+    );
+    assert_input_error(
+        &["render", "--sd-out", "a.exr", "--out", "a.exr"],
+        &["--sd-out a.exr: is the same file as --out a.exr"],
+    );
+    assert_input_error(
+        &["render", "--sd-out", "./a.exr", "--out", "a.exr"],
+        &["--sd-out ./a.exr: is the same file as --out a.exr"],
+    );
+    // Its PNG would be the render's error image.
+    assert_input_error(
+        &["render", "--sd-out", "a-error.exr", "--out", "a.exr"],
+        &["--sd-out (its PNG) a-error.png: is the same file as --out (its error image) a-error.png"],
+    );
+    assert_input_error(
+        &["render", "--sd-out", "bad.hdr", "--out", "a.exr"],
+        &["--sd-out bad.hdr: the sd image is OpenEXR"],
+    );
+    assert_input_error(
+        &["render", "--scale", "loo", "--out", "a.exr"],
+        &["--scale loo: applies to the posterior sd image; give --sd-out"],
+    );
+    assert_input_error(
+        &["render", "--error-max", "0.1", "--out", "a.exr"],
+        &["--error-max: applies to the error image (--reference) or the sd image (--sd-out)"],
+    );
+}
+
+/// `--sd-out` beside a reference that is an input: refused like `--out` over it.
+#[test]
+fn sd_out_may_not_overwrite_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut args = vec!["render", "-q", "--integrator", "mc", "--out", "ref.exr"];
+    args.extend(SMALL);
+    assert!(workbench(d, &args).status.success());
+    let before = std::fs::read(d.join("ref.exr")).unwrap();
+    let mut args = vec![
+        "render",
+        "-q",
+        "--out",
+        "b.exr",
+        "--reference",
+        "ref.exr",
+        "--sd-out",
+        "ref.exr",
+    ];
+    args.extend(SMALL);
+    let o = workbench(d, &args);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--sd-out ref.exr: would overwrite --reference ref.exr"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(d.join("ref.exr")).unwrap(), before);
+    assert!(!d.join("b.exr").exists());
+}
+
+/// With `--sd-out` the render writes the sd EXR, its PNG and, with a reference, the coverage
+/// map, and prints the coverage; the image itself is the one rendered without `--sd-out`. A
+/// later run without the reference removes the stale coverage map.
+#[test]
+fn sd_out_writes_the_sd_image_and_the_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut args = vec![
+        "render",
+        "-q",
+        "--integrator",
+        "mc",
+        "--spp",
+        "400",
+        "--out",
+        "ref.exr",
+    ];
+    args.extend(&SMALL[..4]);
+    assert!(workbench(d, &args).status.success());
+    for integrator in ["bmc", "bmcp-edge", "bsq"] {
+        let plain = format!("{integrator}-plain.exr");
+        let mut args = vec!["render", "-q", "--integrator", integrator, "--out", &plain];
+        args.extend(SMALL);
+        assert!(workbench(d, &args).status.success());
+        let out = format!("{integrator}.exr");
+        let sd = format!("{integrator}-sd.exr");
+        let mut args = vec![
+            "render",
+            "-q",
+            "--integrator",
+            integrator,
+            "--out",
+            &out,
+            "--reference",
+            "ref.exr",
+            "--sd-out",
+            &sd,
+        ];
+        args.extend(SMALL);
+        let o = workbench(d, &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        let line = stdout.lines().nth(1).unwrap_or_default();
+        assert!(
+            line.starts_with("coverage50 = ") && line.contains("median |error|/sd = "),
+            "{stdout}"
+        );
+        let c95: f64 = line.split("coverage95 = ").nth(1).unwrap()[..6].parse().unwrap();
+        assert!((0.0..=1.0).contains(&c95), "{line}");
+        assert!(
+            stderr(&o).contains("posterior sd (ml amplitude, Student-t"),
+            "{}",
+            stderr(&o)
+        );
+        assert_eq!(
+            std::fs::read(d.join(&out)).unwrap(),
+            std::fs::read(d.join(&plain)).unwrap()
+        );
+        for f in [
+            sd.clone(),
+            format!("{integrator}-sd.png"),
+            format!("{integrator}-sd-coverage.png"),
+        ] {
+            assert!(d.join(&f).exists(), "{f}");
+        }
+    }
+    let mut args = vec![
+        "render",
+        "-q",
+        "--out",
+        "bmc.exr",
+        "--sd-out",
+        "bmc-sd.exr",
+        "--scale",
+        "unit",
+    ];
+    args.extend(SMALL);
+    let o = workbench(d, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!d.join("bmc-sd-coverage.png").exists());
+}

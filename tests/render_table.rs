@@ -27,7 +27,21 @@ fn table_writes_its_outputs_and_reuses_the_reference() {
     let out = d.join("out/tiny");
     let rmse = std::fs::read_to_string(out.join("rmse.csv")).unwrap();
     let lines: Vec<&str> = rmse.lines().collect();
-    assert_eq!(lines[0], "variant,integrator,gps,rotate,spp,repetition,seed,rmse");
+    assert_eq!(
+        lines[0],
+        "variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,coverage95_edges"
+    );
+    // Every render, MC included (its Student-t standard error), states its coverage: a share.
+    for line in &lines[1..] {
+        let f: Vec<&str> = line.split(',').collect();
+        let rmse: f64 = f[7].parse().unwrap();
+        let edges: f64 = f[8].parse().unwrap();
+        assert!(rmse > 0.0 && edges > 0.0, "{line}");
+        for share in [f[9], f[10]] {
+            let v: f64 = share.parse().unwrap_or_else(|_| panic!("{line}"));
+            assert!((0.0..=1.0).contains(&v), "{line}");
+        }
+    }
     // Wall-clock times stay out of the stable outputs, in files that are not committed.
     assert!(
         !std::fs::read_to_string(out.join("table.csv"))
@@ -45,10 +59,37 @@ fn table_writes_its_outputs_and_reuses_the_reference() {
 
     let table = std::fs::read_to_string(out.join("table.csv")).unwrap();
     assert_eq!(table.lines().count(), 1 + 3 * 2);
+    assert_eq!(
+        table.lines().next().unwrap(),
+        "variant,integrator,gps,rotate,spp,repetitions,rmse_mean,rmse_sd,rmse_ci95_low,rmse_ci95_high,\
+         rmse_edges_mean,rmse_edges_ci95_low,rmse_edges_ci95_high,coverage95,coverage95_edges"
+    );
+    // The cell's coverage95 is the mean of its renders' (MC at 4 spp: rows 1, 4, 7 of rmse.csv).
+    let mc4: Vec<f64> = [1, 4, 7]
+        .iter()
+        .map(|&k| lines[k].split(',').nth(9).unwrap().parse().unwrap())
+        .collect();
+    let cell: f64 = table
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(13)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        (cell - mc4.iter().sum::<f64>() / 3.0).abs() < 1e-15,
+        "{cell} vs {mc4:?}"
+    );
     assert!(table.lines().nth(1).unwrap().starts_with("MC,mc,,,4,3,"));
     let md = std::fs::read_to_string(out.join("table.md")).unwrap();
     assert!(
         md.contains("| Method | 4 spp | 8 spp |") && md.contains("| BMC 2 GP |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("Mean RMSE at edges") && md.contains("Coverage95, whole image / edges"),
         "{md}"
     );
     let svg = std::fs::read_to_string(out.join("rmse_vs_spp.svg")).unwrap();
@@ -58,6 +99,8 @@ fn table_writes_its_outputs_and_reuses_the_reference() {
         "mc-4spp.png",
         "bmc-2-gp-8spp.png",
         "bmcp-4spp.png",
+        "bmcp-4spp-error.png",
+        "mc-8spp-error.png",
         "reference.png",
     ] {
         assert!(out.join(png).exists(), "{png}");
@@ -101,7 +144,7 @@ fn spec_errors_are_exit_2_before_any_work() {
         ),
         (
             SPEC.replace("\"mc\"}", "\"mcc\"}"),
-            "bad.json: variants[0].integrator: unknown integrator \"mcc\"; expected one of mc, mc-cos, bmc, bmcp, bsq",
+            "bad.json: variants[0].integrator: unknown integrator \"mcc\"; expected one of mc, mc-cos, bmc, bmcp, bmcp-edge, bsq",
         ),
         (
             SPEC.replace("\"width\": 32", "\"width\": \"wide\""),
@@ -112,6 +155,10 @@ fn spec_errors_are_exit_2_before_any_work() {
             "bad.json: env: --env nowhere.hdr: cannot read",
         ),
         ("{\"name\": ".into(), "bad.json: malformed JSON"),
+        (
+            SPEC.replace("\"mc\"}", "\"mc\", \"scale\": \"ml\"}"),
+            "bad.json: variants[0].scale: \"ml\" is not used by integrator mc",
+        ),
         (
             SPEC.replace("\"label\": \"BMCP\"", "\"label\": \"bmc-2-gp\""),
             "bad.json: variants[2].label: \"bmc-2-gp\" gives the same file names as variants[1] (\"BMC 2 GP\")",

@@ -6,11 +6,13 @@ use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
+use workbench::bmc::Scale;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
 use workbench::render::exact;
 use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
+use workbench::render::uncertainty::{PixelSds, coverage, coverage_map_png};
 use workbench::render::{Environment, Integrator, Renderer, check_size};
 
 /// `--spp` when none is given.
@@ -23,6 +25,7 @@ use workbench::report::Reporter;
     workbench render --integrator exact --out ref.exr\n  \
     workbench render --integrator mc --spp 3000 --out ref-mc.exr\n  \
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr\n  \
+    workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr --sd-out bmc-sd.exr\n  \
     workbench render experiments/render-table.json\n\n\
     Render-table fields are documented in the README (\"Tables\"); the scene in docs/render-scene.md.\n\n\
     Exit codes: 0 success; 2 any error (bad input, I/O).")]
@@ -32,7 +35,7 @@ pub struct RenderArgs {
     #[arg(
         value_name = "SPEC.json",
         conflicts_with_all = ["out", "integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
-                              "env", "seed", "reference"]
+                              "env", "seed", "reference", "sd_out", "scale"]
     )]
     pub spec: Option<PathBuf>,
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
@@ -69,19 +72,30 @@ pub struct RenderArgs {
     /// Reference image (OpenEXR): print the RMSE and write the error image <out>-error.png.
     #[arg(long)]
     pub reference: Option<PathBuf>,
-    /// Error image scale: `absolute` maps the per-pixel error norm 0…--error-max onto the
-    /// colours (larger errors clamped), the same in every image, so that images can be compared;
-    /// `normalised` maps 0…the image's own largest error. Either way the PNG carries a colour bar
-    /// labelled with the scale, and the image's largest error is printed.
-    #[arg(long, requires = "reference", default_value = "absolute", value_parser = ["absolute", "normalised"])]
-    pub error_scale: String,
+    /// Error image scale (also of the --sd-out PNG): `absolute` maps the per-pixel error norm
+    /// 0…--error-max onto the colours (larger errors clamped), the same in every image, so that
+    /// images can be compared; `normalised` maps 0…the image's own largest value. Either way the
+    /// PNG carries a colour bar labelled with the scale, and the image's largest value is printed.
+    #[arg(long, value_parser = ["absolute", "normalised"])]
+    pub error_scale: Option<String>,
     /// Error norm ‖render − reference‖₂ (linear RGB) at the top of the absolute scale; only with
     /// `--error-scale absolute` [default: 0.25, which clamps about 5–10% of a 40-spp render's pixels].
-    #[arg(long, requires = "reference")]
+    #[arg(long)]
     pub error_max: Option<f64>,
-    /// Error image colours: viridis (perceptually uniform) or grey (black = 0).
-    #[arg(long, requires = "reference", default_value = "viridis", value_parser = ["viridis", "grey"])]
-    pub error_colours: String,
+    /// Error (and sd) image colours: viridis (perceptually uniform) or grey (black = 0)
+    /// [default: viridis].
+    #[arg(long, value_parser = ["viridis", "grey"])]
+    pub error_colours: Option<String>,
+    /// Also write the posterior sd each pixel's estimator states, per channel (linear OpenEXR;
+    /// bmc, bmcp, bmcp-edge, bsq), its norm ‖sd‖₂ as <sd>.png on the error image's scale and,
+    /// with --reference, the coverage map <sd>-coverage.png and the image's coverage on stdout.
+    #[arg(long, value_name = "SD.exr")]
+    pub sd_out: Option<PathBuf>,
+    /// Amplitude of the --sd-out posterior: `ml` (λ̂ = rᵀQ⁻¹r/N fitted per pixel and channel,
+    /// Student-t interval), `loo` or `unit` (the thesis's λ = 1), as in experiments (math.md §7)
+    /// [default: ml].
+    #[arg(long, value_parser = ["unit", "ml", "loo"])]
+    pub scale: Option<String>,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Tables only: folder of the outputs (<dir>/<name>/) and of the reference cache
@@ -142,6 +156,13 @@ pub fn render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             ))
             .into());
         }
+        Some(_) if args.error_scale.is_some() || args.error_max.is_some() || args.error_colours.is_some() => {
+            return Err(InputError::new(
+                "--error-scale/--error-max/--error-colours: apply to single images; a table writes its error \
+                 images on the default scale",
+            )
+            .into());
+        }
         Some(spec) => table(spec, &args)?,
         None => single(&args)?,
     }
@@ -191,31 +212,56 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         )
         .into());
     }
-    if args.error_max.is_some() && args.error_scale != "absolute" {
+    let error_image_options = args
+        .error_scale
+        .as_ref()
+        .map(|_| "--error-scale")
+        .or(args.error_max.map(|_| "--error-max"))
+        .or(args.error_colours.as_ref().map(|_| "--error-colours"));
+    if let Some(flag) = error_image_options
+        && args.reference.is_none()
+        && args.sd_out.is_none()
+    {
+        return Err(InputError::new(format!(
+            "{flag}: applies to the error image (--reference) or the sd image (--sd-out); give one of them"
+        ))
+        .into());
+    }
+    let error_scale = match args.error_scale.as_deref() {
+        Some("normalised") => ErrorScale::Normalised,
+        _ => ErrorScale::Absolute,
+    };
+    if args.error_max.is_some() && error_scale != ErrorScale::Absolute {
         return Err(InputError::new("--error-max: applies to --error-scale absolute").into());
     }
-    let error_scale = match args.error_scale.as_str() {
-        "absolute" => ErrorScale::Absolute,
-        _ => ErrorScale::Normalised,
-    };
-    let error_colours = match args.error_colours.as_str() {
-        "grey" => ColourMap::Grey,
+    let error_colours = match args.error_colours.as_deref() {
+        Some("grey") => ColourMap::Grey,
         _ => ColourMap::Viridis,
     };
     let error_max = args.error_max.unwrap_or(DEFAULT_ERROR_MAX);
     if !(error_max.is_finite() && error_max > 0.0) {
         return Err(InputError::new(format!("--error-max: must be finite and > 0, got {error_max}")).into());
     }
+    let scale = check_sd_options(args, kind)?;
     // Never write over an input (the reference, an environment map) or one output over another.
     let png = sibling_png(out, "");
     let error_png = sibling_png(out, "-error");
+    let sd_pngs = args
+        .sd_out
+        .as_ref()
+        .map(|sd| (sibling_png(sd, ""), sibling_png(sd, "-coverage")));
     // The error image is written with --reference and removed without it (an earlier one would
-    // describe another image), so it is an output either way.
-    let outputs: Vec<(&str, &std::path::Path)> = vec![
+    // describe another image), so it is an output either way; so is the coverage map.
+    let mut outputs: Vec<(&str, &std::path::Path)> = vec![
         ("--out", out),
         ("--out (its PNG)", &png),
         ("--out (its error image)", &error_png),
     ];
+    if let (Some(sd), Some((sd_png, coverage_png))) = (&args.sd_out, &sd_pngs) {
+        outputs.push(("--sd-out", sd));
+        outputs.push(("--sd-out (its PNG)", sd_png));
+        outputs.push(("--sd-out (its coverage map)", coverage_png));
+    }
     let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
     if let Some(r) = &args.reference {
         inputs.push(("--reference", r));
@@ -258,7 +304,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
 
     let model_seconds = model_start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let (image, what) = render_image(args, &renderer, kind, spp, gps, seed, model.as_ref())?;
+    let (image, sds, what) = render_image(args, &renderer, kind, spp, gps, seed, model.as_ref(), scale)?;
     let seconds = start.elapsed().as_secs_f64();
 
     // Every file is written in full before any replaces its predecessor, so a failure (a full
@@ -274,9 +320,27 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         // An error image of an earlier render would describe another image.
         None => files.remove_stale(&error_png),
     }
+    let mut sd_image = None;
+    if let (Some(sds), Some(sd_out), Some((sd_png, coverage_png))) = (&sds, &args.sd_out, &sd_pngs) {
+        files.stage(sd_out, &sds.sd.to_exr()?)?;
+        let e = workbench::render::image::scalar_png(
+            &sds.norms(),
+            args.width,
+            args.height,
+            error_scale,
+            error_max,
+            error_colours,
+        )?;
+        files.stage(sd_png, &e.png)?;
+        sd_image = Some(e);
+        match &reference {
+            Some(r) => files.stage(coverage_png, &coverage_map_png(&image, r, sds, 0.95)?)?,
+            None => files.remove_stale(coverage_png),
+        }
+    }
     for removed in files.commit()? {
         status!(
-            "render: removed {} (an earlier render's error image; this one has no --reference)",
+            "render: removed {} (an earlier render's error image or coverage map; this one has no --reference)",
             removed.display()
         );
     }
@@ -303,7 +367,76 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             error_summary(e, error_scale, args.width * args.height)
         );
     }
+    if let (Some(sds), Some(e), Some(sd_out), Some((sd_png, coverage_png))) =
+        (&sds, &sd_image, &args.sd_out, &sd_pngs)
+    {
+        status!(
+            "render: posterior sd ({} amplitude, {} interval) → {}, {} ({})",
+            scale.name(),
+            match sds.dof {
+                Some(d) => format!("Student-t {d} dof"),
+                None => "normal".to_string(),
+            },
+            sd_out.display(),
+            sd_png.display(),
+            error_summary(e, error_scale, args.width * args.height).replace("error", "sd norm")
+        );
+        if sds.zero_amplitude > 0 {
+            status!(
+                "warning: {} pixel-channel(s): {}",
+                sds.zero_amplitude,
+                workbench::bmc::NumericalWarning::ZeroAmplitude.message()
+            );
+        }
+        if let Some(r) = &reference {
+            let c = coverage(&image, r, sds, None);
+            stdout(&format!(
+                "coverage50 = {:.4}, coverage80 = {:.4}, coverage95 = {:.4} ({} pixel-channels), \
+                 median |error|/sd = {:.3}\n",
+                c.coverage50, c.coverage80, c.coverage95, c.pixel_channels, c.median_error_over_sd
+            ))?;
+            status!("render: coverage map → {}", coverage_png.display());
+        }
+    }
     Ok(())
+}
+
+/// `--sd-out` and `--scale`: the sd image needs an estimator with a posterior (an integrator
+/// with weights) and an `.exr` name; `--scale` applies only to it. Returns the amplitude scale.
+fn check_sd_options(args: &RenderArgs, kind: Option<IntegratorKind>) -> anyhow::Result<Scale> {
+    let scale = args
+        .scale
+        .as_deref()
+        .map(|s| Scale::from_name(s).expect("clap checks the names"))
+        .unwrap_or(Scale::DEFAULT);
+    let Some(sd) = &args.sd_out else {
+        if let Some(s) = &args.scale {
+            return Err(InputError::new(format!(
+                "--scale {s}: applies to the posterior sd image; give --sd-out"
+            ))
+            .into());
+        }
+        return Ok(scale);
+    };
+    match kind {
+        Some(k) if k.uses_sets() => {}
+        _ => {
+            return Err(InputError::new(format!(
+                "--sd-out {}: needs an integrator with a posterior (bmc, bmcp, bmcp-edge or bsq), not {}",
+                sd.display(),
+                args.integrator
+            ))
+            .into());
+        }
+    }
+    if sd.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(InputError::new(format!(
+            "--sd-out {}: the sd image is OpenEXR; use a name ending in .exr",
+            sd.display()
+        ))
+        .into());
+    }
+    Ok(scale)
 }
 
 /// The sampling options, checked against the integrator: `exact` takes none of them (only
@@ -372,7 +505,9 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
 }
 
 /// Renders with the estimator `kind` (its sample sets built first) or, for `None`, by the
-/// certified quadrature; returns the image and what made it, for the status line.
+/// certified quadrature; returns the image, its per-pixel sds when `--sd-out` asks for them
+/// (amplitude `scale`), and what made it, for the status line.
+#[allow(clippy::too_many_arguments)]
 fn render_image(
     args: &RenderArgs,
     renderer: &Renderer,
@@ -381,19 +516,28 @@ fn render_image(
     gps: usize,
     seed: u64,
     model: Option<&workbench::bmc::BmcModel>,
-) -> anyhow::Result<(Image, String)> {
+    scale: Scale,
+) -> anyhow::Result<(Image, Option<PixelSds>, String)> {
     let pool = workbench::threads::pool(None)?;
     let bar = Bar::new(args.quiet);
-    let (image, what) = match kind {
+    let (image, sds, what) = match kind {
         Some(kind) => {
-            let integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model, seed)?;
+            let mut integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model, seed)?;
             for line in workbench::render::table::runner::numerical_warnings(&integrator) {
                 status!("warning: {line}");
             }
+            if args.sd_out.is_some() {
+                integrator = integrator.with_uncertainty(scale, model)?;
+            }
             bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
-            let image = pool.install(|| renderer.render(&integrator, seed, &bar));
+            let (image, sds) = if args.sd_out.is_some() {
+                let (image, sds) = pool.install(|| renderer.render_with_sd(&integrator, seed, &bar));
+                (image, Some(sds))
+            } else {
+                (pool.install(|| renderer.render(&integrator, seed, &bar)), None)
+            };
             bar.finish();
-            (image, format!("{kind} {spp} spp"))
+            (image, sds, format!("{kind} {spp} spp"))
         }
         None => {
             let tol = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
@@ -410,6 +554,7 @@ fn render_image(
             };
             (
                 image,
+                None,
                 format!(
                     "exact (tolerance {tol:e}; largest error estimate {:.1e} at pixel ({}, {}){limited})",
                     stats.max_error, stats.worst_pixel.0, stats.worst_pixel.1
@@ -417,7 +562,7 @@ fn render_image(
             )
         }
     };
-    Ok((image, what))
+    Ok((image, sds, what))
 }
 
 /// `max error 0.579 at pixel (237, 169); scale 0–0.25, 3516 pixel(s) (5.4%) above it clamped`.

@@ -77,6 +77,25 @@ impl Image {
         (sum / (3 * self.data.len()) as f64).sqrt()
     }
 
+    /// The RMSE over the pixels where `mask` (row-major) is true: `sqrt(mean((a − b)²))` over
+    /// their three channels; NaN for an empty mask.
+    pub fn rmse_masked(&self, reference: &Image, mask: &[bool]) -> f64 {
+        assert_eq!((self.width, self.height), (reference.width, reference.height));
+        assert_eq!(mask.len(), self.data.len(), "one mask entry per pixel");
+        let (mut sum, mut n) = (0.0, 0usize);
+        for ((a, b), _) in self
+            .data
+            .iter()
+            .zip(&reference.data)
+            .zip(mask)
+            .filter(|(_, m)| **m)
+        {
+            sum += (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>();
+            n += 3;
+        }
+        (sum / n as f64).sqrt()
+    }
+
     /// An [`InputError`] unless `other` (read from `what`) has this image's size.
     pub fn check_same_size(&self, other: &Image, what: &str) -> Result<(), InputError> {
         if (self.width, self.height) == (other.width, other.height) {
@@ -155,44 +174,103 @@ impl Image {
         max_error: f64,
         map: ColourMap,
     ) -> crate::Result<ErrorImage> {
-        let e = self.error_norms(reference);
-        let (max_i, max) = e
-            .iter()
-            .copied()
-            .enumerate()
-            .fold((0, 0.0), |best, (i, v)| if v > best.1 { (i, v) } else { best });
-        let top = match scale {
-            ErrorScale::Normalised => max,
-            ErrorScale::Absolute => max_error,
-        };
-        let clamped = e.iter().filter(|&&v| v > top).count();
-        let colour = |t: f64| match map {
-            ColourMap::Grey => [to_u8(t); 3],
-            ColourMap::Viridis => viridis(t),
-        };
-        let mut label = short_number(top);
-        if clamped > 0 {
-            label.push('+');
-        }
-        let bar = ColourBar::new(self.height, &label);
-        let buf = RgbImage::from_fn((self.width + bar.width) as u32, self.height as u32, |x, y| {
-            let (x, y) = (x as usize, y as usize);
-            if x < self.width {
-                let v = e[y * self.width + x];
-                let t = if top > 0.0 { (v / top).clamp(0.0, 1.0) } else { 0.0 };
-                ::image::Rgb(colour(t))
-            } else {
-                ::image::Rgb(bar.pixel(x - self.width, y, &colour))
-            }
-        });
-        Ok(ErrorImage {
-            png: encode_png(buf)?,
-            max_error: max,
-            max_at: (max_i % self.width.max(1), max_i / self.width.max(1)),
-            scale_max: top,
-            clamped,
-        })
+        scalar_png(
+            &self.error_norms(reference),
+            self.width,
+            self.height,
+            scale,
+            max_error,
+            map,
+        )
     }
+}
+
+/// A non-negative per-pixel quantity `e` (row-major, `width × height`) as a picture with a
+/// colour bar, scaled like [`Image::error_png`] (which draws error norms with it; the sd image
+/// draws sd norms on the same scale, so the two can be compared colour for colour).
+pub fn scalar_png(
+    e: &[f64],
+    width: usize,
+    height: usize,
+    scale: ErrorScale,
+    max_error: f64,
+    map: ColourMap,
+) -> crate::Result<ErrorImage> {
+    assert_eq!(e.len(), width * height, "one value per pixel");
+    let (max_i, max) = e
+        .iter()
+        .copied()
+        .enumerate()
+        .fold((0, 0.0), |best, (i, v)| if v > best.1 { (i, v) } else { best });
+    let top = match scale {
+        ErrorScale::Normalised => max,
+        ErrorScale::Absolute => max_error,
+    };
+    let clamped = e.iter().filter(|&&v| v > top).count();
+    let colour = |t: f64| match map {
+        ColourMap::Grey => [to_u8(t); 3],
+        ColourMap::Viridis => viridis(t),
+    };
+    let mut label = short_number(top);
+    if clamped > 0 {
+        label.push('+');
+    }
+    let bar = ColourBar::new(height, &label);
+    let buf = RgbImage::from_fn((width + bar.width) as u32, height as u32, |x, y| {
+        let (x, y) = (x as usize, y as usize);
+        if x < width {
+            let v = e[y * width + x];
+            let t = if top > 0.0 { (v / top).clamp(0.0, 1.0) } else { 0.0 };
+            ::image::Rgb(colour(t))
+        } else {
+            ::image::Rgb(bar.pixel(x - width, y, &colour))
+        }
+    });
+    Ok(ErrorImage {
+        png: encode_png(buf)?,
+        max_error: max,
+        max_at: (max_i % width.max(1), max_i / width.max(1)),
+        scale_max: top,
+        clamped,
+    })
+}
+
+/// An 8-bit RGB picture (row-major `width × height` colours) with, on its right, a legend of
+/// colour swatches, each labelled (digits, `.`, `e`, `-`, `+` only: the bitmap font has no
+/// letters), top to bottom: for categorical maps such as the coverage map.
+pub fn legend_png(
+    colours: &[[u8; 3]],
+    width: usize,
+    height: usize,
+    legend: &[([u8; 3], &str)],
+) -> crate::Result<Vec<u8>> {
+    assert_eq!(colours.len(), width * height, "one colour per pixel");
+    let s = (height / 96).clamp(1, 3);
+    let chars = legend.iter().map(|(_, l)| l.chars().count()).max().unwrap_or(0);
+    let gap = 4 * s;
+    let swatch = GLYPH_H * s;
+    let strip = gap + swatch + 3 * s + chars * GLYPH_ADVANCE * s + 2 * s;
+    let row = swatch + 3 * s;
+    let buf = RgbImage::from_fn((width + strip) as u32, height as u32, |x, y| {
+        let (x, y) = (x as usize, y as usize);
+        if x < width {
+            return ::image::Rgb(colours[y * width + x]);
+        }
+        let x = x - width;
+        let (entry, dy) = ((y.saturating_sub(gap)) / row, (y.saturating_sub(gap)) % row);
+        if y >= gap
+            && let Some((colour, label)) = legend.get(entry)
+        {
+            if (gap..gap + swatch).contains(&x) && dy < swatch {
+                return ::image::Rgb(*colour);
+            }
+            if glyph_pixel(label, x, dy, gap + swatch + 3 * s, 0, s) {
+                return ::image::Rgb([0, 0, 0]);
+            }
+        }
+        ::image::Rgb([255, 255, 255])
+    });
+    encode_png(buf)
 }
 
 /// `v` with three significant digits and no trailing zeros (`0.1`, `0.213`, `0.0015`,

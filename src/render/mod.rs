@@ -12,6 +12,7 @@ pub mod integrator;
 pub mod renderer;
 pub mod scene;
 pub mod table;
+pub mod uncertainty;
 
 pub use camera::Camera;
 pub use env::Environment;

@@ -6,13 +6,20 @@ use super::camera::Camera;
 use super::env::Environment;
 use super::exact;
 use super::image::Image;
-use super::integrator::neighbours::{first_pass, neighbour_prior};
+use super::integrator::neighbours::{
+    NeighbourPrior, PixelGeometry, edge_aware_prior, first_pass, neighbour_prior,
+};
 use super::integrator::{Integrator, ShadingPoint};
 use super::scene::{Rgb, Scene};
+use super::uncertainty::PixelSds;
 use crate::error::InputError;
+use crate::estimator::Uncertainty;
 use crate::report::Reporter;
 use crate::rng::stream;
 use rayon::prelude::*;
+
+/// A pixel's estimate and, when asked for, its uncertainty per channel.
+type PixelOut = (Rgb, Option<[Uncertainty; 3]>);
 
 /// Stream family of the per-pixel streams.
 const PIXELS: u64 = 0x91c;
@@ -71,39 +78,112 @@ impl Renderer {
     ///
     /// Pixels whose primary ray hits nothing show `env(dir)`. For an estimator with a prior mean
     /// (`bmcp`) the first pass renders the `(i + j)`-even pixels with prior 0 (plain BMC), the
-    /// second the others with the neighbour prior.
+    /// second the others with the neighbour prior (plain or edge-aware, [`NeighbourPrior`]).
     pub fn render(&self, integrator: &Integrator, seed: u64, progress: &dyn Reporter) -> Image {
+        self.render_pixels(integrator, seed, progress).0
+    }
+
+    /// [`Renderer::render`] and the sd each pixel's estimator states per channel (the integrator
+    /// must come from [`Integrator::with_uncertainty`]); the image is the one `render` gives.
+    pub fn render_with_sd(
+        &self,
+        integrator: &Integrator,
+        seed: u64,
+        progress: &dyn Reporter,
+    ) -> (Image, PixelSds) {
+        assert!(
+            integrator.uncertainty.is_some(),
+            "render_with_sd needs Integrator::with_uncertainty"
+        );
+        let (image, sds) = self.render_pixels(integrator, seed, progress);
+        (image, PixelSds::new(self.width, self.height, &sds))
+    }
+
+    /// Each pixel's value and, when the integrator states one, its uncertainty per channel
+    /// (None for background pixels).
+    fn render_pixels(
+        &self,
+        integrator: &Integrator,
+        seed: u64,
+        progress: &dyn Reporter,
+    ) -> (Image, Vec<Option<[Uncertainty; 3]>>) {
         let with_prior = integrator.kind.method.uses_prior();
-        let first: Vec<Option<Rgb>> = self.rows(progress, |i, j| {
+        let first: Vec<Option<PixelOut>> = self.rows(progress, |i, j| {
             if with_prior && !first_pass(i, j) {
                 return None;
             }
-            self.pixel(i, j, integrator, seed, [0.0; 3])
+            self.pixel_with_sd(i, j, integrator, seed, [0.0; 3])
         });
-        let pixel_or_background = |i: usize, j: usize, value: Option<Rgb>| {
-            value.unwrap_or_else(|| self.env.radiance(&self.camera.ray(i, j)))
-        };
-        let data = if with_prior {
+        let pixels: Vec<Option<PixelOut>> = if with_prior {
+            let values: Vec<Option<Rgb>> = first.iter().map(|p| p.map(|p| p.0)).collect();
+            let geometry = match integrator.kind.neighbours {
+                NeighbourPrior::Mean => None,
+                NeighbourPrior::EdgeAware => Some(self.geometry()),
+            };
             self.rows(progress, |i, j| {
-                let k = j * self.width + i;
-                let value = if first_pass(i, j) {
-                    first[k]
-                } else {
-                    let c = neighbour_prior(&first, self.width, self.height, i, j);
-                    self.pixel(i, j, integrator, seed, c)
+                if first_pass(i, j) {
+                    return first[j * self.width + i];
+                }
+                let c = match &geometry {
+                    None => neighbour_prior(&values, self.width, self.height, i, j),
+                    Some(g) => edge_aware_prior(&values, g, self.width, self.height, i, j),
                 };
-                Some(pixel_or_background(i, j, value))
+                self.pixel_with_sd(i, j, integrator, seed, c)
             })
         } else {
-            self.rows(progress, |i, j| {
-                Some(pixel_or_background(i, j, first[j * self.width + i]))
-            })
+            first
         };
-        Image {
+        let mut data = Vec::with_capacity(pixels.len());
+        let mut sds = Vec::with_capacity(pixels.len());
+        for (k, p) in pixels.into_iter().enumerate() {
+            match p {
+                Some((value, sd)) => {
+                    data.push(value);
+                    sds.push(sd);
+                }
+                None => {
+                    let (i, j) = (k % self.width, k / self.width);
+                    data.push(self.env.radiance(&self.camera.ray(i, j)));
+                    sds.push(None);
+                }
+            }
+        }
+        let image = Image {
             width: self.width,
             height: self.height,
-            data: data.into_iter().map(|p| p.expect("every pixel is set")).collect(),
+            data,
+        };
+        (image, sds)
+    }
+
+    /// Every pixel's primary-hit normal and depth (None for background), row-major: what the
+    /// edge-aware neighbour prior and the edge mask compare.
+    pub fn geometry(&self) -> Vec<Option<PixelGeometry>> {
+        let mut out = Vec::with_capacity(self.width * self.height);
+        for j in 0..self.height {
+            for i in 0..self.width {
+                let hit = self.scene.intersect(&self.camera.origin, &self.camera.ray(i, j));
+                out.push(hit.map(|h| PixelGeometry {
+                    normal: h.normal,
+                    depth: h.t,
+                }));
+            }
         }
+        out
+    }
+
+    /// [`Renderer::pixel`] with the stated uncertainty ([`Integrator::estimate_with_sd`]).
+    fn pixel_with_sd(
+        &self,
+        i: usize,
+        j: usize,
+        integrator: &Integrator,
+        seed: u64,
+        prior: Rgb,
+    ) -> Option<PixelOut> {
+        let p = self.shading_point(i, j)?;
+        let mut rng = stream(seed, &[PIXELS, (j * self.width + i) as u64]);
+        Some(integrator.estimate_with_sd(&p, &self.scene, &self.env, &mut rng, prior))
     }
 
     /// The integral estimate at pixel `(i, j)`, or `None` if the primary ray hits nothing.

@@ -15,12 +15,13 @@ pub mod sets;
 
 use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
-use crate::bmc::{BmcModel, BmcWeights};
+use crate::bmc::{BmcModel, BmcWeights, Scale};
 use crate::error::InputError;
-use crate::estimator::Method;
+use crate::estimator::{Method, Uncertainty};
 use crate::geometry::{Frame, Vec3};
 use crate::rng::WorkbenchRng;
 use crate::sampling::Design;
+pub use neighbours::NeighbourPrior;
 pub use sets::{BmcSets, SampleSet};
 use std::f64::consts::PI;
 
@@ -30,6 +31,9 @@ use std::f64::consts::PI;
 pub struct IntegratorKind {
     pub method: Method,
     pub design: Design,
+    /// How an estimator with a prior mean (`bmcp`) gets its constant from the neighbours
+    /// ([`NeighbourPrior`]); [`NeighbourPrior::Mean`] for every other estimator.
+    pub neighbours: NeighbourPrior,
 }
 
 impl IntegratorKind {
@@ -39,21 +43,31 @@ impl IntegratorKind {
     pub const MC_COS: Self = IntegratorKind {
         method: Method::Mc,
         design: Design::Cosine,
+        neighbours: NeighbourPrior::Mean,
     };
     /// `bmc`: precomputed sample sets rotated to the normal (math.md §4–5).
     pub const BMC: Self = Self::uniform(Method::Bmc);
     /// `bmcp`: BMC with a constant prior from the checkerboard neighbours (thesis §3.2.5).
     pub const BMCP: Self = Self::uniform(Method::Bmcp);
+    /// `bmcp-edge`: BMCP whose neighbour prior is weighted by normal and depth similarity
+    /// ([`NeighbourPrior::EdgeAware`]).
+    pub const BMCP_EDGE: Self = IntegratorKind {
+        method: Method::Bmcp,
+        design: Design::Uniform,
+        neighbours: NeighbourPrior::EdgeAware,
+    };
 
     const fn uniform(method: Method) -> Self {
         IntegratorKind {
             method,
             design: Design::Uniform,
+            neighbours: NeighbourPrior::Mean,
         }
     }
 
     /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
-    /// uniform samples, and those without weights also on cosine-weighted ones.
+    /// uniform samples, those without weights also on cosine-weighted ones, and those with a
+    /// prior mean also with the edge-aware neighbour prior.
     pub fn all() -> Vec<Self> {
         let mut all = Vec::new();
         for method in Method::ALL {
@@ -62,6 +76,13 @@ impl IntegratorKind {
                 all.push(IntegratorKind {
                     method,
                     design: Design::Cosine,
+                    neighbours: NeighbourPrior::Mean,
+                });
+            }
+            if method.uses_prior() {
+                all.push(IntegratorKind {
+                    neighbours: NeighbourPrior::EdgeAware,
+                    ..Self::uniform(method)
                 });
             }
         }
@@ -69,11 +90,16 @@ impl IntegratorKind {
     }
 
     /// The name on the command line and in files: the estimator's, with `-cos` for
-    /// cosine-weighted samples (`mc`, `mc-cos`, `bmc`, `bmcp`).
+    /// cosine-weighted samples and `-edge` for the edge-aware neighbour prior (`mc`, `mc-cos`,
+    /// `bmc`, `bmcp`, `bmcp-edge`, `bsq`).
     pub fn name(self) -> String {
-        match self.design {
+        let base = match self.design {
             Design::Uniform => self.method.name().to_string(),
             Design::Cosine => format!("{}-cos", self.method.name()),
+        };
+        match self.neighbours {
+            NeighbourPrior::Mean => base,
+            NeighbourPrior::EdgeAware => format!("{base}-edge"),
         }
     }
 
@@ -206,6 +232,9 @@ pub struct Integrator {
     pub spp: usize,
     /// The weighted sets (exactly when `kind.uses_sets()`).
     pub sets: Option<BmcSets>,
+    /// The amplitude of the per-pixel posterior sds, when they are asked for
+    /// ([`Integrator::with_uncertainty`]); None renders estimates only.
+    pub uncertainty: Option<Scale>,
 }
 
 impl Integrator {
@@ -215,9 +244,11 @@ impl Integrator {
             kind: IntegratorKind {
                 method: Method::Mc,
                 design,
+                neighbours: NeighbourPrior::Mean,
             },
             spp,
             sets: None,
+            uncertainty: None,
         }
     }
 
@@ -239,7 +270,26 @@ impl Integrator {
         } else {
             None
         };
-        Ok(Integrator { kind, spp, sets })
+        Ok(Integrator {
+            kind,
+            spp,
+            sets,
+            uncertainty: None,
+        })
+    }
+
+    /// The same integrator, also stating each pixel's sd per channel ([`Integrator::estimate_with_sd`])
+    /// with the amplitude `scale` (math.md §7): the sample sets keep their Cholesky factors
+    /// (one more factorisation per set; no estimate changes). MC ignores `scale` (its sd is the
+    /// standard error of its mean).
+    pub fn with_uncertainty(mut self, scale: Scale, model: Option<&BmcModel>) -> crate::Result<Self> {
+        if let Some(sets) = &mut self.sets {
+            let model = model
+                .ok_or_else(|| InputError::new(format!("--integrator {}: needs a BMC model", self.kind)))?;
+            sets.keep_solvers(model, scale)?;
+        }
+        self.uncertainty = Some(scale);
+        Ok(self)
     }
 
     /// The estimate of `L_o` at `p`: the pixel's sample directions (fresh from its stream
@@ -253,13 +303,33 @@ impl Integrator {
         rng: &mut WorkbenchRng,
         prior: Rgb,
     ) -> Rgb {
-        let (points, weights): (Vec<Vec3>, Option<&BmcWeights>) = match &self.sets {
+        self.estimate_with_sd(p, scene, env, rng, prior).0
+    }
+
+    /// [`Integrator::estimate`] and, with [`Integrator::with_uncertainty`], the uncertainty the
+    /// estimator states per channel ([`Method::uncertainty`], exactly as in experiments): for
+    /// estimators with weights the posterior sd `sqrt(λ̂ Var₁)` with the amplitude fitted to
+    /// this pixel's values in this channel (`ml`: `λ̂ = rᵀQ⁻¹r / dof`, `r = Y − o·1` with `o`
+    /// 0 for BMC, the neighbour prior `c` for BMCP, `β̂` for Bayes–Sard, math.md §7–8; `Q⁻¹Y`
+    /// by one solve with the set's kept factor for the three channels); for MC the standard
+    /// error of its mean (Student-t, `N − 1` degrees of freedom). The estimate is the same
+    /// either way.
+    pub fn estimate_with_sd(
+        &self,
+        p: &ShadingPoint,
+        scene: &Scene,
+        env: &Environment,
+        rng: &mut WorkbenchRng,
+        prior: Rgb,
+    ) -> (Rgb, Option<[Uncertainty; 3]>) {
+        let (points, set): (Vec<Vec3>, Option<&SampleSet>) = match &self.sets {
             Some(sets) => {
                 let (set, points) = sets.pick(rng);
-                (points, Some(&set.weights))
+                (points, Some(set))
             }
             None => (self.kind.design.sample_set(self.spp, rng), None),
         };
+        let weights: Option<&BmcWeights> = set.map(|s| &s.weights);
         let mut values: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(points.len()));
         for v in &points {
             let f = p.integrand(scene, env, v);
@@ -267,10 +337,48 @@ impl Integrator {
                 values[c].push(f[c]);
             }
         }
-        [0, 1, 2].map(|c| {
-            self.kind
-                .method
-                .estimate(self.kind.design, &points, &values[c], weights, prior[c])
-        })
+        let method = self.kind.method;
+        let estimate =
+            [0, 1, 2].map(|c| method.estimate(self.kind.design, &points, &values[c], weights, prior[c]));
+        let Some(scale) = self.uncertainty else {
+            return (estimate, None);
+        };
+        let n = points.len();
+        // Q⁻¹Y for the three channels in one solve (column-major n × 3); not needed for `unit`.
+        let solver = set.map(|s| {
+            s.solver
+                .as_ref()
+                .expect("Integrator::with_uncertainty keeps every set's factor")
+        });
+        let solved: Option<Vec<f64>> = match solver {
+            Some(solver) if scale != Scale::Unit => {
+                let mut rhs: Vec<f64> = values.iter().flatten().copied().collect();
+                solver.factor.solve_columns_in_place(&mut rhs, 3);
+                Some(rhs)
+            }
+            _ => None,
+        };
+        let inverse_diagonal = solver.and_then(|s| s.inverse_diagonal.as_deref());
+        let mut out = [None; 3];
+        for c in 0..3 {
+            let amplitude = match &solved {
+                Some(solved) => method
+                    .amplitude(
+                        scale,
+                        &values[c],
+                        &solved[c * n..(c + 1) * n],
+                        weights,
+                        prior[c],
+                        inverse_diagonal,
+                    )
+                    .unwrap_or(1.0),
+                None => 1.0,
+            };
+            out[c] = method.uncertainty(self.kind.design, &points, &values[c], weights, scale, amplitude);
+        }
+        match out {
+            [Some(r), Some(g), Some(b)] => (estimate, Some([r, g, b])),
+            _ => (estimate, None),
+        }
     }
 }

@@ -6,9 +6,9 @@
 //! points away from the locations the weights were computed for), and carried to the normal by
 //! the frame. Because the kernel depends on `x·y` only, rotated points keep their weights.
 
-use crate::bmc::{BmcModel, BmcWeights};
+use crate::bmc::{BmcModel, BmcWeights, Scale};
 use crate::geometry::Vec3;
-use crate::linalg::{NotPositiveDefinite, SpdWorkspace};
+use crate::linalg::{CholeskyFactor, NotPositiveDefinite, SpdWorkspace};
 use crate::rng::{WorkbenchRng, stream};
 use crate::sampling::Design;
 use rand::RngExt;
@@ -24,6 +24,18 @@ const SET_KERNEL_MEANS: u64 = 0x5e8;
 pub struct SampleSet {
     pub points: Vec<Vec3>,
     pub weights: BmcWeights,
+    /// What a pixel's fitted amplitude needs (math.md §7), kept only when per-pixel posterior
+    /// sds are asked for ([`BmcSets::keep_solvers`]): 8 N² bytes per set.
+    pub solver: Option<SetSolver>,
+}
+
+/// The Cholesky factor of a set's `Q` and, for the `loo` amplitude, `diag(Q⁻¹)`. A rotation
+/// about the normal leaves every `k(x_i, x_j)` and so `Q` unchanged (the kernels depend on
+/// `x·y` only), so one factor serves every pixel that uses the set.
+#[derive(Clone, Debug)]
+pub struct SetSolver {
+    pub factor: CholeskyFactor,
+    pub inverse_diagonal: Option<Vec<f64>>,
 }
 
 /// The sets ("GPs") of a BMC integrator.
@@ -64,10 +76,40 @@ impl BmcSets {
             .map(|(s, points)| {
                 let mut rng = stream(seed, &[SET_KERNEL_MEANS, s as u64]);
                 let weights = model.weights(&points, &mut rng, &mut ws)?;
-                Ok(SampleSet { points, weights })
+                Ok(SampleSet {
+                    points,
+                    weights,
+                    solver: None,
+                })
             })
             .collect::<Result<_, _>>()?;
         Ok(BmcSets { sets, rotate })
+    }
+
+    /// Keeps each set's Cholesky factor (and `diag(Q⁻¹)` for `loo`) for per-pixel amplitudes.
+    /// `Q` does not depend on the kernel means, so factoring it again (the same assembly and
+    /// jitter ladder, hence the same factor) costs one factorisation per set, draws nothing and
+    /// changes no weight.
+    pub fn keep_solvers(&mut self, model: &BmcModel, scale: Scale) -> Result<(), NotPositiveDefinite> {
+        let mut ws = SpdWorkspace::new();
+        for set in &mut self.sets {
+            let no_means = vec![0.0; set.points.len()];
+            crate::bmc::bmc_weights(
+                &set.points,
+                &no_means,
+                model.prior_variance(),
+                &model.kernel,
+                model.noise,
+                &mut ws,
+            )?;
+            let factor = ws.keep_factor();
+            let inverse_diagonal = (scale == Scale::Loo).then(|| factor.inverse_diagonal());
+            set.solver = Some(SetSolver {
+                factor,
+                inverse_diagonal,
+            });
+        }
+        Ok(())
     }
 
     /// Picks the set and the azimuth for a pixel from its stream: `(set, φ)`, `φ = 0` without

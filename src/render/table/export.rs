@@ -20,9 +20,16 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
     let variants: Vec<_> = plan
         .variants
         .iter()
-        .map(
-            |v| serde_json::json!({"label": v.label, "integrator": v.kind, "gps": v.gps, "rotate": v.rotate}),
-        )
+        .map(|v| {
+            let mut j =
+                serde_json::json!({"label": v.label, "integrator": v.kind, "gps": v.gps, "rotate": v.rotate});
+            j["sd"] = if v.kind.uses_sets() {
+                serde_json::json!({"scale": v.scale.name()})
+            } else {
+                "the standard error of the mean, Student-t with spp − 1 degrees of freedom".into()
+            };
+            j
+        })
         .collect();
     let mut reference_json = plan.reference.json();
     reference_json["cache"] = cache_path(plan, results).display().to_string().into();
@@ -39,6 +46,12 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
         "model": plan.model_json,
         "variants": variants,
         "render_seed": "mix(seed, [spp, repetition]), the same for every variant",
+        "coverage95": "share of the hit pixels' channels with |render − reference| ≤ q·sd, q the 95% quantile of the variant's interval law",
+        "edges": {
+            "mask": "hit pixels with a 4-neighbour that is background, has a normal more than 30° away, or a relative depth jump above the tolerance",
+            "depth_tolerance": crate::render::integrator::neighbours::EDGE_DEPTH_TOLERANCE,
+            "bmcp_edge_normal_exponent": crate::render::integrator::neighbours::EDGE_NORMAL_EXPONENT,
+        },
     });
     let mut bytes = serde_json::to_vec_pretty(&json).expect("serialisable");
     bytes.push(b'\n');
@@ -59,11 +72,20 @@ fn variant_fields(v: &VariantPlan) -> [String; 4] {
     [v.label.clone(), v.kind.name(), gps, rotate]
 }
 
-/// `rmse.csv`: `variant,integrator,gps,rotate,spp,repetition,seed,rmse`, one row per render,
-/// RMSE in Rust's shortest round-trip form (exact, like the `run` CSVs).
+/// `rmse.csv`: `variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,
+/// coverage95_edges`, one row per render, numbers in Rust's shortest round-trip form (exact,
+/// like the `run` CSVs).
 pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    let head = ["spp", "repetition", "seed", "rmse"];
+    let head = [
+        "spp",
+        "repetition",
+        "seed",
+        "rmse",
+        "rmse_edges",
+        "coverage95",
+        "coverage95_edges",
+    ];
     w.write_record(VARIANT_COLUMNS.iter().chain(&head))
         .expect(IN_MEMORY);
     for r in rows {
@@ -72,6 +94,9 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
             r.repetition.to_string(),
             r.seed.to_string(),
             format!("{:?}", r.rmse),
+            num(r.rmse_edges),
+            num(r.coverage95),
+            num(r.coverage95_edges),
         ];
         w.write_record(variant_fields(&plan.variants[r.variant]).iter().chain(&rest))
             .expect(IN_MEMORY);
@@ -88,7 +113,9 @@ fn num(x: f64) -> String {
 }
 
 /// `table.csv`: `variant,integrator,gps,rotate,spp,repetitions,rmse_mean,rmse_sd,rmse_ci95_low,
-/// rmse_ci95_high` per (variant, spp), the interval from Student's t (empty for one repetition).
+/// rmse_ci95_high,rmse_edges_mean,rmse_edges_ci95_low,rmse_edges_ci95_high,coverage95,
+/// coverage95_edges` per (variant, spp), the intervals from Student's t (empty for one
+/// repetition), the coverages the mean over the renders.
 pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
     let mut w = csv::Writer::from_writer(Vec::new());
     let head = [
@@ -98,6 +125,11 @@ pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
         "rmse_sd",
         "rmse_ci95_low",
         "rmse_ci95_high",
+        "rmse_edges_mean",
+        "rmse_edges_ci95_low",
+        "rmse_edges_ci95_high",
+        "coverage95",
+        "coverage95_edges",
     ];
     w.write_record(VARIANT_COLUMNS.iter().chain(&head))
         .expect(IN_MEMORY);
@@ -109,6 +141,11 @@ pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
             num(c.sd),
             num(c.mean - c.half_width),
             num(c.mean + c.half_width),
+            num(c.edges_mean),
+            num(c.edges_mean - c.edges_half_width),
+            num(c.edges_mean + c.edges_half_width),
+            num(c.coverage95),
+            num(c.coverage95_edges),
         ];
         w.write_record(variant_fields(&plan.variants[c.variant]).iter().chain(&rest))
             .expect(IN_MEMORY);
@@ -132,24 +169,48 @@ pub fn table_md(plan: &TablePlan, cells: &[Cell]) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    md_grid(plan, cells, &mut s, |c| mean_pm(c.mean, c.half_width));
+    let _ = writeln!(
+        s,
+        "\nMean RMSE at edges (pixels with a 4-neighbour on another surface or the background):\n"
+    );
+    md_grid(plan, cells, &mut s, |c| mean_pm(c.edges_mean, c.edges_half_width));
+    let _ = writeln!(
+        s,
+        "\nCoverage95, whole image / edges: share of pixel-channels whose 95% interval holds the \
+         reference (posterior sd for BMC-type variants, Student-t standard error for MC):\n"
+    );
+    md_grid(plan, cells, &mut s, |c| {
+        format!("{:.3} / {:.3}", c.coverage95, c.coverage95_edges)
+    });
+    s
+}
+
+/// `0.05586 ± 0.00137`, or the mean alone without an interval (one repetition).
+fn mean_pm(mean: f64, half_width: f64) -> String {
+    if half_width.is_finite() {
+        format!("{mean:.5} ± {half_width:.5}")
+    } else {
+        format!("{mean:.5}")
+    }
+}
+
+/// A Markdown grid of variants × spp with `show(cell)` in each cell.
+fn md_grid(plan: &TablePlan, cells: &[Cell], s: &mut String, show: impl Fn(&Cell) -> String) {
     let cell = |v: usize, spp: usize| cells.iter().find(|c| c.variant == v && c.spp == spp);
-    md_header(plan, &mut s, "Method");
+    md_header(plan, s, "Method");
     for (v, variant) in plan.variants.iter().enumerate() {
         let _ = write!(s, "| {} |", variant.label);
         for &spp in &plan.spp {
             match cell(v, spp) {
-                Some(c) if c.half_width.is_finite() => {
-                    let _ = write!(s, " {:.5} ± {:.5} |", c.mean, c.half_width);
-                }
                 Some(c) => {
-                    let _ = write!(s, " {:.5} |", c.mean);
+                    let _ = write!(s, " {} |", show(c));
                 }
                 None => s.push_str(" |"),
             }
         }
         s.push('\n');
     }
-    s
 }
 
 /// Mean wall-clock seconds per image (building the sample sets plus rendering) in Markdown:

@@ -6,9 +6,11 @@
 //! the folder as a whole when the table is done ([`ResultFolder`]):
 //!
 //! - `rmse.csv` — stable raw data, one row per render;
-//! - `table.csv`, `table.md` — mean RMSE with its 95% Student-t interval;
+//! - `table.csv`, `table.md` — mean RMSE (whole image and at edges) with its 95% Student-t
+//!   interval, and coverage95 of the stated intervals;
 //! - `rmse_vs_spp.svg` — mean RMSE against spp, log–log, with the intervals;
-//! - `<variant>-<spp>spp.png` — the first repetition of each cell, tone-mapped;
+//! - `<variant>-<spp>spp.png` — the first repetition of each cell, tone-mapped, and
+//!   `<variant>-<spp>spp-error.png` its error image (absolute scale 0–0.25);
 //! - `reference.png`, `manifest.json` (which lists every file of the set);
 //! - `timings.csv`, `timings.md` — wall-clock seconds (machine-dependent; not committed).
 //!
@@ -24,7 +26,7 @@ pub mod runner;
 pub mod spec;
 pub mod summary;
 
-pub use plan::{TablePlan, VariantPlan, load, png_name};
+pub use plan::{TablePlan, VariantPlan, error_png_name, load, png_name};
 pub use reference::{SCENE_VERSION, reference_key};
 pub use runner::{Row, render_seed};
 pub use summary::Cell;
@@ -85,8 +87,11 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     let mut sink = FileSink {
         plan,
         folder: &mut folder,
+        reference: &reference,
     };
-    let rows = runner::run(plan, &renderer, &reference, &mut sink, reporter)?;
+    let geometry = renderer.geometry();
+    let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
+    let rows = runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter)?;
 
     let cells = summary::summarise(plan, &rows);
     folder.write("rmse.csv", "one row per render", &export::rmse_csv(plan, &rows))?;
@@ -133,6 +138,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
 struct FileSink<'a> {
     plan: &'a TablePlan,
     folder: &'a mut ResultFolder,
+    reference: &'a Image,
 }
 
 impl runner::TableSink for FileSink<'_> {
@@ -142,6 +148,20 @@ impl runner::TableSink for FileSink<'_> {
             &png_name(label, spp),
             &format!("the first render of {label} at {spp} spp, tone-mapped"),
             &image.to_png()?,
+        )?;
+        let error = image.error_png(
+            self.reference,
+            crate::render::image::ErrorScale::Absolute,
+            crate::render::image::DEFAULT_ERROR_MAX,
+            crate::render::image::ColourMap::Viridis,
+        )?;
+        self.folder.write(
+            &error_png_name(label, spp),
+            &format!(
+                "its error image: ‖render − reference‖₂ per pixel, 0–{} (thesis Fig. 3.14, 4.3)",
+                crate::render::image::DEFAULT_ERROR_MAX
+            ),
+            &error.png,
         )
     }
 

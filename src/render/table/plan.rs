@@ -3,7 +3,7 @@
 //! form as experiment files.
 
 use super::spec::{ReferenceMethod, Repetitions, TableSpec, VariantSpec};
-use crate::bmc::BmcModel;
+use crate::bmc::{BmcModel, Scale};
 use crate::error::InputError;
 use crate::render::env::Environment;
 use crate::render::integrator::{DEFAULT_GPS, IntegratorKind, MAX_MC_SPP, check_gps, check_spp};
@@ -19,6 +19,9 @@ pub struct VariantPlan {
     pub gps: usize,
     /// Random azimuth rotation (integrators with weights only; false otherwise).
     pub rotate: bool,
+    /// Amplitude of the posterior sd (integrators with weights only; MC's sd is its standard
+    /// error whatever this says, and it is [`Scale::DEFAULT`] there).
+    pub scale: Scale,
 }
 
 /// How the reference image is made.
@@ -346,11 +349,21 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
                 format!("{r} is not used by integrator {kind}"),
             ));
         }
+        if let Some(s) = v.scale {
+            return Err(err(
+                format!("{at}.scale"),
+                format!(
+                    "{:?} is not used by integrator {kind} (its sd is the standard error of its mean)",
+                    s.name()
+                ),
+            ));
+        }
         return Ok(VariantPlan {
             label,
             kind,
             gps: 0,
             rotate: false,
+            scale: Scale::DEFAULT,
         });
     }
     let gps = v.gps.unwrap_or(DEFAULT_GPS as u64);
@@ -361,7 +374,13 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
         kind,
         gps,
         rotate: v.rotate.unwrap_or(true),
+        scale: v.scale.unwrap_or(Scale::DEFAULT),
     })
+}
+
+/// `BMC 4 GP` at 40 spp → `bmc-4-gp-40spp-error.png`: the error image beside [`png_name`]'s.
+pub fn error_png_name(label: &str, spp: usize) -> String {
+    png_name(label, spp).replace("spp.png", "spp-error.png")
 }
 
 /// `BMC 4 GP (no rotation)` at 40 spp → `bmc-4-gp-no-rotation-40spp.png`.
@@ -436,7 +455,8 @@ mod tests {
                 label: "mc".into(),
                 kind: IntegratorKind::MC,
                 gps: 0,
-                rotate: false
+                rotate: false,
+                scale: Scale::Ml
             }
         );
         assert_eq!(
@@ -445,7 +465,8 @@ mod tests {
                 label: "bmc".into(),
                 kind: IntegratorKind::BMC,
                 gps: 4,
-                rotate: true
+                rotate: true,
+                scale: Scale::Ml
             }
         );
         assert!(p.model.is_some());
@@ -460,7 +481,7 @@ mod tests {
         ));
         assert_eq!(
             err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),
-            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bsq"
+            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bmcp-edge, bsq"
         );
         assert_eq!(
             err(&format!("{{{base}, \"spp\": [20, 0]}}")),

@@ -4,6 +4,7 @@ use super::plan::TablePlan;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
 use crate::render::renderer::Renderer;
+use crate::render::uncertainty::coverage;
 use crate::report::{Reporter, Silent};
 use std::time::Instant;
 
@@ -15,6 +16,13 @@ pub struct Row {
     pub repetition: usize,
     pub seed: u64,
     pub rmse: f64,
+    /// RMSE over the edge mask ([`crate::render::integrator::neighbours::edge_mask`]):
+    /// silhouettes and creases, where a neighbour prior can mislead.
+    pub rmse_edges: f64,
+    /// Share of the hit pixel-channels whose 95% interval holds the reference (math.md §7),
+    /// over the whole image and over the edge mask.
+    pub coverage95: f64,
+    pub coverage95_edges: f64,
     /// Wall-clock seconds (building the sets plus rendering); outside the stable outputs.
     pub seconds: f64,
 }
@@ -25,18 +33,21 @@ pub fn render_seed(seed: u64, spp: usize, rep: usize) -> u64 {
 }
 
 /// What the runner hands its caller as it goes: the first repetition's image of each cell (to
-/// save), and the rows so far after each round of variants (so an interrupted table keeps what
-/// it measured).
+/// save), and the rows so far after each round of variants (so an interrupted
+/// table keeps what it measured).
 pub trait TableSink {
     fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()>;
     fn round_done(&mut self, rows: &[Row]) -> crate::Result<()>;
 }
 
-/// Renders the table in spec order: spp, then repetition, then variant.
+/// Renders the table in spec order: spp, then repetition, then variant. Every render states
+/// its sds (the variant's amplitude scale; MC its standard error), so each row has its
+/// coverage; `edges` is the edge mask (row-major) of the edge columns.
 pub fn run(
     plan: &TablePlan,
     renderer: &Renderer,
     reference: &Image,
+    edges: &[bool],
     sink: &mut dyn TableSink,
     reporter: &dyn Reporter,
 ) -> crate::Result<Vec<Row>> {
@@ -56,13 +67,14 @@ pub fn run(
                     variant.rotate,
                     plan.model.as_ref(),
                     seed,
-                )?;
+                )?
+                .with_uncertainty(variant.scale, plan.model.as_ref())?;
                 if rep == 0 {
                     for line in numerical_warnings(&integrator) {
                         reporter.note(&format!("warning: {} {spp} spp: {line}", variant.label));
                     }
                 }
-                let image = renderer.render(&integrator, seed, &Silent);
+                let (image, sds) = renderer.render_with_sd(&integrator, seed, &Silent);
                 let seconds = start.elapsed().as_secs_f64();
                 rows.push(Row {
                     variant: v,
@@ -70,6 +82,9 @@ pub fn run(
                     repetition: rep,
                     seed,
                     rmse: image.rmse(reference),
+                    rmse_edges: image.rmse_masked(reference, edges),
+                    coverage95: coverage(&image, reference, &sds, None).coverage95,
+                    coverage95_edges: coverage(&image, reference, &sds, Some(edges)).coverage95,
                     seconds,
                 });
                 if rep == 0 {

@@ -67,6 +67,10 @@ pub struct VariantSpec {
     /// Rotate the set per pixel (integrators with weights only); default true.
     #[serde(default)]
     pub rotate: Option<bool>,
+    /// Amplitude of the per-pixel posterior sd behind the coverage columns (integrators with
+    /// weights only): `unit`, `ml` or `loo` (math.md §7); default `ml`.
+    #[serde(default)]
+    pub scale: Option<crate::bmc::Scale>,
 }
 
 /// The reference image: `{"method": "exact"}` (the default; optional `tolerance`) or

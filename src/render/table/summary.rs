@@ -13,6 +13,13 @@ pub struct Cell {
     pub sd: f64,
     /// Half-width of the 95% interval `t_{0.975, n−1} · sd / √n` (NaN for `n = 1`).
     pub half_width: f64,
+    /// Mean RMSE over the edge mask and its 95% half-width.
+    pub edges_mean: f64,
+    pub edges_half_width: f64,
+    /// Mean over the renders of each render's coverage95 (every render counts the same
+    /// pixel-channels, so this is the pooled share), whole image and edge mask.
+    pub coverage95: f64,
+    pub coverage95_edges: f64,
     /// Mean wall-clock seconds per render (building the sets plus rendering); not part of the
     /// stable outputs.
     pub seconds: f64,
@@ -33,6 +40,10 @@ pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
             let seconds: Vec<f64> = cell.iter().map(|r| r.seconds).collect();
             // Both NaN for a single repetition, where neither is defined.
             let (lo, hi) = mean_ci95(&rmse);
+            let edges: Vec<f64> = cell.iter().map(|r| r.rmse_edges).collect();
+            let (edges_lo, edges_hi) = mean_ci95(&edges);
+            let coverage: Vec<f64> = cell.iter().map(|r| r.coverage95).collect();
+            let coverage_edges: Vec<f64> = cell.iter().map(|r| r.coverage95_edges).collect();
             cells.push(Cell {
                 variant: v,
                 spp,
@@ -40,6 +51,10 @@ pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
                 mean: mean(&rmse),
                 sd: sample_sd(&rmse),
                 half_width: 0.5 * (hi - lo),
+                edges_mean: mean(&edges),
+                edges_half_width: 0.5 * (edges_hi - edges_lo),
+                coverage95: mean(&coverage),
+                coverage95_edges: mean(&coverage_edges),
                 seconds: mean(&seconds),
             });
         }
