@@ -97,5 +97,48 @@ fn main() {
             flops / t_nalgebra / 1e9,
         );
     }
+    rings(&kernel, &table, &mut sink);
     black_box(sink);
+}
+
+/// BMC on ring sets (`sampling::rings`, `ring_solver`): the weights (kernel sums, transforms,
+/// block factors, the `J × J` solve), then one general solve `Q⁻¹Y` as the `ml` amplitude needs,
+/// and `diag(Q⁻¹)` as `loo` needs. Median seconds per weight set.
+fn rings(kernel: &Kernel, table: &KernelMeanTable, sink: &mut f64) {
+    use workbench::bmc::bmc_weights_on_rings;
+    use workbench::sampling::{SetDesign, rings};
+    println!();
+    println!(
+        "{:>6} {:>5} {:>5} {:>12} {:>12} {:>12}",
+        "N", "J", "M", "weights ms", "+Q⁻¹Y ms", "diag ms"
+    );
+    for n in [512usize, 2048, 4096, 16384, 65536] {
+        let layout = rings::layout(n);
+        let reps = if n <= 4096 { 11 } else { 5 };
+        let pts = SetDesign::Rings.sample_set(n, &mut stream(2, &[n as u64]));
+        let z: Vec<f64> = pts.iter().map(|p| table.z(p.z)).collect();
+        let y: Vec<f64> = pts.iter().map(|p| p.z.powi(3) + p.x).collect();
+        let mut ws = SpdWorkspace::new();
+        let v = table.prior_variance();
+        let t_weights = median_seconds(reps, || {
+            let w = bmc_weights_on_rings(&pts, layout, &z, v, kernel, 0.01, &mut ws).unwrap();
+            *sink += w.weights[0];
+        });
+        let mut solved = y.clone();
+        let t_ml = median_seconds(reps, || {
+            let w = bmc_weights_on_rings(&pts, layout, &z, v, kernel, 0.01, &mut ws).unwrap();
+            solved.copy_from_slice(&y);
+            ws.solve_in_place(&mut solved);
+            *sink += w.weights[0] + solved[0];
+        });
+        let t_diag = median_seconds(reps, || *sink += ws.inverse_diagonal()[0]);
+        println!(
+            "{n:>6} {:>5} {:>5} {:>12.3} {:>12.3} {:>12.3}",
+            layout.rings,
+            layout.per_ring,
+            t_weights * 1e3,
+            t_ml * 1e3,
+            t_diag * 1e3
+        );
+    }
 }

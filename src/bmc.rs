@@ -334,7 +334,60 @@ pub fn bmc_weights(
     // One more O(N²) solve, for Bayes–Sard and its residuals.
     let mut ones_solve = vec![1.0; n];
     workspace.solve_in_place(&mut ones_solve);
+    Ok(with_diagnostics(
+        weights,
+        ones_solve,
+        FactorInfo {
+            jitter,
+            condition_estimate,
+        },
+        z,
+        prior_variance,
+    ))
+}
 
+/// The weights on a ring set ([`crate::sampling::rings`]) by the `J × J` solve of
+/// [`crate::ring_solver`]: the same numbers as [`bmc_weights`] to rounding, in `O(N J²)`
+/// instead of `O(N³)`. `z` must be constant on each ring (exact kernel means are, since they
+/// depend on the height only); otherwise this falls back to [`bmc_weights`]. The ring factor
+/// stays in `workspace` for later solves (`Q⁻¹Y`, `diag(Q⁻¹)`).
+pub fn bmc_weights_on_rings(
+    points: &[Vec3],
+    layout: crate::sampling::rings::RingLayout,
+    z: &[f64],
+    prior_variance: f64,
+    kernel: &Kernel,
+    noise: f64,
+    workspace: &mut SpdWorkspace,
+) -> Result<BmcWeights, NotPositiveDefinite> {
+    let per_ring = layout.per_ring;
+    assert_eq!(z.len(), layout.rings * per_ring, "one kernel mean per point");
+    let ring_constant = z.chunks(per_ring).all(|ring| ring.iter().all(|&v| v == ring[0]));
+    if !ring_constant {
+        return bmc_weights(points, z, prior_variance, kernel, noise, workspace);
+    }
+    let factor = crate::ring_solver::RingFactor::new(points, layout, kernel, noise)?;
+    let z_ring: Vec<f64> = z.iter().step_by(per_ring).copied().collect();
+    let weights = factor.solve_ring_constant(&z_ring);
+    let ones_solve = factor.solve_ring_constant(&vec![1.0; layout.rings]);
+    let info = factor.info();
+    workspace.hold_structured(Box::new(factor));
+    Ok(with_diagnostics(weights, ones_solve, info, z, prior_variance))
+}
+
+/// Weights and `u = Q⁻¹1` with their diagnostics and warnings.
+fn with_diagnostics(
+    weights: Vec<f64>,
+    ones_solve: Vec<f64>,
+    info: FactorInfo,
+    z: &[f64],
+    prior_variance: f64,
+) -> BmcWeights {
+    let FactorInfo {
+        jitter,
+        condition_estimate,
+    } = info;
+    let n = weights.len();
     let mut warnings = Vec::new();
     if jitter > 0.0 {
         warnings.push(NumericalWarning::Jitter { amount: jitter });
@@ -359,11 +412,11 @@ pub fn bmc_weights(
         posterior_variance,
         warnings,
     };
-    Ok(BmcWeights {
+    BmcWeights {
         weights,
         ones_solve,
         diagnostics,
-    })
+    }
 }
 
 /// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.
@@ -423,6 +476,35 @@ impl BmcModel {
                     &crate::kernel::PointsSoa::new(&dirs),
                 )
             }
+        }
+    }
+
+    /// The weights for `points` drawn with `design`: on a ring set with exact kernel means by
+    /// the ring solver ([`bmc_weights_on_rings`]), otherwise dense ([`BmcModel::weights`]).
+    pub fn weights_for_design<R: rand::Rng + ?Sized>(
+        &self,
+        points: &[Vec3],
+        design: crate::sampling::SetDesign,
+        rng: &mut R,
+        workspace: &mut SpdWorkspace,
+    ) -> Result<BmcWeights, NotPositiveDefinite> {
+        match design {
+            crate::sampling::SetDesign::Rings => {
+                let z = self.kernel_means(points, rng);
+                bmc_weights_on_rings(
+                    points,
+                    crate::sampling::rings::layout(points.len()),
+                    &z,
+                    self.prior_variance(),
+                    &self.kernel,
+                    self.noise,
+                    workspace,
+                )
+            }
+            crate::sampling::SetDesign::Iid(_)
+            | crate::sampling::SetDesign::Fibonacci
+            | crate::sampling::SetDesign::Stratified
+            | crate::sampling::SetDesign::Sobol => self.weights(points, rng, workspace),
         }
     }
 

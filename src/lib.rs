@@ -21,6 +21,7 @@ pub mod plot_style;
 pub mod quadrature;
 pub mod render;
 pub mod report;
+pub mod ring_solver;
 pub mod rng;
 pub mod rule;
 pub mod sampling;

@@ -35,6 +35,21 @@ pub struct NotPositiveDefinite {
     pub jitter: f64,
 }
 
+/// A factorisation of `Q` that exploits its structure (e.g. [`crate::ring_solver::RingFactor`]
+/// for ring designs), held by a [`SpdWorkspace`] in place of the dense factor.
+pub trait StructuredFactor: Send {
+    /// `N`, the order of `Q`.
+    fn len(&self) -> usize;
+    /// Whether `Q` is empty.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Solves `Q x = b` in place in `b`.
+    fn solve_in_place(&self, b: &mut [f64]);
+    /// `diag(Q⁻¹)`.
+    fn inverse_diagonal(&self) -> Vec<f64>;
+}
+
 /// Reusable storage for `Q` and its Cholesky factor, in one matrix.
 ///
 /// `Q` is assembled (lower triangle) straight into the buffer the factorisation overwrites, so
@@ -42,9 +57,13 @@ pub struct NotPositiveDefinite {
 /// jitter retry assembles `Q` again, which costs less than keeping the copy. The buffer grows to
 /// the largest `n` seen and is then reused as an `n × n` view, so a worker that alternates
 /// between sample counts never reallocates.
+///
+/// A structured factorisation ([`SpdWorkspace::hold_structured`]) replaces the dense one until
+/// the next [`SpdWorkspace::factor_with`]: the solves then go through it.
 pub struct SpdWorkspace {
     factor: Mat<f64>,
     n: usize,
+    structured: Option<Box<dyn StructuredFactor>>,
     scratch: Option<MemBuffer>,
     scratch_n: usize,
 }
@@ -70,6 +89,7 @@ impl SpdWorkspace {
         SpdWorkspace {
             factor: Mat::zeros(0, 0),
             n: 0,
+            structured: None,
             scratch: None,
             scratch_n: 0,
         }
@@ -79,6 +99,7 @@ impl SpdWorkspace {
     /// buffer: `fill(j, col)` writes `Q[j.., j]` into `col`. (Timing and tests; the solves use
     /// [`SpdWorkspace::factor_with`], which assembles and factors.)
     pub fn assemble_lower_by_columns(&mut self, n: usize, mut fill: impl FnMut(usize, &mut [f64])) {
+        self.structured = None;
         if self.factor.nrows() < n {
             self.factor = Mat::zeros(n, n);
         }
@@ -159,8 +180,18 @@ impl SpdWorkspace {
         Err(NotPositiveDefinite { n, jitter })
     }
 
+    /// Makes `factor` the current factorisation: the solves and [`SpdWorkspace::inverse_diagonal`]
+    /// use it until the next dense one.
+    pub fn hold_structured(&mut self, factor: Box<dyn StructuredFactor>) {
+        self.n = factor.len();
+        self.structured = Some(factor);
+    }
+
     /// Solves `Q x = b` with the last factorisation (in place in `b`).
     pub fn solve_in_place(&self, b: &mut [f64]) {
+        if let Some(f) = &self.structured {
+            return f.solve_in_place(b);
+        }
         let n = self.n;
         assert_eq!(b.len(), n, "right-hand side length");
         let mut rhs = faer::MatMut::from_column_major_slice_mut(b, n, 1);
@@ -178,6 +209,9 @@ impl SpdWorkspace {
     /// columns, so the whole diagonal costs `N³/6` multiply–adds: O(N³), like the factorisation
     /// itself (it is what a leave-one-out amplitude needs, math.md §7).
     pub fn inverse_diagonal(&self) -> Vec<f64> {
+        if let Some(f) = &self.structured {
+            return f.inverse_diagonal();
+        }
         let n = self.n;
         let mut out = vec![0.0; n];
         let mut x = vec![0.0; n];

@@ -42,6 +42,45 @@ pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> crate::Resu
     Ok(model.weights(points, &mut rng, &mut SpdWorkspace::new())?)
 }
 
+/// The weights of a set generated with `design` ([`generate_points`]): by the ring solver on
+/// a ring set ([`BmcModel::weights_for_design`]), otherwise as [`compute_rule`].
+pub fn compute_rule_for_design(
+    points: &[Vec3],
+    design: SetDesign,
+    model: &BmcModel,
+    seed: u64,
+) -> crate::Result<BmcWeights> {
+    let mut rng = stream(seed, &[KERNEL_MEAN_STREAM]);
+    Ok(model.weights_for_design(points, design, &mut rng, &mut SpdWorkspace::new())?)
+}
+
+/// [`check_point_count`] for a set generated with `design`: a ring set needs a count that
+/// splits into rings ([`crate::sampling::rings::check`]) and, with exact kernel means, may be
+/// as large as [`crate::ring_solver::MAX_RING_POINTS`] (no `N × N` matrix is formed).
+pub fn check_generated_count(
+    n: usize,
+    design: SetDesign,
+    exact_kernel_means: bool,
+    what: &str,
+) -> Result<(), InputError> {
+    if n == 0 {
+        return check_point_count(n, what);
+    }
+    design
+        .check_count(n)
+        .map_err(|m| InputError::new(format!("{what}: {n} with --design {design}: {m}")))?;
+    if design == SetDesign::Rings && exact_kernel_means {
+        let max = crate::ring_solver::MAX_RING_POINTS;
+        if n > max {
+            return Err(InputError::new(format!(
+                "{what}: {n} points; the rings design allows at most {max}"
+            )));
+        }
+        return Ok(());
+    }
+    check_point_count(n, what)
+}
+
 /// Largest points file read: [`MAX_POINTS`] rows of four shortest round-trip numbers take
 /// about 1.5 MiB, so anything near this is not a points file (and is not read into memory).
 pub const MAX_POINTS_FILE_BYTES: u64 = 16 << 20;

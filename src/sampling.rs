@@ -1,5 +1,6 @@
 //! Sampling the hemisphere around `+z` (math.md §2).
 
+pub mod rings;
 pub mod sobol;
 pub mod stratified;
 
@@ -119,18 +120,24 @@ pub enum SetDesign {
     /// The first `n` points of a 2-D Sobol sequence, Owen-scrambled afresh for every set, mapped
     /// like [`Design::Uniform`] (see [`sobol`]).
     Sobol,
+    /// `J` rings of `M` equally spaced azimuths (`N = J·M`), ring heights jittered within
+    /// equal-area strata and the whole set randomly rotated (see [`rings`]): a fully symmetric
+    /// design, on which BMC solves a `J × J` system per azimuthal frequency instead of the
+    /// `N × N` one ([`crate::ring_solver`]).
+    Rings,
 }
 
 impl SetDesign {
     /// Every design, in the order of the docs: the list that the conformance tests walk and
     /// that names are parsed from. A new design is added here and in the matches below (all
     /// exhaustive, so a design not wired everywhere does not compile).
-    pub const ALL: [SetDesign; 5] = [
+    pub const ALL: [SetDesign; 6] = [
         SetDesign::Iid(Design::Uniform),
         SetDesign::Iid(Design::Cosine),
         SetDesign::Fibonacci,
         SetDesign::Stratified,
         SetDesign::Sobol,
+        SetDesign::Rings,
     ];
 
     /// Parses [`SetDesign::name`].
@@ -151,6 +158,7 @@ impl SetDesign {
             SetDesign::Fibonacci => 2,
             SetDesign::Stratified => 3,
             SetDesign::Sobol => 4,
+            SetDesign::Rings => 5,
         }
     }
 
@@ -161,6 +169,7 @@ impl SetDesign {
             SetDesign::Fibonacci => "fibonacci",
             SetDesign::Stratified => "stratified",
             SetDesign::Sobol => "sobol",
+            SetDesign::Rings => "rings",
         }
     }
 
@@ -168,7 +177,9 @@ impl SetDesign {
     pub fn density(self) -> Design {
         match self {
             SetDesign::Iid(d) => d,
-            SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => Design::Uniform,
+            SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol | SetDesign::Rings => {
+                Design::Uniform
+            }
         }
     }
 
@@ -210,6 +221,16 @@ impl SetDesign {
                     })
                     .collect()
             }
+            SetDesign::Rings => rings::sample_set(n, rng),
+        }
+    }
+
+    /// Whether `n` points can be drawn with this design: every count can, except for the rings
+    /// design (see [`rings::check`]); the message says why not.
+    pub fn check_count(self, n: usize) -> Result<(), String> {
+        match self {
+            SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => Ok(()),
+            SetDesign::Rings => rings::check(n).map(|_| ()),
         }
     }
 }

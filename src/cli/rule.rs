@@ -72,14 +72,19 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         .as_deref()
         .and_then(SetDesign::from_name)
         .unwrap_or(SetDesign::Iid(workbench::sampling::Design::Uniform));
+    let exact_kernel_means =
+        args.model.resolve()?.kernel_mean == workbench::model_spec::KernelMeanName::Exact;
     let points = match &args.points {
-        Some(path) => workbench::rule::read_points_csv(path)?,
+        Some(path) => {
+            let points = workbench::rule::read_points_csv(path)?;
+            workbench::rule::check_point_count(points.len(), "--points")?;
+            points
+        }
         None => {
-            workbench::rule::check_point_count(n, "--n")?;
+            workbench::rule::check_generated_count(n, design, exact_kernel_means, "--n")?;
             workbench::rule::generate_points(n, args.seed, design)
         }
     };
-    workbench::rule::check_point_count(points.len(), "--points")?;
     let bsq = args.method == "bsq";
     if bsq && points.len() < 2 {
         anyhow::bail!(workbench::error::InputError::new(format!(
@@ -93,7 +98,10 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     // earlier file, and no other command may write them meanwhile. Taken once the input is
     // known to be good, so that bad input leaves no trace.
     let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
-    let weights = workbench::rule::compute_rule(&points, &model, args.seed)?;
+    let weights = match &args.points {
+        Some(_) => workbench::rule::compute_rule(&points, &model, args.seed)?,
+        None => workbench::rule::compute_rule_for_design(&points, design, &model, args.seed)?,
+    };
     let weights = if bsq { weights.bayes_sard() } else { weights };
     for w in &weights.diagnostics.warnings {
         status!("warning: {}", w.message());

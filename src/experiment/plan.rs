@@ -304,7 +304,40 @@ fn check_limits(
     designs: &[SetDesign],
 ) -> Result<(), String> {
     let max_n = *spec.samples.iter().max().expect("samples is not empty");
-    let needs_weights = estimators.iter().any(|e| e.method.needs_weights());
+    // The rings design needs N = J·M (sampling::rings).
+    if let Some(e) = estimators.iter().find(|e| e.design == SetDesign::Rings) {
+        for (i, &n) in spec.samples.iter().enumerate() {
+            if let Err(m) = SetDesign::Rings.check_count(n as usize) {
+                return Err(err(
+                    format!("samples[{i}]"),
+                    format!("N = {n} for estimator {:?} (design \"rings\"): {m}", e.label),
+                ));
+            }
+        }
+    }
+    // BMC on rings with exact kernel means solves J × J blocks (ring_solver), not Q itself.
+    let on_rings = |e: &PlannedEstimator| {
+        e.design == SetDesign::Rings
+            && e.settings.kernel_mean == Some(crate::model_spec::KernelMeanName::Exact)
+    };
+    let needs_weights = estimators
+        .iter()
+        .any(|e| e.method.needs_weights() && !on_rings(e));
+    let needs_ring_weights = estimators.iter().any(|e| e.method.needs_weights() && on_rings(e));
+    if needs_ring_weights && max_n > crate::ring_solver::MAX_RING_POINTS as u64 {
+        let i = spec
+            .samples
+            .iter()
+            .position(|&n| n == max_n)
+            .expect("max is in the list");
+        return Err(err(
+            format!("samples[{i}]"),
+            format!(
+                "N = {max_n}: BMC estimators on the rings design allow at most N = {}",
+                crate::ring_solver::MAX_RING_POINTS
+            ),
+        ));
+    }
     if needs_weights && max_n > MAX_POINTS as u64 {
         let i = spec
             .samples

@@ -164,7 +164,7 @@ pub fn run_unit(
         );
         let set = set_of(e.design);
         let w = plan.models[m]
-            .weights(set, &mut rng, workspace)
+            .weights_for_design(set, e.design, &mut rng, workspace)
             .map_err(|source| crate::Error::Numerical {
                 what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
                 source,

@@ -18,6 +18,11 @@ impl SpdWorkspace {
     /// A copy of the last factorisation's `L` (8 n² bytes), to solve with after the workspace
     /// is reused.
     pub fn keep_factor(&self) -> CholeskyFactor {
+        // A structured factorisation (ring designs) has no dense factor to keep.
+        assert!(
+            self.structured.is_none(),
+            "keep_factor after a structured factorisation"
+        );
         CholeskyFactor {
             l: self.factor.as_ref().submatrix(0, 0, self.n, self.n).to_owned(),
         }
