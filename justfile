@@ -15,6 +15,7 @@ figures:
     cargo run --release -- run experiments/lights.json -q
     cargo run --release -- run experiments/pixels.json -q
     cargo run --release -- run experiments/calibration.json -q
+    cargo run --release -- run experiments/adaptive.json -q
     cargo run --release -- run experiments/rings.json -q
     cargo run --release -- render experiments/render-table.json -q
 

@@ -16,6 +16,7 @@ pub mod kernel;
 pub mod kernel_mean;
 pub mod linalg;
 pub mod model_spec;
+pub mod nested_cholesky;
 pub mod output_set;
 pub mod plot_style;
 pub mod quadrature;
@@ -26,6 +27,7 @@ pub mod rng;
 pub mod rule;
 pub mod sampling;
 pub mod schema;
+pub mod sequential;
 pub mod stats;
 pub mod threads;
 

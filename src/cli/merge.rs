@@ -34,6 +34,8 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         cells: merged.findings.cells,
         checks: merged.findings.checks,
         calibration: merged.findings.calibration,
+        stopping: Vec::new(),
+        tolerance_checks: Vec::new(),
         wall_seconds: merged.wall_seconds,
         threads: 1,
         warnings: Vec::new(),

@@ -6,6 +6,7 @@ mod model_args;
 mod output;
 mod progress;
 mod render;
+mod render_adaptive;
 mod rule;
 mod run;
 mod schema;

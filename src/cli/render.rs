@@ -1,7 +1,7 @@
 //! `workbench render`: one image (`--out x.exr`) or a table (`workbench render SPEC.json`).
 
 use super::model_args::ModelArgs;
-use super::output::{status, stdout};
+use super::output::{sibling_png, status, stdout};
 use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -35,7 +35,7 @@ pub struct RenderArgs {
     #[arg(
         value_name = "SPEC.json",
         conflicts_with_all = ["out", "integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
-                              "env", "seed", "reference", "sd_out", "scale"]
+                              "env", "seed", "reference", "sd_out", "scale", "target_sd", "max_spp"]
     )]
     pub spec: Option<PathBuf>,
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
@@ -96,6 +96,14 @@ pub struct RenderArgs {
     /// [default: ml].
     #[arg(long, value_parser = ["unit", "ml", "loo"])]
     pub scale: Option<String>,
+    /// Adaptive sampling: each pixel doubles its samples from --spp (the first stage) until every
+    /// channel's stated standard deviation is at most this, or --max-spp is reached; `mc`,
+    /// `mc-cos` and `bmc` only. Writes <out>-spp.png (the samples each pixel took).
+    #[arg(long)]
+    pub target_sd: Option<f64>,
+    /// With --target-sd: the most samples a pixel may take (stages spp, 2 spp, … ≤ this).
+    #[arg(long)]
+    pub max_spp: Option<usize>,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Tables only: folder of the outputs (<dir>/<name>/) and of the reference cache
@@ -186,15 +194,39 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `x.exr` → `x<suffix>.png`, keeping the stem's bytes as they are (a name need not be UTF-8).
-pub fn sibling_png(out: &Path, suffix: &str) -> PathBuf {
-    let mut name = out.file_stem().unwrap_or_default().to_os_string();
-    name.push(suffix);
-    name.push(".png");
-    out.with_file_name(name)
-}
-
 fn single(args: &RenderArgs) -> anyhow::Result<()> {
+    if args.target_sd.is_some() || args.max_spp.is_some() {
+        return super::render_adaptive::single(&super::render_adaptive::AdaptiveArgs {
+            target_sd: args.target_sd,
+            max_spp: args.max_spp,
+            integrator: match args.integrator {
+                RenderIntegrator::Estimator(k) => Ok(k),
+                other => Err(other.to_string()),
+            },
+            spp: args.spp,
+            gps: args.gps,
+            no_rotate: args.no_rotate,
+            width: args.width,
+            height: args.height,
+            env: &args.env,
+            seed: args.seed,
+            out: args.out.as_ref().expect("clap requires --out without a spec"),
+            reference: args.reference.as_ref(),
+            error_max: args.error_max,
+            grey: args.error_colours.as_deref() == Some("grey"),
+            unused: (args.tolerance.map(|_| "--tolerance"))
+                .or(args.results_dir.as_ref().map(|_| "--results-dir"))
+                .or(args.sd_out.as_ref().map(|_| "--sd-out"))
+                .or(args.scale.as_ref().map(|_| "--scale"))
+                .or(args
+                    .error_scale
+                    .as_ref()
+                    .filter(|v| v.as_str() != "absolute")
+                    .map(|_| "--error-scale")),
+            model: &args.model,
+            quiet: args.quiet,
+        });
+    }
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     if out.extension().and_then(|e| e.to_str()) != Some("exr") {

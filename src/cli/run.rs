@@ -92,6 +92,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     stdout(&ex::format_report(&plan, &report))?;
+    stdout(&ex::adaptive::format_report(
+        &plan,
+        &report.stopping,
+        &report.tolerance_checks,
+    ))?;
     status!(
         "wrote {} ({:.2} s on {} thread{})",
         report.out_dir.display(),
@@ -99,7 +104,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         report.threads,
         if report.threads == 1 { "" } else { "s" }
     );
-    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed());
+    let failed = report.checks.iter().any(|c| !c.passed())
+        || report.calibration.iter().any(|c| !c.passed())
+        || report.tolerance_checks.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)
     } else {

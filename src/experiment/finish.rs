@@ -64,7 +64,13 @@ pub fn write_set(
         "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
         &export::fits_csv(plan, &cells),
     )?;
+    // With only tolerance estimators every cell sits at its first stage, so error and coverage
+    // against N say nothing; `<integrand>-tolerance.svg` replaces them.
+    let only_tolerance = plan.estimators.iter().all(|e| e.tolerance.is_some());
     for (fi, f) in plan.integrands.iter().enumerate() {
+        if only_tolerance {
+            continue;
+        }
         let svg = plot::error_plot_svg(plan, &cells, fi)?;
         folder.write(
             &format!("{}.svg", f.name()),

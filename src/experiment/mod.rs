@@ -5,6 +5,9 @@
 //! [`plot`], pure) → one atomic swap of the results folder. A run may be a shard of the units
 //! ([`unit_log::Shard`]), whose logs [`merge`] turns into the same files.
 
+pub mod adaptive;
+pub mod adaptive_plot;
+pub mod adaptive_unit;
 pub mod cost_plot;
 pub mod coverage_plot;
 pub mod drive;
@@ -20,6 +23,7 @@ pub mod spec;
 pub mod summary;
 pub mod sweep;
 pub mod text;
+pub mod tolerance;
 pub mod unit_log;
 
 pub use text::{describe, format_report};
@@ -80,6 +84,9 @@ pub struct RunReport {
     pub cells: Vec<summary::CellSummary>,
     pub checks: Vec<summary::CheckOutcome>,
     pub calibration: Vec<summary::CalibrationOutcome>,
+    /// Tolerance estimators' cells and checks (empty without tolerance estimators).
+    pub stopping: Vec<adaptive::Cell>,
+    pub tolerance_checks: Vec<adaptive::CheckOutcome>,
     pub wall_seconds: f64,
     pub threads: usize,
     /// Weight sets' numerical warnings of the units run now (not of resumed ones).
@@ -122,6 +129,20 @@ pub fn run_plan(
         (Some(_), None) => return Err(InputError::new("--shard: needs the experiment file").into()),
         _ => None,
     };
+    if (overrides.shard.is_some() || overrides.resume)
+        && plan.estimators.iter().any(|e| e.tolerance.is_some())
+    {
+        return Err(InputError::new(format!(
+            "{}: the file has tolerance estimators, whose stopping outputs are not kept in the unit log \
+             yet; run it whole, without --shard or --resume",
+            if overrides.shard.is_some() {
+                "--shard"
+            } else {
+                "--resume"
+            }
+        ))
+        .into());
+    }
     let inputs: Vec<(&str, &Path)> = overrides
         .spec
         .iter()
@@ -149,9 +170,10 @@ pub fn run_plan(
     reporter.start("trials×N", units as u64);
     reporter.advance(resumed as u64);
     let start = Instant::now();
-    let warnings = drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
-        reporter.advance(1)
-    })?;
+    let (warnings, stopped) =
+        drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
+            reporter.advance(1)
+        })?;
     reporter.finish();
     drop(log);
     let wall_seconds = start.elapsed().as_secs_f64();
@@ -171,12 +193,49 @@ pub fn run_plan(
         }
         (None, None) => unreachable!("a shard has its spec"),
     };
+    // Tolerance estimators' outcomes, kept per unit by the drive (only for plans that have
+    // them; `--shard` and `--resume` refuse those plans).
+    let results = runner::Results { units: stopped };
+    let stopping = adaptive::summarize(plan, &results);
+    let tolerance_checks: Vec<_> = plan
+        .tolerance_checks
+        .iter()
+        .map(|c| adaptive::evaluate_check(plan, &stopping, c))
+        .collect();
+    if !stopping.is_empty() {
+        folder.write(
+            "stopping_trials.csv",
+            "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance",
+            &adaptive::trials_csv(plan, &results),
+        )?;
+        folder.write(
+            "stopping_summary.csv",
+            "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance",
+            &adaptive::summary_csv(plan, &stopping),
+        )?;
+        for (fi, f) in plan.integrands.iter().enumerate() {
+            if let Some(svg) = adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
+                folder.write(
+                    &format!("{}-tolerance.svg", f.name()),
+                    &format!(
+                        "mean n used and share within the tolerance against the tolerance for {}, every tolerance estimator",
+                        f.name()
+                    ),
+                    svg.as_bytes(),
+                )?;
+            }
+        }
+    }
     folder.write(
         "timings.json",
         "wall-clock seconds and threads of the run (machine-dependent; not committed)",
         &export::timings_json(threads, wall_seconds),
     )?;
-    let manifest: serde_json::Value = serde_json::from_slice(&manifest).expect("the manifest is JSON");
+    let mut manifest: serde_json::Value = serde_json::from_slice(&manifest).expect("the manifest is JSON");
+    if !plan.tolerance_checks.is_empty() && overrides.shard.is_none() {
+        manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
+        manifest["tolerance_checks"] = adaptive::checks_json(plan, &tolerance_checks);
+    }
     folder.commit(manifest)?;
     let findings = findings.unwrap_or(finish::Findings {
         cells: Vec::new(),
@@ -188,6 +247,8 @@ pub fn run_plan(
         cells: findings.cells,
         checks: findings.checks,
         calibration: findings.calibration,
+        stopping,
+        tolerance_checks,
         wall_seconds,
         threads,
         warnings,

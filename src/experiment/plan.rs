@@ -41,6 +41,8 @@ pub struct Plan {
     pub checks: Vec<Check>,
     /// Calibration checks (`"calibrated"` entries of `checks`).
     pub calibration_checks: Vec<CalibrationCheck>,
+    /// Tolerance checks (`"within_tolerance"` entries of `checks`; [`super::adaptive`]).
+    pub tolerance_checks: Vec<super::tolerance::ToleranceCheck>,
     /// Distinct BMC models; estimators that share one share its weights within a trial.
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
@@ -80,6 +82,8 @@ pub struct PlannedEstimator {
     pub prior: Option<Prior>,
     /// The kernel amplitude (methods with weights; math.md §7).
     pub scale: Option<Scale>,
+    /// Stop at a target uncertainty ([`crate::sequential`], intervals of math.md §7); the sample counts are then first stages.
+    pub tolerance: Option<crate::sequential::Tolerance>,
     /// The resolved settings, for the manifest and `validate`.
     pub settings: ResolvedSettings,
 }
@@ -101,6 +105,8 @@ pub struct ResolvedSettings {
     pub prior: Option<PriorSpec>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scale: Option<Scale>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<crate::sequential::Tolerance>,
 }
 
 /// A resolved check.
@@ -155,7 +161,16 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     check_limits(spec, &integrands, &estimators, &designs)?;
     let mut checks = Vec::new();
     let mut calibration_checks = Vec::new();
+    let mut tolerance_checks = Vec::new();
     for (i, c) in spec.checks.iter().enumerate() {
+        if c.within_tolerance.is_some() {
+            let labels: Vec<(&str, bool)> = estimators
+                .iter()
+                .map(|e| (e.label.as_str(), e.tolerance.is_some()))
+                .collect();
+            tolerance_checks.push(super::tolerance::resolve_check(spec, &labels, i, c)?);
+            continue;
+        }
         match resolve_check(spec, &estimators, i, c)? {
             ResolvedCheck::Comparison(c) => checks.push(c),
             ResolvedCheck::Calibration(c) => calibration_checks.push(c),
@@ -172,6 +187,7 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         seed: spec.seed,
         checks,
         calibration_checks,
+        tolerance_checks,
         models,
         designs,
     })
@@ -271,6 +287,15 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
         }
         paths.push(path.clone());
         let (mut planned, model) = resolve_estimator(e, &at)?;
+        planned.tolerance = super::tolerance::resolve_tolerance(
+            e,
+            planned.method,
+            planned.design,
+            &spec.samples,
+            MAX_UNIT_POINTS,
+            &at,
+        )?;
+        planned.settings.tolerance = planned.tolerance;
         if let Some(model) = model {
             let key = (model, planned.design);
             let index = match model_keys.iter().position(|k| *k == key) {
@@ -749,6 +774,7 @@ fn resolve_estimator(
             Prior::Analytic => PriorSpec::Named(PriorName::Analytic),
             Prior::Value(c) => PriorSpec::Value(c),
         }),
+        tolerance: None,
     };
     Ok((
         PlannedEstimator {
@@ -758,6 +784,7 @@ fn resolve_estimator(
             model: None,
             prior,
             scale,
+            tolerance: None,
             settings,
         },
         model,

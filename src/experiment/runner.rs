@@ -33,6 +33,9 @@ pub struct UnitResult {
     pub messages: Vec<String>,
     /// `fitted[integrand][estimator]`: the amplitude was fitted (`ml` or `loo`).
     pub fitted: Vec<Vec<bool>>,
+    /// `sequential[integrand][estimator]`: where a tolerance estimator stopped (None for the
+    /// others; [`super::adaptive`]).
+    pub sequential: Vec<Vec<Option<crate::sequential::Outcome>>>,
     /// What each estimator cost ([`Cost`]); wall-clock, so outside the byte-identical outputs.
     pub cost: Cost,
 }
@@ -47,7 +50,8 @@ pub struct Cost {
     /// `seconds[integrand][estimator]`: what the estimator alone would have cost on this
     /// integrand: drawing its points, its weight set, evaluating the integrand, combining.
     pub seconds: Vec<Vec<f64>>,
-    /// `evaluations[integrand][estimator]`: integrand evaluations the estimator needs.
+    /// `evaluations[integrand][estimator]`: integrand evaluations the estimator needs (a
+    /// tolerance estimator: the points it used).
     pub evaluations: Vec<Vec<u64>>,
 }
 
@@ -142,12 +146,27 @@ pub fn run_unit(
     // computed: one O(N²) solve `Q⁻¹Y` per (weight set, integrand), shared by every estimator
     // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
     // estimator uses `loo`.
+    // Tolerance estimators extend the unit's set of their design (same stream, nested).
+    let adaptive_clock = Instant::now();
+    let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
+        d.sample_set(
+            count,
+            &mut stream(
+                plan.seed,
+                &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
+            ),
+        )
+    })?;
+    // Every tolerance estimator's stages, on every integrand: one shared cost, shown as such.
+    let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
     let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
     let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
-        let Some(m) = e.model else { continue };
+        let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {
+            continue;
+        };
         if weights.iter().any(|(k, _)| *k == (m, e.design)) {
             continue;
         }
@@ -169,7 +188,9 @@ pub fn run_unit(
                 what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
                 source,
             })?;
-        let sharing = |x: &&super::plan::PlannedEstimator| x.model == Some(m) && x.design == e.design;
+        let sharing = |x: &&super::plan::PlannedEstimator| {
+            x.model == Some(m) && x.design == e.design && x.tolerance.is_none()
+        };
         let fitted = |x: &super::plan::PlannedEstimator| x.scale.is_some_and(|s| s != Scale::Unit);
         if plan.estimators.iter().filter(sharing).any(fitted) {
             let inverse_diagonal = plan
@@ -202,7 +223,7 @@ pub fn run_unit(
         weight_seconds.push(clock.elapsed().as_secs_f64());
     }
     let weights_of = |e: &super::plan::PlannedEstimator| {
-        e.model.map(|m| {
+        e.model.filter(|_| e.tolerance.is_none()).map(|m| {
             &weights
                 .iter()
                 .find(|(k, _)| *k == (m, e.design))
@@ -215,6 +236,9 @@ pub fn run_unit(
         .estimators
         .iter()
         .map(|e| {
+            if e.tolerance.is_some() {
+                return adaptive_seconds;
+            }
             e.model.map_or(0.0, |m| {
                 weight_seconds[weights
                     .iter()
@@ -242,6 +266,16 @@ pub fn run_unit(
         let mut sds = Vec::with_capacity(plan.estimators.len());
         let mut costs = Vec::with_capacity(plan.estimators.len());
         for (ei, e) in plan.estimators.iter().enumerate() {
+            if let Some(run) = &adaptive[ei] {
+                let o = run.outcomes[fi];
+                row.push(o.estimate);
+                sds.push(o.uncertainty);
+                if run.fitted {
+                    amplitudes[fi][ei] = o.uncertainty.and_then(|u| u.amplitude);
+                }
+                costs.push(adaptive_seconds);
+                continue;
+            }
             let clock = Instant::now();
             let d = plan
                 .designs
@@ -276,7 +310,11 @@ pub fn run_unit(
     let diagnostics: Vec<Option<crate::bmc::Diagnostics>> = plan
         .estimators
         .iter()
-        .map(|e| e.method.diagnostics(weights_of(e)))
+        .zip(&adaptive)
+        .map(|(e, run)| match run {
+            Some(run) => run.diagnostics.clone(),
+            None => e.method.diagnostics(weights_of(e)),
+        })
         .collect();
     let warnings: Vec<u32> = plan
         .estimators
@@ -287,10 +325,17 @@ pub fn run_unit(
     let mut messages: Vec<String> = weights
         .iter()
         .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
+        .chain(
+            adaptive
+                .iter()
+                .flatten()
+                .filter_map(|r| r.diagnostics.as_ref())
+                .flat_map(|d| d.warnings.iter().map(|m| m.message())),
+        )
         .collect();
     // Bayes–Sard's own Var₁ can be negative where BMC's is not (MC kernel means).
     for (e, d) in plan.estimators.iter().zip(&diagnostics) {
-        if e.method == crate::estimator::Method::Bsq {
+        if e.method == crate::estimator::Method::Bsq && e.tolerance.is_none() {
             let d = d.as_ref().expect("BSQ has weights");
             for w in &d.warnings {
                 if matches!(w, crate::bmc::NumericalWarning::NegativePosteriorVariance { .. }) {
@@ -324,7 +369,14 @@ pub fn run_unit(
             }
         }
     }
-    let evaluations = vec![vec![n as u64; plan.estimators.len()]; ni];
+    let evaluations: Vec<Vec<u64>> = (0..ni)
+        .map(|fi| {
+            adaptive
+                .iter()
+                .map(|r| r.as_ref().map_or(n as u64, |r| r.outcomes[fi].n_used as u64))
+                .collect()
+        })
+        .collect();
     Ok(UnitResult {
         estimates,
         uncertainty,
@@ -332,6 +384,14 @@ pub fn run_unit(
         warnings,
         messages,
         fitted,
+        sequential: (0..ni)
+            .map(|fi| {
+                adaptive
+                    .iter()
+                    .map(|r| r.as_ref().map(|r| r.outcomes[fi]))
+                    .collect()
+            })
+            .collect(),
         cost: Cost {
             weight_set: weight_set_seconds,
             seconds,

@@ -79,6 +79,20 @@ pub struct EstimatorSpec {
     /// (math.md §7); default [`crate::bmc::Scale::DEFAULT`].
     #[serde(default)]
     pub scale: Option<crate::bmc::Scale>,
+    /// Stop at a target uncertainty ([`crate::sequential`]; intervals of math.md §7):
+    /// `{"abs": A, "max_n": M}`. The experiment's
+    /// sample counts are then this estimator's first stages; see [`super::adaptive`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<ToleranceSpec>,
+}
+
+/// `"tolerance": {"abs": 1e-3, "max_n": 1024}`: double N (keeping the earlier points) until the
+/// 95% half-width is at most `abs`, or `max_n` is reached.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ToleranceSpec {
+    pub abs: f64,
+    pub max_n: u64,
 }
 
 /// `"analytic"` or a number.
@@ -159,6 +173,10 @@ pub struct CheckSpec {
     /// The interval level of a calibration check; default 0.95.
     #[serde(default)]
     pub level: Option<f64>,
+    /// The label of a tolerance estimator whose share of trials within its tolerance is
+    /// checked against `level` ([`super::adaptive`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within_tolerance: Option<String>,
 }
 
 /// An integrand: a name (`"cos3"`) or a family object (`{"type": "lobe", …}`).

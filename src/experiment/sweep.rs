@@ -8,7 +8,7 @@ use super::spec::EstimatorSpec;
 use serde_json::Value;
 
 /// The fields a sweep may vary: the estimator's options, and the kernel's parameters.
-pub const KEYS: [&str; 10] = [
+pub const KEYS: [&str; 12] = [
     "design",
     "noise",
     "kernel_mean",
@@ -19,6 +19,8 @@ pub const KEYS: [&str; 10] = [
     "kernel.s",
     "kernel.sigma",
     "kernel.length",
+    "tolerance.abs",
+    "tolerance.max_n",
 ];
 
 /// One estimator after expansion, with the JSON path its messages name.
@@ -98,7 +100,12 @@ fn set(v: &mut Value, key: &str, value: Value) {
         None => v[key] = value,
         Some((outer, inner)) => {
             if !v[outer].is_object() {
-                v[outer] = serde_json::json!({ "type": "sobolev" });
+                // A swept kernel parameter without a kernel: the default kernel's family.
+                v[outer] = if outer == "kernel" {
+                    serde_json::json!({ "type": "sobolev" })
+                } else {
+                    serde_json::json!({})
+                };
             }
             v[outer][inner] = value;
         }

@@ -12,6 +12,7 @@ pub fn describe(plan: &plan::Plan) -> String {
         let mut keys: Vec<(usize, crate::sampling::SetDesign)> = plan
             .estimators
             .iter()
+            .filter(|e| e.tolerance.is_none())
             .filter_map(|e| e.model.map(|m| (m, e.design)))
             .collect();
         keys.sort_by_key(|k| (k.0, k.1.name()));
@@ -38,6 +39,14 @@ pub fn describe(plan: &plan::Plan) -> String {
             0.0
         }
     );
+    let tolerant: Vec<_> = plan.estimators.iter().filter_map(|e| e.tolerance).collect();
+    if let Some(largest) = tolerant.iter().map(|t| t.max_n).max() {
+        s += &format!(
+            "tolerance estimators: {} (each trial doubles N from its first stage until its 95% half-width \
+             meets the tolerance; nested sets up to N = {largest})\n",
+            tolerant.len()
+        );
+    }
     s += &serde_json::to_string_pretty(&export::plan_json(plan)).expect("plan serializes");
     s.push('\n');
     s

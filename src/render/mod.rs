@@ -4,6 +4,7 @@
 //! The scene, camera, shading and sky are defined in `docs/render-scene.md`; the estimators
 //! in `docs/math.md` §3–5; the error measure in §6.
 
+pub mod adaptive;
 pub mod camera;
 pub mod env;
 pub mod exact;

@@ -1,0 +1,243 @@
+//! `workbench render --target-sd T --max-spp M --out x.exr`: one adaptively sampled image
+//! ([`workbench::render::adaptive`]), its PNG, the spp map `x-spp.png` and, with `--reference`,
+//! the RMSE, the share of pixel channels within `1.96 T` and the error image.
+
+use super::model_args::ModelArgs;
+use super::output::{sibling_png, status, stdout};
+use super::progress::Bar;
+use std::path::PathBuf;
+use std::time::Instant;
+use workbench::error::InputError;
+use workbench::output_set::FileSet;
+use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
+use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image};
+use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
+use workbench::render::{Environment, Renderer, check_size};
+use workbench::report::Reporter;
+
+/// The first stage when `--spp` is not given.
+const DEFAULT_FIRST_SPP: usize = 16;
+
+/// The options of `render` that an adaptive single image reads (built by `render`'s `single`).
+pub struct AdaptiveArgs<'a> {
+    pub target_sd: Option<f64>,
+    pub max_spp: Option<usize>,
+    /// The estimator, or the name of what was asked for instead (`exact`).
+    pub integrator: Result<IntegratorKind, String>,
+    pub spp: Option<usize>,
+    pub gps: Option<usize>,
+    pub no_rotate: bool,
+    pub width: usize,
+    pub height: usize,
+    pub env: &'a str,
+    pub seed: Option<u64>,
+    pub out: &'a PathBuf,
+    pub reference: Option<&'a PathBuf>,
+    pub error_max: Option<f64>,
+    pub grey: bool,
+    /// A flag given that adaptive images do not take (`--tolerance`, `--results-dir`).
+    pub unused: Option<&'static str>,
+    pub model: &'a ModelArgs,
+    pub quiet: bool,
+}
+
+/// Validates every option, then renders and writes the image set.
+pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
+    let (target_sd, max_spp) = match (args.target_sd, args.max_spp) {
+        (Some(t), Some(m)) => (t, m),
+        (Some(_), None) => {
+            return Err(InputError::new(
+                "--target-sd: needs --max-spp (the most samples a pixel may take), e.g. --max-spp 1024",
+            )
+            .into());
+        }
+        (None, _) => {
+            return Err(
+                InputError::new("--max-spp: applies to adaptive sampling; give --target-sd too").into(),
+            );
+        }
+    };
+    if !(target_sd.is_finite() && target_sd > 0.0) {
+        return Err(InputError::new(format!("--target-sd: must be finite and > 0, got {target_sd}")).into());
+    }
+    let kind = match &args.integrator {
+        Ok(k) if [IntegratorKind::MC, IntegratorKind::MC_COS, IntegratorKind::BMC].contains(k) => *k,
+        Ok(other) => {
+            return Err(InputError::new(format!(
+                "--target-sd: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
+                 (mc, mc-cos or bmc), not --integrator {other}"
+            ))
+            .into());
+        }
+        Err(other) => {
+            return Err(InputError::new(format!(
+                "--target-sd: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
+                 (mc, mc-cos or bmc), not --integrator {other}"
+            ))
+            .into());
+        }
+    };
+    let first = args.spp.unwrap_or(DEFAULT_FIRST_SPP);
+    check_spp(kind, first, "--spp")?;
+    check_spp(kind, max_spp, "--max-spp")?;
+    if kind.method == workbench::estimator::Method::Mc && first < 2 {
+        return Err(InputError::new(format!(
+            "--spp {first}: the first stage of adaptive MC needs at least 2 samples for a sample variance"
+        ))
+        .into());
+    }
+    if max_spp < first {
+        return Err(InputError::new(format!(
+            "--max-spp {max_spp}: is below the first stage --spp {first}"
+        ))
+        .into());
+    }
+    if !kind.uses_sets() {
+        let given = args
+            .gps
+            .map(|_| "--gps")
+            .or(args.no_rotate.then_some("--no-rotate"))
+            .or(args.model.given());
+        if let Some(flag) = given {
+            return Err(InputError::new(format!("{flag}: applies to --integrator bmc, not {kind}")).into());
+        }
+    }
+    if let Some(flag) = args.unused {
+        return Err(InputError::new(format!("{flag}: does not apply to an adaptive single image")).into());
+    }
+    let gps = args.gps.unwrap_or(DEFAULT_GPS);
+    check_gps(gps, "--gps")?;
+    let out = args.out;
+    if out.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(InputError::new(format!(
+            "--out {}: the linear image is OpenEXR; use a name ending in .exr",
+            out.display()
+        ))
+        .into());
+    }
+    check_size(args.width, args.height)?;
+    let png = sibling_png(out, "");
+    let spp_png = sibling_png(out, "-spp");
+    let error_png = sibling_png(out, "-error");
+    let outputs: Vec<(&str, &std::path::Path)> = vec![
+        ("--out", out),
+        ("--out (its PNG)", &png),
+        ("--out (its spp map)", &spp_png),
+        ("--out (its error image)", &error_png),
+    ];
+    let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
+    if let Some(r) = args.reference {
+        inputs.push(("--reference", r));
+    }
+    if !matches!(args.env, "sky" | "white") {
+        inputs.push(("--env", std::path::Path::new(args.env)));
+    }
+    workbench::io::check_distinct(&outputs, &inputs)?;
+    for (flag, path) in &outputs {
+        workbench::io::check_name_length(flag, path)?;
+    }
+    let error_max = args.error_max.unwrap_or(DEFAULT_ERROR_MAX);
+    if !(error_max.is_finite() && error_max > 0.0) {
+        return Err(InputError::new(format!("--error-max: must be finite and > 0, got {error_max}")).into());
+    }
+    let env = Environment::from_arg(args.env)?;
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    workbench::io::check_writable_dir(&dir)?;
+    let reference = match args.reference {
+        Some(path) => Some(Image::read(path, "--reference")?),
+        None => None,
+    };
+    let renderer = Renderer::new(args.width, args.height, env);
+    if let Some(r) = &reference {
+        let probe = Image {
+            width: args.width,
+            height: args.height,
+            data: Vec::new(),
+        };
+        probe.check_same_size(r, "--reference")?;
+    }
+    let model = if kind.uses_sets() {
+        Some(args.model.build()?)
+    } else {
+        None
+    };
+    let mut files = FileSet::lock(&outputs, "use another --out")?;
+
+    let seed = args.seed.unwrap_or(0);
+    let settings = AdaptiveSettings::new(target_sd, first, max_spp);
+    let start = Instant::now();
+    let sampler = match &model {
+        Some(model) => {
+            let (sampler, jitter) = AdaptiveSampler::bmc(&settings, gps, !args.no_rotate, model, seed)?;
+            if jitter > 0.0 {
+                status!(
+                    "warning: a nested sample set's Cholesky needed jitter {jitter:.3e} on the diagonal (every \
+                     stage of that set uses it); increase the noise σ_n²"
+                );
+            }
+            sampler
+        }
+        None => AdaptiveSampler::Mc(kind.design),
+    };
+    let pool = workbench::threads::pool(None)?;
+    let bar = Bar::new(args.quiet);
+    bar.start("rows", args.height as u64);
+    let result = pool.install(|| adaptive::render(&renderer, &sampler, &settings, seed, &bar));
+    bar.finish();
+    let seconds = start.elapsed().as_secs_f64();
+
+    let (map, black) = result.spp_as_norms();
+    let spp_image = map.error_png(
+        &black,
+        ErrorScale::Absolute,
+        settings.max_spp() as f64,
+        ColourMap::Viridis,
+    )?;
+    files.stage(out, &result.image.to_exr()?)?;
+    files.stage(&png, &result.image.to_png()?)?;
+    files.stage(&spp_png, &spp_image.png)?;
+    match &reference {
+        Some(r) => {
+            let e = result.image.error_png(
+                r,
+                ErrorScale::Absolute,
+                error_max,
+                if args.grey {
+                    ColourMap::Grey
+                } else {
+                    ColourMap::Viridis
+                },
+            )?;
+            files.stage(&error_png, &e.png)?;
+        }
+        None => files.remove_stale(&error_png),
+    }
+    files.commit()?;
+    status!(
+        "render: {kind} adaptive, target sd {target_sd:e}, stages {}…{} spp, {}×{}: {seconds:.3} s (sample sets + \
+         render) → {}, {}, {}",
+        first,
+        settings.max_spp(),
+        args.width,
+        args.height,
+        out.display(),
+        png.display(),
+        spp_png.display()
+    );
+    stdout(&format!(
+        "mean spp = {:.2}\nshare of pixels meeting the target = {:.4}\nseconds = {seconds:.3}\n",
+        result.mean_spp(),
+        result.share_met()
+    ))?;
+    if let Some(r) = &reference {
+        stdout(&format!(
+            "rmse = {:.6e}\nshare of pixel channels within 1.96·target = {:.4}\n",
+            result.image.rmse(r),
+            result.within(r)
+        ))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,268 @@
+//! One SVG per integrand, `<integrand>-tolerance.svg`, for experiments with tolerance
+//! estimators ([`crate::sequential`]): above, the mean number of points used against the tolerance; below,
+//! the share of trials whose actual error is within the tolerance, with the binomial 99% band
+//! around 0.95. Estimators that differ only in their tolerance (a sweep over `tolerance.abs`) form
+//! one series per first stage N₀ (the experiment's sample counts). Same look as
+//! [`super::coverage_plot`].
+
+use super::adaptive::Cell;
+use super::plan::Plan;
+use super::summary::binomial_band;
+use crate::plot_style::{self as style, LegendEntry, Swatch};
+use plotters::prelude::*;
+
+const CHART_HEIGHT: u32 = 760;
+const Y_LABEL_AREA: u32 = 84;
+const MARGIN_LEFT: u32 = 16;
+const MARGIN_RIGHT: u32 = 28;
+const LEVEL: f64 = 0.95;
+
+/// One series: the estimators (same settings but the tolerance) and their name.
+struct Series {
+    name: String,
+    /// `(tolerance, mean N used, share within)`, by tolerance.
+    points: Vec<(f64, f64, f64)>,
+}
+
+/// The SVG for integrand `fi`, or None when it has no tolerance cell.
+pub fn tolerance_plot_svg(plan: &Plan, cells: &[Cell], fi: usize) -> crate::Result<Option<String>> {
+    if !cells.iter().any(|c| c.integrand == fi) {
+        return Ok(None);
+    }
+    draw(plan, cells, fi)
+        .map(Some)
+        .map_err(|e| crate::Error::Encode(format!("drawing the tolerance plot: {e}")))
+}
+
+/// The series of integrand `fi`: one per group of estimators and first stage.
+fn series(plan: &Plan, cells: &[Cell], fi: usize) -> Vec<Series> {
+    let stages: Vec<usize> = {
+        let mut v: Vec<usize> = cells.iter().map(|c| c.first_n).collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let mut out = Vec::new();
+    for &n in &stages {
+        for mut s in series_at(plan, cells, fi, n) {
+            if stages.len() > 1 {
+                s.name = format!("{}, N₀ = {n}", s.name);
+            }
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// The series of integrand `fi` at first stage `first_n`.
+fn series_at(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Vec<Series> {
+    let mut keys: Vec<String> = Vec::new();
+    let mut labels: Vec<Vec<String>> = Vec::new();
+    let mut out: Vec<Series> = Vec::new();
+    for c in cells.iter().filter(|c| c.integrand == fi && c.first_n == first_n) {
+        let e = &plan.estimators[c.estimator];
+        let mut settings = serde_json::to_value(&e.settings).expect("settings serialize");
+        settings["tolerance"]["abs"] = serde_json::Value::Null;
+        let key = settings.to_string();
+        let i = match keys.iter().position(|k| *k == key) {
+            Some(i) => i,
+            None => {
+                keys.push(key);
+                labels.push(Vec::new());
+                out.push(Series {
+                    name: String::new(),
+                    points: Vec::new(),
+                });
+                keys.len() - 1
+            }
+        };
+        labels[i].push(e.label.clone());
+        out[i].points.push((c.tolerance.abs, c.mean_n_used, c.within));
+    }
+    for (s, l) in out.iter_mut().zip(&labels) {
+        s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        s.name = common_name(l);
+    }
+    out
+}
+
+/// The labels' common prefix without a trailing tolerance placeholder's text (`"BMC tol="`
+/// → `"BMC"`); the label itself for a single estimator.
+fn common_name(labels: &[String]) -> String {
+    if labels.len() == 1 {
+        return labels[0].clone();
+    }
+    let first: Vec<char> = labels[0].chars().collect();
+    let mut len = first.len();
+    for l in &labels[1..] {
+        len = len.min(first.iter().zip(l.chars()).take_while(|(a, b)| **a == *b).count());
+    }
+    let prefix: String = first[..len].iter().collect();
+    // The placeholder's value starts where the labels differ: drop its common digits too.
+    let trimmed = prefix
+        .trim_end_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | '=' | ' ' | ':'));
+    let trimmed = trimmed
+        .strip_suffix("tolerance")
+        .or_else(|| trimmed.strip_suffix("tol"))
+        .unwrap_or(trimmed)
+        .trim_end();
+    if trimmed.is_empty() {
+        labels[0].clone()
+    } else {
+        trimmed.to_string()
+    }
+}
+
+fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
+    let integrand = &plan.integrands[fi];
+    let series = series(plan, cells, fi);
+    let tolerances: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
+    let used: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
+    let (x0, x1) = style::padded_log_range(&tolerances, 1.4);
+    let (y0, y1) = style::padded_log_range(&used, 1.4);
+    let x_ticks = style::log_ticks(x0, x1);
+    let y_ticks = style::log_ticks(y0, y1);
+    let x_decimal = style::decimal_axis(x0, x1);
+    let (band_lo, band_hi) = binomial_band(LEVEL, plan.trials);
+    let lowest = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.2))
+        .fold(band_lo, f64::min);
+    let s0 = (lowest - 0.05).max(0.0);
+
+    let mut legend: Vec<LegendEntry> = series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| LegendEntry {
+            swatch: Swatch::Series(i),
+            text: s.name.clone(),
+            wide: false,
+        })
+        .collect();
+    legend.push(LegendEntry {
+        swatch: Swatch::Band,
+        text: format!(
+            "grey band (below): 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}); \
+             the within_tolerance check passes at or above its lower end",
+            plan.trials
+        ),
+        wide: true,
+    });
+    legend.push(LegendEntry {
+        swatch: Swatch::Text,
+        text: format!(
+            "each trial starts at N₀ = {} and doubles N (keeping its points) until its 95% half-width \
+             is at most the tolerance or N would pass max_n; the rule sees the interval, never the truth",
+            plan.samples
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(" or ")
+        ),
+        wide: true,
+    });
+
+    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
+        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
+        style::draw_header(
+            &header,
+            &format!("{}: samples needed", plan.title),
+            &format!(
+                "integrand {}: samples used and share within the tolerance; {} trials per point",
+                integrand.display_name(),
+                plan.trials
+            ),
+        )?;
+        let (upper, lower) = chart_area.split_vertically(CHART_HEIGHT / 2);
+        let mut top = ChartBuilder::on(&upper)
+            .margin_left(MARGIN_LEFT)
+            .margin_right(MARGIN_RIGHT)
+            .margin_top(8)
+            .x_label_area_size(52)
+            .y_label_area_size(Y_LABEL_AREA)
+            .build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
+                (y0..y1).log_scale().with_key_points(y_ticks.labelled.clone()),
+            )?;
+        top.configure_mesh()
+            .x_desc("tolerance on the 95% half-width")
+            .y_desc("mean N used")
+            .x_label_formatter(&|x| style::format_tick(*x, x_decimal))
+            .y_label_formatter(&|y| style::format_count(*y))
+            .axis_desc_style((style::FONT, style::AXIS_FONT))
+            .label_style((style::FONT, style::TICK_FONT))
+            .bold_line_style(BLACK.mix(0.08))
+            .light_line_style(TRANSPARENT)
+            .set_all_tick_mark_size(6)
+            .draw()?;
+        let mut bottom = ChartBuilder::on(&lower)
+            .margin_left(MARGIN_LEFT)
+            .margin_right(MARGIN_RIGHT)
+            .margin_top(8)
+            .x_label_area_size(52)
+            .y_label_area_size(Y_LABEL_AREA)
+            .build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
+                s0..1.02,
+            )?;
+        bottom
+            .configure_mesh()
+            .x_desc("tolerance on the 95% half-width")
+            .y_desc("share with |Î − I| ≤ tolerance")
+            .x_label_formatter(&|x| style::format_tick(*x, x_decimal))
+            .y_label_formatter(&|y| format!("{y:.2}"))
+            .axis_desc_style((style::FONT, style::AXIS_FONT))
+            .label_style((style::FONT, style::TICK_FONT))
+            .bold_line_style(BLACK.mix(0.08))
+            .light_line_style(TRANSPARENT)
+            .set_all_tick_mark_size(6)
+            .draw()?;
+        bottom.draw_series(std::iter::once(Rectangle::new(
+            [(x0, band_lo.max(s0)), (x1, band_hi.min(1.02))],
+            style::GUIDE.mix(0.15).filled(),
+        )))?;
+        bottom.draw_series(DashedLineSeries::new(
+            vec![(x0, LEVEL), (x1, LEVEL)],
+            8,
+            5,
+            style::GUIDE.stroke_width(2),
+        ))?;
+        for (i, s) in series.iter().enumerate() {
+            let colour = style::colour(i);
+            top.draw_series(LineSeries::new(
+                s.points.iter().map(|p| (p.0, p.1)),
+                colour.stroke_width(2),
+            ))?;
+            bottom.draw_series(LineSeries::new(
+                s.points.iter().map(|p| (p.0, p.2)),
+                colour.stroke_width(2),
+            ))?;
+            for p in &s.points {
+                let at = top.backend_coord(&(p.0, p.1));
+                style::draw_marker(&root, i, at, colour)?;
+                let at = bottom.backend_coord(&(p.0, p.2));
+                style::draw_marker(&root, i, at, colour)?;
+            }
+        }
+        style::draw_legend(&legend_area, &legend)?;
+        root.present()?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::common_name;
+
+    #[test]
+    fn series_names_drop_the_tolerance_placeholder() {
+        let l = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(common_name(&l(&["BMC tol=0.01", "BMC tol=0.001"])), "BMC");
+        assert_eq!(common_name(&l(&["BMC tol=0.3", "BMC tol=0.1"])), "BMC");
+        assert_eq!(common_name(&l(&["MC abs 0.3", "MC abs 0.1"])), "MC abs");
+        assert_eq!(common_name(&l(&["only"])), "only");
+    }
+}

@@ -1,0 +1,130 @@
+//! The tolerance estimators of one (N, trial) unit ([`crate::sequential`]): each extends the
+//! unit's set for its design to `max_n` and stops at its tolerance; called by
+//! [`super::runner`].
+
+use super::plan::{Plan, PlannedEstimator};
+use crate::bmc::Scale;
+use crate::geometry::Vec3;
+use crate::sampling::SetDesign;
+use crate::sequential::{self, Outcome};
+
+/// What one tolerance estimator produced in one unit.
+#[derive(Debug, Clone)]
+pub struct UnitRun {
+    /// One outcome per integrand.
+    pub outcomes: Vec<Outcome>,
+    /// The diagnostics of the largest weight set built (None for MC).
+    pub diagnostics: Option<crate::bmc::Diagnostics>,
+    /// Whether the amplitude was fitted (`ml`, `loo`).
+    pub fitted: bool,
+}
+
+/// A unit's nested set for one (design, max_n), and every integrand's values on it.
+type NestedSetValues = ((SetDesign, usize), Vec<Vec3>, Vec<Vec<f64>>);
+
+/// Runs every tolerance estimator of the plan in the unit with first stage `n`; `draw(design,
+/// count)` gives the unit's nested set for a design (the first `n` points are the unit's own).
+/// Estimators with the same design, `max_n` and model share one nested set and its weight
+/// sets. None for estimators without a tolerance.
+pub fn run_unit(
+    plan: &Plan,
+    n: usize,
+    trial: usize,
+    draw: &dyn Fn(SetDesign, usize) -> Vec<Vec3>,
+) -> crate::Result<Vec<Option<UnitRun>>> {
+    let mut out: Vec<Option<UnitRun>> = vec![None; plan.estimators.len()];
+    // One set and its values per (design, max_n) in use.
+    let mut sets: Vec<NestedSetValues> = Vec::new();
+    for e in &plan.estimators {
+        let Some(t) = e.tolerance else { continue };
+        let key = (e.design, t.max_n);
+        if !sets.iter().any(|(k, _, _)| *k == key) {
+            let points = draw(e.design, t.max_n);
+            let values = plan
+                .integrands
+                .iter()
+                .map(|f| points.iter().map(|p| f.value(p)).collect())
+                .collect();
+            sets.push((key, points, values));
+        }
+    }
+    for (key, points, values) in &sets {
+        let stages_of = |e: &PlannedEstimator| e.tolerance.expect("a tolerance estimator").stages(n);
+        let of_set = |e: &&PlannedEstimator| e.tolerance.is_some_and(|t| (e.design, t.max_n) == *key);
+        // MC on the set.
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            if !of_set(&e) || e.model.is_some() {
+                continue;
+            }
+            let abs = e.tolerance.expect("a tolerance estimator").abs;
+            out[ei] = Some(UnitRun {
+                outcomes: values
+                    .iter()
+                    .map(|v| sequential::mc(e.design.density(), points, v, &stages_of(e), abs))
+                    .collect(),
+                diagnostics: None,
+                fitted: false,
+            });
+        }
+        // One nested weight family per model on the set, shared by its estimators.
+        let mut models: Vec<usize> = plan
+            .estimators
+            .iter()
+            .filter(of_set)
+            .filter_map(|e| e.model)
+            .collect();
+        models.dedup();
+        models.sort_unstable();
+        models.dedup();
+        for m in models {
+            let users: Vec<usize> = (0..plan.estimators.len())
+                .filter(|&ei| of_set(&&plan.estimators[ei]) && plan.estimators[ei].model == Some(m))
+                .collect();
+            let scales: Vec<Scale> = users
+                .iter()
+                .map(|&ei| plan.estimators[ei].scale.unwrap_or(Scale::Unit))
+                .collect();
+            let mut nested = sequential::NestedWeights::new(&plan.models[m], points, values, &scales);
+            // The estimators walk the stages together, so each stage is factored once.
+            let mut runs = sequential::weighted_together(
+                &users
+                    .iter()
+                    .map(|&ei| {
+                        let e = &plan.estimators[ei];
+                        sequential::Walker {
+                            estimator: sequential::WeightedEstimator {
+                                method: e.method,
+                                scale: e.scale.unwrap_or(Scale::Unit),
+                            },
+                            priors: plan
+                                .integrands
+                                .iter()
+                                .map(|f| e.prior.map_or(0.0, |p| p.resolve(f.constant_prior())))
+                                .collect(),
+                            stages: stages_of(e),
+                            abs: e.tolerance.expect("a tolerance estimator").abs,
+                        }
+                    })
+                    .collect::<Vec<_>>(),
+                &mut nested,
+            )
+            .map_err(|source| crate::Error::Numerical {
+                what: format!(
+                    "tolerance estimator {:?}, first stage N = {n}, trial {trial}",
+                    plan.estimators[users[0]].label
+                ),
+                source,
+            })?
+            .into_iter();
+            for (&ei, &scale) in users.iter().zip(&scales) {
+                let r = runs.next().expect("one run per walker");
+                out[ei] = Some(UnitRun {
+                    outcomes: r.outcomes,
+                    diagnostics: Some(r.diagnostics),
+                    fitted: scale != Scale::Unit,
+                });
+            }
+        }
+    }
+    Ok(out)
+}

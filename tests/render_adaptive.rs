@@ -1,0 +1,216 @@
+//! `render --target-sd T --max-spp M` (README, "Adaptive sampling"): the per-pixel stopping rule on a tiny
+//! image, the nested sets' stage weights against fresh ones, and bad input.
+
+mod common;
+use common::*;
+use workbench::bmc::BmcModel;
+use workbench::kernel::{Kernel, Sobolev};
+use workbench::kernel_mean::KernelMeanMode;
+use workbench::linalg::SpdWorkspace;
+use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
+use workbench::render::{Environment, Renderer};
+use workbench::report::Silent;
+use workbench::rng::stream;
+use workbench::sampling::Design;
+
+fn model() -> BmcModel {
+    BmcModel::new(
+        Kernel::Sobolev(Sobolev::new(1.4).unwrap()),
+        0.01,
+        KernelMeanMode::Exact,
+    )
+}
+
+/// Every hit pixel used a stage size; where the rule stopped it, every channel's sd is within the
+/// target, and where it did not, the pixel used max_spp; the background used none.
+#[test]
+fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
+    let renderer = Renderer::new(24, 16, Environment::Sky);
+    let settings = AdaptiveSettings::new(0.03, 8, 128);
+    assert_eq!(settings.stages, vec![8, 16, 32, 64, 128]);
+    let (bmc, jitter) = AdaptiveSampler::bmc(&settings, 2, true, &model(), 3).unwrap();
+    assert_eq!(jitter, 0.0);
+    for sampler in [
+        AdaptiveSampler::Mc(Design::Uniform),
+        AdaptiveSampler::Mc(Design::Cosine),
+        bmc,
+    ] {
+        let r = adaptive::render(&renderer, &sampler, &settings, 5, &Silent);
+        let mut stopped_early = 0;
+        for k in 0..r.spp.len() {
+            match r.met[k] {
+                None => assert_eq!(r.spp[k], 0),
+                Some(met) => {
+                    assert!(settings.stages.contains(&r.spp[k]), "pixel {k}: {} spp", r.spp[k]);
+                    assert_eq!(
+                        met,
+                        r.sd[k].iter().all(|&s| s <= 0.03),
+                        "pixel {k}: {:?}",
+                        r.sd[k]
+                    );
+                    if !met {
+                        assert_eq!(r.spp[k], 128);
+                    } else if r.spp[k] < 128 {
+                        stopped_early += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            stopped_early > 0 && r.mean_spp() > 8.0,
+            "{sampler:?}: the rule never acted"
+        );
+        // Same seed, same image.
+        let again = adaptive::render(&renderer, &sampler, &settings, 5, &Silent);
+        assert_eq!(again.image, r.image);
+        assert_eq!(again.spp, r.spp);
+    }
+}
+
+/// A nested set's stage weights and Var₁ equal a fresh factorisation of that stage's points.
+#[test]
+fn nested_sets_match_fresh_weights_at_every_stage() {
+    let m = model();
+    let settings = AdaptiveSettings::new(0.01, 16, 256);
+    let (sampler, _) = AdaptiveSampler::bmc(&settings, 1, false, &m, 11).unwrap();
+    let AdaptiveSampler::Bmc { sets, .. } = sampler else {
+        unreachable!()
+    };
+    let set = &sets[0];
+    for (k, &n) in settings.stages.iter().enumerate() {
+        let fresh = m
+            .weights(&set.points[..n], &mut stream(0, &[]), &mut SpdWorkspace::new())
+            .unwrap();
+        let scale = fresh.weights.iter().map(|w| w.abs()).fold(0.0, f64::max);
+        for (a, b) in set.weights[k].iter().zip(&fresh.weights) {
+            assert!((a - b).abs() <= 1e-9 * scale, "N = {n}: {a} vs {b}");
+        }
+        let v = fresh.diagnostics.posterior_variance_clamped();
+        assert!((set.unit_variance[k] - v).abs() <= 1e-9 * v.max(1e-12), "N = {n}");
+    }
+}
+
+/// The binary writes the image, its PNG and the spp map and prints the figures; with a
+/// reference, the RMSE and the share within 1.96·target.
+#[test]
+fn the_command_writes_the_spp_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let size = ["--width", "20", "--height", "14"];
+    let o = workbench(
+        dir.path(),
+        &[
+            &[
+                "render",
+                "--integrator",
+                "mc-cos",
+                "--spp",
+                "64",
+                "--out",
+                "ref.exr",
+                "-q",
+            ],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for integrator in ["bmc", "mc"] {
+        let out = format!("{integrator}.exr");
+        let o = workbench(
+            dir.path(),
+            &[
+                &[
+                    "render",
+                    "--integrator",
+                    integrator,
+                    "--target-sd",
+                    "0.05",
+                    "--max-spp",
+                    "64",
+                    "--spp",
+                    "8",
+                    "--reference",
+                    "ref.exr",
+                    "--out",
+                    &out,
+                    "-q",
+                ],
+                &size[..],
+            ]
+            .concat(),
+        );
+        assert!(o.status.success(), "{integrator}: {}", stderr(&o));
+        let text = stdout(&o);
+        for key in [
+            "mean spp = ",
+            "share of pixels meeting the target = ",
+            "rmse = ",
+            "within 1.96·target = ",
+        ] {
+            assert!(text.contains(key), "{integrator}: {text}");
+        }
+        for f in [
+            format!("{integrator}.png"),
+            format!("{integrator}-spp.png"),
+            format!("{integrator}-error.png"),
+        ] {
+            assert!(dir.path().join(&f).is_file(), "{f}");
+        }
+    }
+}
+
+/// Bad adaptive options: one line naming the flag, exit 2, nothing written.
+#[test]
+fn bad_adaptive_options_are_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&[&str], &str); 8] = [
+        (&["--target-sd", "0.01"], "--target-sd: needs --max-spp"),
+        (&["--max-spp", "64"], "--max-spp: applies to adaptive sampling"),
+        (
+            &["--target-sd", "0", "--max-spp", "64"],
+            "--target-sd: must be finite and > 0, got 0",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "8", "--spp", "16"],
+            "--max-spp 8: is below the first stage --spp 16",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "64", "--integrator", "bmcp"],
+            "not --integrator bmcp",
+        ),
+        (
+            &[
+                "--target-sd",
+                "0.01",
+                "--max-spp",
+                "64",
+                "--integrator",
+                "mc",
+                "--spp",
+                "1",
+            ],
+            "--spp 1: the first stage of adaptive MC",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "64", "--sd-out", "sd.exr"],
+            "--sd-out: does not apply to an adaptive single image",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "64", "--scale", "unit"],
+            "--scale: does not apply to an adaptive single image",
+        ),
+    ];
+    for (flags, expected) in cases {
+        let args = [
+            &["render", "--out", "x.exr", "--width", "8", "--height", "8", "-q"],
+            flags,
+        ]
+        .concat();
+        let o = workbench(dir.path(), &args);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert_eq!(err.trim_end().lines().count(), 1, "{flags:?}: {err}");
+        assert!(err.contains(expected), "{flags:?}: {err}");
+        assert!(!dir.path().join("x.exr").exists());
+    }
+}
