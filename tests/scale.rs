@@ -309,3 +309,25 @@ fn a_killed_run_resumes_without_redoing_its_finished_units() {
     ok(&workbench(d, &["run", "slow.json", "-q", "--out", "full"]));
     assert_same_files(&d.join("full"), &d.join("killed"));
 }
+
+/// Tolerance estimators' stopping outputs are not in the unit log: sharding or resuming such a
+/// file is refused before any work.
+#[test]
+fn files_with_tolerance_estimators_refuse_shard_and_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = SMALL.replace(
+        r#"{ "label": "MC", "method": "mc" },"#,
+        r#"{ "label": "MC", "method": "mc" }, { "label": "MC tol", "method": "mc", "tolerance": { "abs": 0.1, "max_n": 64 } },"#,
+    );
+    std::fs::write(d.join("tol.json"), spec).unwrap();
+    refused(
+        &workbench(d, &["run", "tol.json", "-q", "--shard", "1/2"]),
+        "--shard: the file has tolerance estimators",
+    );
+    refused(
+        &workbench(d, &["run", "tol.json", "-q", "--resume"]),
+        "--resume: the file has tolerance estimators",
+    );
+    assert!(!d.join("results").exists());
+}
