@@ -246,3 +246,34 @@ fn adaptive_spec_errors_are_exit_2_before_any_work() {
         assert!(!d.join("out").exists(), "{want}: wrote output");
     }
 }
+
+/// Defaults of the adaptive fields, and the plan a spec resolves to.
+#[test]
+fn adaptive_fields_resolve_with_defaults() {
+    use workbench::render::table::adaptive::plan::{AdaptivePlan, DEFAULT_FIRST_SPP};
+    let text = r#"{"name": "t", "adaptive": {"target_sd": [0.05, 0.02], "max_spp": 256},
+                   "variants": [{"integrator": "mc"}, {"integrator": "bmc"}]}"#;
+    let plan = workbench::render::table::plan::parse(text, Path::new("t.json")).unwrap();
+    assert_eq!(
+        plan.adaptive,
+        Some(AdaptivePlan {
+            targets: vec![0.05, 0.02],
+            first_spp: DEFAULT_FIRST_SPP,
+            max_spp: 256
+        })
+    );
+    assert!(plan.spp.is_empty());
+    assert_eq!(plan.repetitions, vec![10, 10]);
+    assert_eq!(
+        plan.adaptive.as_ref().unwrap().settings(0.05).stages,
+        vec![16, 32, 64, 128, 256]
+    );
+    // A fixed-spp table has no adaptive plan.
+    let fixed = workbench::render::table::plan::parse(
+        r#"{"name": "t", "variants": [{"integrator": "mc"}]}"#,
+        Path::new("t.json"),
+    )
+    .unwrap();
+    assert_eq!(fixed.adaptive, None);
+    assert_eq!(fixed.spp, vec![20, 40, 60, 80]);
+}
