@@ -6,6 +6,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+mod chart;
+pub use chart::*;
+
 /// Width of every plot in pixels.
 pub const WIDTH: u32 = 960;
 /// Height of the title block (title and one line of subtitle).
@@ -213,9 +216,6 @@ pub fn format_count(v: f64) -> String {
     format!("{}", v.round())
 }
 
-/// Draws short unlabelled tick marks outside the plotting area `plot` (its pixel ranges, as
-/// from `ChartContext::plotting_area().get_pixel_range()`): at pixel columns `xs` under the x
-/// axis and pixel rows `ys` left of the y axis.
 /// A figure's white page split into its title block, its chart (`chart_height` pixels) and the
 /// legend below.
 #[allow(clippy::type_complexity)]
@@ -257,6 +257,9 @@ pub fn chart_minor_ticks<'a, DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: 
     draw_minor_ticks(root, &plot, &xs, &ys)
 }
 
+/// Draws short unlabelled tick marks outside the plotting area `plot` (its pixel ranges, as
+/// from `ChartContext::plotting_area().get_pixel_range()`): at pixel columns `xs` under the x
+/// axis and pixel rows `ys` left of the y axis.
 pub fn draw_minor_ticks<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     plot: &(std::ops::Range<i32>, std::ops::Range<i32>),
@@ -319,6 +322,26 @@ pub struct LegendEntry {
     pub text: String,
     /// Takes a whole row (explanations) rather than a column.
     pub wide: bool,
+}
+
+impl LegendEntry {
+    /// Series `i`'s entry, in a column.
+    pub fn series(i: usize, text: impl Into<String>) -> Self {
+        LegendEntry {
+            swatch: Swatch::Series(i),
+            text: text.into(),
+            wide: false,
+        }
+    }
+
+    /// An entry that takes whole rows (an explanation, wrapped at words).
+    pub fn wide(swatch: Swatch, text: impl Into<String>) -> Self {
+        LegendEntry {
+            swatch,
+            text: text.into(),
+            wide: true,
+        }
+    }
 }
 
 const SWATCH_WIDTH: i32 = 34;

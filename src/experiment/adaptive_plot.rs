@@ -8,13 +8,10 @@
 use super::adaptive::Cell;
 use super::plan::Plan;
 use super::summary::binomial_band;
-use crate::plot_style::{self as style, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
 use plotters::prelude::*;
 
 const CHART_HEIGHT: u32 = 760;
-const Y_LABEL_AREA: u32 = 84;
-const MARGIN_LEFT: u32 = 16;
-const MARGIN_RIGHT: u32 = 28;
 const LEVEL: f64 = 0.95;
 
 /// One series: the estimators (same settings but the tolerance) and their name.
@@ -113,44 +110,55 @@ fn common_name(labels: &[String]) -> String {
     }
 }
 
-fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
+fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
     let integrand = &plan.integrands[fi];
     let series = series(plan, cells, fi);
     let tolerances: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
     let used: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
     let (x0, x1) = style::padded_log_range(&tolerances, 1.4);
     let (y0, y1) = style::padded_log_range(&used, 1.4);
-    let x_ticks = style::log_ticks(x0, x1);
-    let y_ticks = style::log_ticks(y0, y1);
-    let x_decimal = style::decimal_axis(x0, x1);
+    let x = Axis {
+        range: (x0, x1),
+        ticks: style::log_ticks(x0, x1),
+        desc: "tolerance on the 95% half-width".into(),
+        labels: Labels::Log {
+            decimal: style::decimal_axis(x0, x1),
+        },
+    };
+    let used_axis = Axis {
+        range: (y0, y1),
+        ticks: style::log_ticks(y0, y1),
+        desc: "mean N used".into(),
+        labels: Labels::Count,
+    };
     let (band_lo, band_hi) = binomial_band(LEVEL, plan.trials);
     let lowest = series
         .iter()
         .flat_map(|s| s.points.iter().map(|p| p.2))
         .fold(band_lo, f64::min);
-    let s0 = (lowest - 0.05).max(0.0);
+    let share_axis = Axis {
+        range: ((lowest - 0.05).max(0.0), 1.02),
+        ticks: style::Ticks::default(),
+        desc: "share with |Î − I| ≤ tolerance".into(),
+        labels: Labels::Fixed(2),
+    };
 
     let mut legend: Vec<LegendEntry> = series
         .iter()
         .enumerate()
-        .map(|(i, s)| LegendEntry {
-            swatch: Swatch::Series(i),
-            text: s.name.clone(),
-            wide: false,
-        })
+        .map(|(i, s)| LegendEntry::series(i, s.name.clone()))
         .collect();
-    legend.push(LegendEntry {
-        swatch: Swatch::Band,
-        text: format!(
+    legend.push(LegendEntry::wide(
+        Swatch::Band,
+        format!(
             "grey band (below): 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}); \
              the within_tolerance check passes at or above its lower end",
             plan.trials
         ),
-        wide: true,
-    });
-    legend.push(LegendEntry {
-        swatch: Swatch::Text,
-        text: format!(
+    ));
+    legend.push(LegendEntry::wide(
+        Swatch::Text,
+        format!(
             "each trial starts at N₀ = {} and doubles N (keeping its points) until its 95% half-width \
              is at most the tolerance or N would pass max_n; the rule sees the interval, never the truth",
             plan.samples
@@ -159,98 +167,46 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> Result<String, Box<dyn std::e
                 .collect::<Vec<_>>()
                 .join(" or ")
         ),
-        wide: true,
-    });
+    ));
 
-    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
-        style::draw_header(
-            &header,
-            &format!("{}: samples needed", plan.title),
-            &format!(
-                "integrand {}: samples used and share within the tolerance; {} trials per point",
-                integrand.display_name(),
-                plan.trials
-            ),
-        )?;
-        let (upper, lower) = chart_area.split_vertically(CHART_HEIGHT / 2);
-        let mut top = ChartBuilder::on(&upper)
-            .margin_left(MARGIN_LEFT)
-            .margin_right(MARGIN_RIGHT)
-            .margin_top(8)
-            .x_label_area_size(52)
-            .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(
-                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
-                (y0..y1).log_scale().with_key_points(y_ticks.labelled.clone()),
-            )?;
-        top.configure_mesh()
-            .x_desc("tolerance on the 95% half-width")
-            .y_desc("mean N used")
-            .x_label_formatter(&|x| style::format_tick(*x, x_decimal))
-            .y_label_formatter(&|y| style::format_count(*y))
-            .axis_desc_style((style::FONT, style::AXIS_FONT))
-            .label_style((style::FONT, style::TICK_FONT))
-            .bold_line_style(BLACK.mix(0.08))
-            .light_line_style(TRANSPARENT)
-            .set_all_tick_mark_size(6)
-            .draw()?;
-        let mut bottom = ChartBuilder::on(&lower)
-            .margin_left(MARGIN_LEFT)
-            .margin_right(MARGIN_RIGHT)
-            .margin_top(8)
-            .x_label_area_size(52)
-            .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(
-                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
-                s0..1.02,
-            )?;
-        bottom
-            .configure_mesh()
-            .x_desc("tolerance on the 95% half-width")
-            .y_desc("share with |Î − I| ≤ tolerance")
-            .x_label_formatter(&|x| style::format_tick(*x, x_decimal))
-            .y_label_formatter(&|y| format!("{y:.2}"))
-            .axis_desc_style((style::FONT, style::AXIS_FONT))
-            .label_style((style::FONT, style::TICK_FONT))
-            .bold_line_style(BLACK.mix(0.08))
-            .light_line_style(TRANSPARENT)
-            .set_all_tick_mark_size(6)
-            .draw()?;
-        bottom.draw_series(std::iter::once(Rectangle::new(
-            [(x0, band_lo.max(s0)), (x1, band_hi.min(1.02))],
-            style::GUIDE.mix(0.15).filled(),
-        )))?;
-        bottom.draw_series(DashedLineSeries::new(
-            vec![(x0, LEVEL), (x1, LEVEL)],
-            8,
-            5,
-            style::GUIDE.stroke_width(2),
-        ))?;
-        for (i, s) in series.iter().enumerate() {
-            let colour = style::colour(i);
-            top.draw_series(LineSeries::new(
-                s.points.iter().map(|p| (p.0, p.1)),
-                colour.stroke_width(2),
-            ))?;
-            bottom.draw_series(LineSeries::new(
-                s.points.iter().map(|p| (p.0, p.2)),
-                colour.stroke_width(2),
-            ))?;
-            for p in &s.points {
-                let at = top.backend_coord(&(p.0, p.1));
-                style::draw_marker(&root, i, at, colour)?;
-                let at = bottom.backend_coord(&(p.0, p.2));
-                style::draw_marker(&root, i, at, colour)?;
+    style::svg_figure(
+        &format!("{}: samples needed", plan.title),
+        &format!(
+            "integrand {}: samples used and share within the tolerance; {} trials per point",
+            integrand.display_name(),
+            plan.trials
+        ),
+        CHART_HEIGHT,
+        &legend,
+        |root, area| {
+            let (upper, lower) = area.split_vertically(CHART_HEIGHT / 2);
+            // No minor ticks here (unlike `log_log_chart`): the shipped figure has none.
+            let mut top = style::chart_on(&upper, x.log(), used_axis.log())?;
+            style::draw_mesh(&mut top, &x, &used_axis)?;
+            let mut bottom = style::chart_on(&lower, x.log(), share_axis.linear())?;
+            style::draw_mesh(&mut bottom, &x, &share_axis)?;
+            style::draw_level_band(&mut bottom, x.range, share_axis.range, (band_lo, band_hi), LEVEL)?;
+            for (i, s) in series.iter().enumerate() {
+                let colour = style::colour(i);
+                top.draw_series(LineSeries::new(
+                    s.points.iter().map(|p| (p.0, p.1)),
+                    colour.stroke_width(2),
+                ))?;
+                bottom.draw_series(LineSeries::new(
+                    s.points.iter().map(|p| (p.0, p.2)),
+                    colour.stroke_width(2),
+                ))?;
+                // Markers after both lines, top and bottom point by point (the figure's order).
+                for p in &s.points {
+                    let at = top.backend_coord(&(p.0, p.1));
+                    style::draw_marker(root, i, at, colour)?;
+                    let at = bottom.backend_coord(&(p.0, p.2));
+                    style::draw_marker(root, i, at, colour)?;
+                }
             }
-        }
-        style::draw_legend(&legend_area, &legend)?;
-        root.present()?;
-    }
-    Ok(svg)
+            Ok(())
+        },
+    )
 }
 
 #[cfg(test)]

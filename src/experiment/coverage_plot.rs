@@ -5,13 +5,9 @@
 
 use super::plan::Plan;
 use super::summary::{CellSummary, binomial_band};
-use crate::plot_style::{self as style, LegendEntry, Swatch};
-use plotters::prelude::*;
+use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
 
 const CHART_HEIGHT: u32 = 480;
-const Y_LABEL_AREA: u32 = 84;
-const MARGIN_LEFT: u32 = 16;
-const MARGIN_RIGHT: u32 = 28;
 /// The level the plot is about.
 pub const LEVEL: f64 = 0.95;
 
@@ -28,7 +24,7 @@ fn label(e: &super::plan::PlannedEstimator) -> String {
     }
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<String> {
     let integrand = &plan.integrands[fi];
     let name = integrand.display_name();
     let series: Vec<Vec<(usize, f64)>> = (0..plan.estimators.len())
@@ -53,97 +49,61 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
     } else {
         (n_min / 2.0, n_max * 2.0)
     };
-    let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
-    let x_ticks = style::count_ticks(&plan.samples, x0, x1, plot_px);
+    let x = Axis {
+        range: (x0, x1),
+        ticks: style::count_ticks(&plan.samples, x0, x1, style::PLOT_WIDTH),
+        desc: "number of samples N".into(),
+        labels: Labels::Count,
+    };
+    let y = Axis {
+        range: (y0, y1),
+        ticks: style::Ticks::default(),
+        desc: "coverage of the 95% interval".into(),
+        labels: Labels::Fixed(2),
+    };
 
     let mut legend: Vec<LegendEntry> = plan
         .estimators
         .iter()
         .enumerate()
         .filter(|(ei, _)| !series[*ei].is_empty())
-        .map(|(ei, e)| LegendEntry {
-            swatch: Swatch::Series(ei),
-            text: label(e),
-            wide: false,
-        })
+        .map(|(ei, e)| LegendEntry::series(ei, label(e)))
         .collect();
-    legend.push(LegendEntry {
-        swatch: Swatch::Band,
-        text: format!(
+    legend.push(LegendEntry::wide(
+        Swatch::Band,
+        format!(
             "grey band: 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}), \
              where a calibrated estimator's coverage falls; dashed line: {LEVEL}",
             plan.trials
         ),
-        wide: true,
-    });
-    legend.push(LegendEntry {
-        swatch: Swatch::Text,
-        text: "coverage: share of trials whose 95% interval Î ± q·sd holds the truth (ml: Student-t; \
-               unit, loo: normal; MC: Student-t with N − 1 dof on its standard error). Above the band: \
-               intervals too wide; below: too narrow"
-            .to_string(),
-        wide: true,
-    });
+    ));
+    legend.push(LegendEntry::wide(
+        Swatch::Text,
+        "coverage: share of trials whose 95% interval Î ± q·sd holds the truth (ml: Student-t; \
+         unit, loo: normal; MC: Student-t with N − 1 dof on its standard error). Above the band: \
+         intervals too wide; below: too narrow",
+    ));
 
-    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
-        style::draw_header(
-            &header,
-            &format!("{}: calibration", plan.title),
-            &format!(
-                "integrand {name}: 95% coverage against N; {} trials per N",
-                plan.trials
-            ),
-        )?;
-        let mut chart = ChartBuilder::on(&chart_area)
-            .margin_left(MARGIN_LEFT)
-            .margin_right(MARGIN_RIGHT)
-            .margin_top(8)
-            .x_label_area_size(52)
-            .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(
-                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
-                y0..y1,
-            )?;
-        chart
-            .configure_mesh()
-            .x_desc("number of samples N")
-            .y_desc("coverage of the 95% interval")
-            .x_label_formatter(&|x| style::format_count(*x))
-            .y_label_formatter(&|y| format!("{y:.2}"))
-            .axis_desc_style((style::FONT, style::AXIS_FONT))
-            .label_style((style::FONT, style::TICK_FONT))
-            .bold_line_style(BLACK.mix(0.08))
-            .light_line_style(TRANSPARENT)
-            .set_all_tick_mark_size(6)
-            .draw()?;
-        chart.draw_series(std::iter::once(Rectangle::new(
-            [(x0, band_lo.max(y0)), (x1, band_hi.min(y1))],
-            style::GUIDE.mix(0.15).filled(),
-        )))?;
-        chart.draw_series(DashedLineSeries::new(
-            vec![(x0, LEVEL), (x1, LEVEL)],
-            8,
-            5,
-            style::GUIDE.stroke_width(2),
-        ))?;
-        for (ei, s) in series.iter().enumerate() {
-            if s.is_empty() {
-                continue;
+    style::svg_figure(
+        &format!("{}: calibration", plan.title),
+        &format!(
+            "integrand {name}: 95% coverage against N; {} trials per N",
+            plan.trials
+        ),
+        CHART_HEIGHT,
+        &legend,
+        |root, area| {
+            let mut chart = style::chart_on(area, x.log(), y.linear())?;
+            style::draw_mesh(&mut chart, &x, &y)?;
+            style::draw_level_band(&mut chart, x.range, y.range, (band_lo, band_hi), LEVEL)?;
+            for (ei, s) in series.iter().enumerate() {
+                if s.is_empty() {
+                    continue;
+                }
+                let line: Vec<(f64, f64)> = s.iter().map(|&(n, c)| (n as f64, c)).collect();
+                style::draw_line_with_markers(&mut chart, root, ei, &line)?;
             }
-            let colour = style::colour(ei);
-            let line: Vec<(f64, f64)> = s.iter().map(|&(n, c)| (n as f64, c)).collect();
-            chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
-            for &(n, c) in s {
-                let at = chart.backend_coord(&(n as f64, c));
-                style::draw_marker(&root, ei, at, colour)?;
-            }
-        }
-        style::draw_legend(&legend_area, &legend)?;
-        root.present()?;
-    }
-    Ok(svg)
+            Ok(())
+        },
+    )
 }

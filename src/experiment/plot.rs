@@ -7,16 +7,12 @@ use super::fit::{SeriesFit, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
 use crate::estimator::Method;
-use crate::plot_style::{self as style, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
 use crate::sampling::{Design, SetDesign};
 use plotters::prelude::*;
 
 /// Height of the chart (axes and plotting area), between the title block and the legend.
 const CHART_HEIGHT: u32 = 560;
-/// Width of the y label area; the plotting area's width follows from it.
-const Y_LABEL_AREA: u32 = 84;
-const MARGIN_LEFT: u32 = 16;
-const MARGIN_RIGHT: u32 = 28;
 
 /// The SVG for integrand `fi` as a string.
 pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<String> {
@@ -86,7 +82,7 @@ fn runs(len: usize, keep: impl Fn(usize) -> bool) -> Vec<std::ops::Range<usize>>
     out
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn std::error::Error>> {
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<String> {
     let integrand = &plan.integrands[fi];
     let name = integrand.display_name();
     let truth = integrand.integral();
@@ -131,21 +127,27 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
         .collect();
     let (y0, y1) = style::padded_log_range(&drawn, 1.5);
     let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
-    let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
-    let x_ticks = style::count_ticks(&plan.samples, x0, x1, plot_px);
-    let y_ticks = style::log_ticks(y0, y1);
-    let decimal = style::decimal_axis(y0, y1);
+    let x = Axis {
+        range: (x0, x1),
+        ticks: style::count_ticks(&plan.samples, x0, x1, style::PLOT_WIDTH),
+        desc: "number of samples N".into(),
+        labels: Labels::Count,
+    };
+    let y = Axis {
+        range: (y0, y1),
+        ticks: style::log_ticks(y0, y1),
+        desc: format!("absolute error |Î − I| of ∫ {name} dω  [sr]"),
+        labels: Labels::Log {
+            decimal: style::decimal_axis(y0, y1),
+        },
+    };
 
     let mut legend: Vec<LegendEntry> = plan
         .estimators
         .iter()
         .zip(&fits)
         .enumerate()
-        .map(|(ei, (e, fit))| LegendEntry {
-            swatch: Swatch::Series(ei),
-            text: fit_label(&e.label, fit),
-            wide: false,
-        })
+        .map(|(ei, (e, fit))| LegendEntry::series(ei, fit_label(&e.label, fit)))
         .collect();
     if let Some((ei, _)) = &guide {
         legend.push(LegendEntry {
@@ -154,21 +156,20 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
             wide: false,
         });
     }
-    legend.push(LegendEntry {
-        swatch: Swatch::Band,
-        text: format!(
+    legend.push(LegendEntry::wide(
+        Swatch::Band,
+        format!(
             "band (light fill, dashed edges): 10–90% quantiles of |Î − I| over the {} trials; line: mean |Î − I|",
             plan.trials
         ),
-        wide: true,
-    });
+    ));
     let any_exact = fits.iter().any(|f| match f {
         SeriesFit::Exact => true,
         SeriesFit::Slope { exact_at, .. } | SeriesFit::TooFew { exact_at, .. } => !exact_at.is_empty(),
     });
-    legend.push(LegendEntry {
-        swatch: Swatch::Text,
-        text: format!(
+    legend.push(LegendEntry::wide(
+        Swatch::Text,
+        format!(
             "slope: least-squares fit of ln(mean error) on ln N over N ≥ {from_n} (the upper half of the N grid), ± its 95% interval{}",
             if any_exact {
                 "; exact: error 0 up to rounding (≤ 1e-12·I), not drawn"
@@ -176,92 +177,60 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> Result<String, Box<dyn
                 ""
             }
         ),
-        wide: true,
-    });
+    ));
 
-    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
-        style::draw_header(
-            &header,
-            &plan.title,
-            &format!(
-                "integrand {name}: ∫ {name} dω = {truth:.6} sr; {} trials per N",
-                plan.trials
-            ),
-        )?;
-        let mut chart = ChartBuilder::on(&chart_area)
-            .margin_left(MARGIN_LEFT)
-            .margin_right(MARGIN_RIGHT)
-            .margin_top(8)
-            .x_label_area_size(52)
-            .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(
-                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
-                (y0..y1).log_scale().with_key_points(y_ticks.labelled.clone()),
-            )?;
-        chart
-            .configure_mesh()
-            .x_desc("number of samples N")
-            .y_desc(format!("absolute error |Î − I| of ∫ {name} dω  [sr]"))
-            .x_label_formatter(&|x| style::format_count(*x))
-            .y_label_formatter(&|y| style::format_tick(*y, decimal))
-            .axis_desc_style((style::FONT, style::AXIS_FONT))
-            .label_style((style::FONT, style::TICK_FONT))
-            .bold_line_style(BLACK.mix(0.08))
-            .light_line_style(TRANSPARENT)
-            .set_all_tick_mark_size(6)
-            .draw()?;
-        style::chart_minor_ticks(&root, &chart, &x_ticks.minor, &y_ticks.minor, (x0, y0))?;
+    style::svg_figure(
+        &plan.title,
+        &format!(
+            "integrand {name}: ∫ {name} dω = {truth:.6} sr; {} trials per N",
+            plan.trials
+        ),
+        CHART_HEIGHT,
+        &legend,
+        |root, area| {
+            let mut chart = style::log_log_chart(root, area, &x, &y)?;
 
-        // Bands first, all of them, so that no band covers another series' line or markers.
-        // Light fills keep overlaps close to white; the dashed edges in the series' colour say
-        // whose band is whose.
-        for (ei, s) in series.iter().enumerate() {
-            let colour = style::colour(ei);
-            let edge = colour.mix(0.8).stroke_width(1);
-            for r in runs(s.len(), |i| ok(s[i].q90_abs_error)) {
-                let run = &s[r];
-                // A lower quantile of 0 (some trials exact) reaches below the axis: clamp to it.
-                let lower = |c: &CellSummary| if ok(c.q10_abs_error) { c.q10_abs_error } else { y0 };
-                let mut band: Vec<(f64, f64)> = run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
-                band.extend(run.iter().rev().map(|c| (c.n as f64, lower(c))));
-                chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.06).filled())))?;
-                let upper: Vec<(f64, f64)> = run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
-                chart.draw_series(DashedLineSeries::new(upper, 5, 4, edge))?;
-                for lr in runs(run.len(), |i| ok(run[i].q10_abs_error)) {
-                    let low: Vec<(f64, f64)> =
-                        run[lr].iter().map(|c| (c.n as f64, c.q10_abs_error)).collect();
-                    chart.draw_series(DashedLineSeries::new(low, 5, 4, edge))?;
+            // Bands first, all of them, so that no band covers another series' line or markers.
+            // Light fills keep overlaps close to white; the dashed edges in the series' colour say
+            // whose band is whose.
+            for (ei, s) in series.iter().enumerate() {
+                let colour = style::colour(ei);
+                let edge = colour.mix(0.8).stroke_width(1);
+                for r in runs(s.len(), |i| ok(s[i].q90_abs_error)) {
+                    let run = &s[r];
+                    // A lower quantile of 0 (some trials exact) reaches below the axis: clamp to it.
+                    let lower = |c: &CellSummary| if ok(c.q10_abs_error) { c.q10_abs_error } else { y0 };
+                    let mut band: Vec<(f64, f64)> =
+                        run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
+                    band.extend(run.iter().rev().map(|c| (c.n as f64, lower(c))));
+                    chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.06).filled())))?;
+                    let upper: Vec<(f64, f64)> = run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
+                    chart.draw_series(DashedLineSeries::new(upper, 5, 4, edge))?;
+                    for lr in runs(run.len(), |i| ok(run[i].q10_abs_error)) {
+                        let low: Vec<(f64, f64)> =
+                            run[lr].iter().map(|c| (c.n as f64, c.q10_abs_error)).collect();
+                        chart.draw_series(DashedLineSeries::new(low, 5, 4, edge))?;
+                    }
                 }
             }
-        }
-        if let Some((_, line)) = &guide {
-            chart.draw_series(DashedLineSeries::new(
-                line.clone(),
-                8,
-                5,
-                style::GUIDE.stroke_width(2),
-            ))?;
-        }
-        for (ei, s) in series.iter().enumerate() {
-            let colour = style::colour(ei);
-            // Exact (or non-finite) means are gaps in the line, not points at an axis floor.
-            for r in runs(s.len(), |i| ok(s[i].mean_abs_error)) {
-                let line: Vec<(f64, f64)> = s[r].iter().map(|c| (c.n as f64, c.mean_abs_error)).collect();
-                chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
+            if let Some((_, line)) = &guide {
+                style::draw_guide(&mut chart, line.clone())?;
             }
-            for c in s.iter().filter(|c| ok(c.mean_abs_error)) {
-                let at = chart.backend_coord(&(c.n as f64, c.mean_abs_error));
-                style::draw_marker(&root, ei, at, colour)?;
+            for (ei, s) in series.iter().enumerate() {
+                let colour = style::colour(ei);
+                // Exact (or non-finite) means are gaps in the line, not points at an axis floor.
+                for r in runs(s.len(), |i| ok(s[i].mean_abs_error)) {
+                    let line: Vec<(f64, f64)> = s[r].iter().map(|c| (c.n as f64, c.mean_abs_error)).collect();
+                    chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
+                }
+                for c in s.iter().filter(|c| ok(c.mean_abs_error)) {
+                    let at = chart.backend_coord(&(c.n as f64, c.mean_abs_error));
+                    style::draw_marker(root, ei, at, colour)?;
+                }
             }
-        }
-        style::draw_legend(&legend_area, &legend)?;
-        root.present()?;
-    }
-    Ok(svg)
+            Ok(())
+        },
+    )
 }
 
 #[cfg(test)]

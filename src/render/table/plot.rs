@@ -5,16 +5,12 @@
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
 use crate::estimator::Method;
-use crate::plot_style::{self as style, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
 use crate::render::integrator::IntegratorKind;
-use plotters::coord::Shift;
 use plotters::prelude::*;
 
 /// Height of the chart (axes and plotting area), between the title block and the legend.
 const CHART_HEIGHT: u32 = 500;
-const Y_LABEL_AREA: u32 = 84;
-const MARGIN_LEFT: u32 = 16;
-const MARGIN_RIGHT: u32 = 28;
 
 /// Mean RMSE against spp, log–log, one line per variant, with the 95% intervals as bars.
 pub fn plot_svg(plan: &TablePlan, cells: &[Cell]) -> crate::Result<String> {
@@ -57,11 +53,8 @@ struct Frame<'a> {
     per_variant: Vec<Vec<&'a Cell>>,
     dodge: Vec<f64>,
     guide: Option<(usize, Vec<(f64, f64)>)>,
-    x: (f64, f64),
-    y: (f64, f64),
-    x_ticks: style::Ticks,
-    y_ticks: style::Ticks,
-    decimal: bool,
+    x: Axis,
+    y: Axis,
 }
 
 /// Whether a cell's interval can stand on a log axis.
@@ -69,10 +62,7 @@ fn finite_interval(c: &Cell) -> bool {
     c.half_width.is_finite() && c.mean - c.half_width > 0.0
 }
 
-/// Whether a value can stand on a log axis.
-fn ok(y: f64) -> bool {
-    y.is_finite() && y > 0.0
-}
+use style::on_log_axis as ok;
 
 fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
     let per_variant: Vec<Vec<&Cell>> = (0..plan.variants.len())
@@ -109,16 +99,24 @@ fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
         .collect();
     let (y0, y1) = style::padded_log_range(&drawn, 1.12);
     let (x0, x1) = style::padded_log_range(&[x_min, x_max], 1.12);
-    let plot_px = (style::WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
     Frame {
         per_variant,
         dodge,
         guide,
-        x: (x0, x1),
-        y: (y0, y1),
-        x_ticks: style::count_ticks(&plan.spp, x0, x1, plot_px),
-        y_ticks: style::log_ticks(y0, y1),
-        decimal: style::decimal_axis(y0, y1),
+        x: Axis {
+            range: (x0, x1),
+            ticks: style::count_ticks(&plan.spp, x0, x1, style::PLOT_WIDTH),
+            desc: "samples per pixel (spp)".into(),
+            labels: Labels::Count,
+        },
+        y: Axis {
+            range: (y0, y1),
+            ticks: style::log_ticks(y0, y1),
+            desc: "RMSE against the reference (linear RGB)".into(),
+            labels: Labels::Log {
+                decimal: style::decimal_axis(y0, y1),
+            },
+        },
     }
 }
 
@@ -128,11 +126,7 @@ fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<Leg
         .variants
         .iter()
         .enumerate()
-        .map(|(v, variant)| LegendEntry {
-            swatch: Swatch::Series(v),
-            text: variant.label.clone(),
-            wide: false,
-        })
+        .map(|(v, variant)| LegendEntry::series(v, variant.label.clone()))
         .collect();
     if let Some((v, _)) = guide {
         legend.push(LegendEntry {
@@ -148,111 +142,68 @@ fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<Leg
         .map(|(s, r)| format!("{r} at {s}"))
         .collect::<Vec<_>>()
         .join(", ");
-    legend.push(LegendEntry {
-        swatch: Swatch::Bar,
-        text: format!(
+    legend.push(LegendEntry::wide(
+        Swatch::Bar,
+        format!(
             "points: mean RMSE; bars: its 95% Student-t interval over the repetitions ({repetitions} spp); variants set side by side (spp × 1 ± {:.0}% at most) so that none hides another",
             100.0 * dodge_factors(plan.variants.len()).last().map_or(0.0, |d| d - 1.0)
         ),
-        wide: true,
-    });
+    ));
     legend
 }
 
 /// The guide, then every variant's bars, then its line and markers (so no bar hides a marker).
-fn draw_variants<X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
-    chart: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<X, Y>>,
-    root: &DrawingArea<SVGBackend<'_>, Shift>,
+fn draw_variants<'s, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, SVGBackend<'s>, Cartesian2d<X, Y>>,
+    root: &style::SvgArea<'s>,
     per_variant: &[Vec<&Cell>],
     dodge: &[f64],
     guide: &Option<(usize, Vec<(f64, f64)>)>,
-) -> Result<(), Box<dyn std::error::Error>> {
+) -> style::FigureResult<()> {
     if let Some((_, line)) = &guide {
-        chart.draw_series(DashedLineSeries::new(
-            line.clone(),
-            8,
-            5,
-            style::GUIDE.stroke_width(2),
-        ))?;
+        style::draw_guide(chart, line.clone())?;
     }
     // Variants are set side by side — points, lines and bars shifted by a small factor in
     // spp — so that variants with equal RMSE (BMC and BMCP with the same sets) do not hide
     // each other's markers and intervals. The shift is at most ±6% and said in the legend.
     for (v, mine) in per_variant.iter().enumerate() {
-        let colour = style::colour(v);
-        chart.draw_series(mine.iter().filter(|c| finite_interval(c)).map(|c| {
-            let x = c.spp as f64 * dodge[v];
-            PathElement::new(
-                vec![(x, c.mean - c.half_width), (x, c.mean + c.half_width)],
-                colour.stroke_width(2),
+        let bars = mine.iter().filter(|c| finite_interval(c)).map(|c| {
+            (
+                c.spp as f64 * dodge[v],
+                c.mean - c.half_width,
+                c.mean + c.half_width,
             )
-        }))?;
+        });
+        style::draw_bars(chart, v, bars)?;
     }
     for (v, mine) in per_variant.iter().enumerate() {
-        let colour = style::colour(v);
         let points: Vec<(f64, f64)> = mine
             .iter()
             .filter(|c| ok(c.mean))
             .map(|c| (c.spp as f64 * dodge[v], c.mean))
             .collect();
-        chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?;
-        for p in &points {
-            style::draw_marker(root, v, chart.backend_coord(p), colour)?;
-        }
+        style::draw_line_with_markers(chart, root, v, &points)?;
     }
     Ok(())
 }
 
-fn draw(plan: &TablePlan, cells: &[Cell]) -> Result<String, Box<dyn std::error::Error>> {
+fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<String> {
     let Frame {
         per_variant,
         dodge,
         guide,
-        x: (x0, x1),
-        y: (y0, y1),
-        x_ticks,
-        y_ticks,
-        decimal,
+        x,
+        y,
     } = frame(plan, cells);
     let legend = legend(plan, &guide);
-
-    let height = style::HEADER_HEIGHT + CHART_HEIGHT + style::legend_height(&legend);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (style::WIDTH, height)).into_drawing_area();
-        let (header, chart_area, legend_area) = style::layout(&root, CHART_HEIGHT)?;
-        style::draw_header(
-            &header,
-            &format!("{}: mean RMSE against samples per pixel", plan.name),
-            &reference_caption(plan),
-        )?;
-        let mut chart = ChartBuilder::on(&chart_area)
-            .margin_left(MARGIN_LEFT)
-            .margin_right(MARGIN_RIGHT)
-            .margin_top(8)
-            .x_label_area_size(52)
-            .y_label_area_size(Y_LABEL_AREA)
-            .build_cartesian_2d(
-                (x0..x1).log_scale().with_key_points(x_ticks.labelled.clone()),
-                (y0..y1).log_scale().with_key_points(y_ticks.labelled.clone()),
-            )?;
-        chart
-            .configure_mesh()
-            .x_desc("samples per pixel (spp)")
-            .y_desc("RMSE against the reference (linear RGB)")
-            .x_label_formatter(&|x| style::format_count(*x))
-            .y_label_formatter(&|y| style::format_tick(*y, decimal))
-            .axis_desc_style((style::FONT, style::AXIS_FONT))
-            .label_style((style::FONT, style::TICK_FONT))
-            .bold_line_style(BLACK.mix(0.08))
-            .light_line_style(TRANSPARENT)
-            .set_all_tick_mark_size(6)
-            .draw()?;
-        style::chart_minor_ticks(&root, &chart, &x_ticks.minor, &y_ticks.minor, (x0, y0))?;
-
-        draw_variants(&mut chart, &root, &per_variant, &dodge, &guide)?;
-        style::draw_legend(&legend_area, &legend)?;
-        root.present()?;
-    }
-    Ok(svg)
+    style::svg_figure(
+        &format!("{}: mean RMSE against samples per pixel", plan.name),
+        &reference_caption(plan),
+        CHART_HEIGHT,
+        &legend,
+        |root, area| {
+            let mut chart = style::log_log_chart(root, area, &x, &y)?;
+            draw_variants(&mut chart, root, &per_variant, &dodge, &guide)
+        },
+    )
 }
