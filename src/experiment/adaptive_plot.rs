@@ -117,14 +117,7 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
     let used: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
     let (x0, x1) = style::padded_log_range(&tolerances, 1.4);
     let (y0, y1) = style::padded_log_range(&used, 1.4);
-    let x = Axis {
-        range: (x0, x1),
-        ticks: style::log_ticks(x0, x1),
-        desc: "tolerance on the 95% half-width".into(),
-        labels: Labels::Log {
-            decimal: style::decimal_axis(x0, x1),
-        },
-    };
+    let x = Axis::log_values((x0, x1), "tolerance on the 95% half-width");
     let used_axis = Axis {
         range: (y0, y1),
         ticks: style::log_ticks(y0, y1),
@@ -136,12 +129,7 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
         .iter()
         .flat_map(|s| s.points.iter().map(|p| p.2))
         .fold(band_lo, f64::min);
-    let share_axis = Axis {
-        range: ((lowest - 0.05).max(0.0), 1.02),
-        ticks: style::Ticks::default(),
-        desc: "share with |Î − I| ≤ tolerance".into(),
-        labels: Labels::Fixed(2),
-    };
+    let share_axis = Axis::shares(((lowest - 0.05).max(0.0), 1.02), "share with |Î − I| ≤ tolerance");
 
     let mut legend: Vec<LegendEntry> = series
         .iter()
@@ -181,9 +169,9 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
         |root, area| {
             let (upper, lower) = area.split_vertically(CHART_HEIGHT / 2);
             // No minor ticks here (unlike `log_log_chart`): the shipped figure has none.
-            let mut top = style::chart_on(&upper, x.log(), used_axis.log())?;
+            let mut top = style::chart_on(&upper, x.log_coord(), used_axis.log_coord())?;
             style::draw_mesh(&mut top, &x, &used_axis)?;
-            let mut bottom = style::chart_on(&lower, x.log(), share_axis.linear())?;
+            let mut bottom = style::chart_on(&lower, x.log_coord(), share_axis.linear_coord())?;
             style::draw_mesh(&mut bottom, &x, &share_axis)?;
             style::draw_level_band(&mut bottom, x.range, share_axis.range, (band_lo, band_hi), LEVEL)?;
             for (i, s) in series.iter().enumerate() {

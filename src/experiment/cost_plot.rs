@@ -8,7 +8,7 @@
 
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
 
 const CHART_HEIGHT: u32 = 560;
 
@@ -37,19 +37,11 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         .collect();
     let xs: Vec<f64> = series.iter().flatten().map(|c| c.median_seconds).collect();
     let ys: Vec<f64> = series.iter().flatten().map(|c| c.mean_abs_error).collect();
-    let log_axis = |range: (f64, f64), desc: String| Axis {
-        range,
-        ticks: style::log_ticks(range.0, range.1),
-        desc,
-        labels: Labels::Log {
-            decimal: style::decimal_axis(range.0, range.1),
-        },
-    };
-    let x = log_axis(
+    let x = Axis::log_values(
         style::padded_log_range(&xs, 1.5),
-        "median wall-clock seconds per trial  [s]".into(),
+        "median wall-clock seconds per trial  [s]",
     );
-    let y = log_axis(
+    let y = Axis::log_values(
         style::padded_log_range(&ys, 1.5),
         format!("mean absolute error |Î − I| of ∫ {name} dω  [sr]"),
     );

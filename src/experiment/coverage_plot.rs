@@ -5,7 +5,7 @@
 
 use super::plan::Plan;
 use super::summary::{CellSummary, binomial_band};
-use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
 
 const CHART_HEIGHT: u32 = 480;
 /// The level the plot is about.
@@ -49,18 +49,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     } else {
         (n_min / 2.0, n_max * 2.0)
     };
-    let x = Axis {
-        range: (x0, x1),
-        ticks: style::count_ticks(&plan.samples, x0, x1, style::PLOT_WIDTH),
-        desc: "number of samples N".into(),
-        labels: Labels::Count,
-    };
-    let y = Axis {
-        range: (y0, y1),
-        ticks: style::Ticks::default(),
-        desc: "coverage of the 95% interval".into(),
-        labels: Labels::Fixed(2),
-    };
+    let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
+    let y = Axis::shares((y0, y1), "coverage of the 95% interval");
 
     let mut legend: Vec<LegendEntry> = plan
         .estimators
@@ -93,7 +83,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         CHART_HEIGHT,
         &legend,
         |root, area| {
-            let mut chart = style::chart_on(area, x.log(), y.linear())?;
+            let mut chart = style::chart_on(area, x.log_coord(), y.linear_coord())?;
             style::draw_mesh(&mut chart, &x, &y)?;
             style::draw_level_band(&mut chart, x.range, y.range, (band_lo, band_hi), LEVEL)?;
             for (ei, s) in series.iter().enumerate() {

@@ -7,7 +7,7 @@ use super::fit::{SeriesFit, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
 use crate::estimator::Method;
-use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
 use crate::sampling::{Design, SetDesign};
 use plotters::prelude::*;
 
@@ -127,20 +127,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         .collect();
     let (y0, y1) = style::padded_log_range(&drawn, 1.5);
     let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
-    let x = Axis {
-        range: (x0, x1),
-        ticks: style::count_ticks(&plan.samples, x0, x1, style::PLOT_WIDTH),
-        desc: "number of samples N".into(),
-        labels: Labels::Count,
-    };
-    let y = Axis {
-        range: (y0, y1),
-        ticks: style::log_ticks(y0, y1),
-        desc: format!("absolute error |Î − I| of ∫ {name} dω  [sr]"),
-        labels: Labels::Log {
-            decimal: style::decimal_axis(y0, y1),
-        },
-    };
+    let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
+    let y = Axis::log_values((y0, y1), format!("absolute error |Î − I| of ∫ {name} dω  [sr]"));
 
     let mut legend: Vec<LegendEntry> = plan
         .estimators

@@ -71,18 +71,59 @@ pub struct Axis {
 /// A log axis with grid lines and labels at chosen values only.
 pub type LogAxis = WithKeyPoints<LogCoord<f64>>;
 
+/// A chart over coordinates `X` × `Y`.
+pub type Chart<'a, DB, X, Y> = ChartContext<'a, DB, Cartesian2d<X, Y>>;
 /// A chart with log axes both ways.
-pub type LogLogChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogAxis, LogAxis>>;
+pub type LogLogChart<'a, DB> = Chart<'a, DB, LogAxis, LogAxis>;
+
+/// A plotters coordinate of `f64` values (linear, or log with or without key points).
+pub trait F64Coord: Ranged<ValueType = f64> {}
+impl<T: Ranged<ValueType = f64>> F64Coord for T {}
 
 impl Axis {
+    /// A log axis of values (errors, seconds, tolerances) over `range`: [`super::log_ticks`],
+    /// labelled in decimals or `1e-2` notation as [`super::decimal_axis`] says.
+    pub fn log_values(range: (f64, f64), desc: impl Into<String>) -> Self {
+        Axis {
+            range,
+            ticks: super::log_ticks(range.0, range.1),
+            desc: desc.into(),
+            labels: Labels::Log {
+                decimal: super::decimal_axis(range.0, range.1),
+            },
+        }
+    }
+
+    /// A log axis of counts (N, spp) over `range`, ticked at the values of `grid`
+    /// ([`super::count_ticks`] over the plotting area's width).
+    pub fn counts(grid: &[usize], range: (f64, f64), desc: impl Into<String>) -> Self {
+        Axis {
+            range,
+            ticks: super::count_ticks(grid, range.0, range.1, PLOT_WIDTH),
+            desc: desc.into(),
+            labels: Labels::Count,
+        }
+    }
+
+    /// A linear axis of shares (coverage, share within a tolerance) over `range`, its ticks
+    /// plotters' own, labelled with two decimals.
+    pub fn shares(range: (f64, f64), desc: impl Into<String>) -> Self {
+        Axis {
+            range,
+            ticks: Ticks::default(),
+            desc: desc.into(),
+            labels: Labels::Fixed(2),
+        }
+    }
+
     /// The axis as a log coordinate labelled at its `ticks.labelled`.
-    pub fn log(&self) -> LogAxis {
+    pub fn log_coord(&self) -> LogAxis {
         let (lo, hi) = self.range;
         (lo..hi).log_scale().with_key_points(self.ticks.labelled.clone())
     }
 
     /// The axis as a linear coordinate.
-    pub fn linear(&self) -> std::ops::Range<f64> {
+    pub fn linear_coord(&self) -> std::ops::Range<f64> {
         self.range.0..self.range.1
     }
 }
@@ -109,14 +150,14 @@ pub fn chart_on<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
 /// Draws the chart's axes in the shared style: descriptions and tick labels from `x` and `y`,
 /// faint grid lines at the labelled ticks only, 6 px tick marks.
 pub fn draw_mesh<DB, X, Y>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    chart: &mut Chart<'_, DB, X, Y>,
     x: &Axis,
     y: &Axis,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
 where
     DB: DrawingBackend,
-    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
-    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    X: F64Coord + ValueFormatter<f64>,
+    Y: F64Coord + ValueFormatter<f64>,
 {
     let x_format = |v: &f64| x.labels.format(*v);
     let y_format = |v: &f64| y.labels.format(*v);
@@ -134,7 +175,7 @@ where
         .draw()
 }
 
-/// The log–log chart on `area`: [`chart_on`] over `x.log()` × `y.log()`, [`draw_mesh`], and
+/// The log–log chart on `area`: [`chart_on`] over `x.log_coord()` × `y.log_coord()`, [`draw_mesh`], and
 /// the minor ticks of both axes drawn on `root`.
 pub fn log_log_chart<'a, DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -142,7 +183,7 @@ pub fn log_log_chart<'a, DB: DrawingBackend>(
     x: &Axis,
     y: &Axis,
 ) -> Result<LogLogChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
-    let mut chart = chart_on(area, x.log(), y.log())?;
+    let mut chart = chart_on(area, x.log_coord(), y.log_coord())?;
     draw_mesh(&mut chart, x, y)?;
     chart_minor_ticks(
         root,
@@ -178,17 +219,12 @@ pub fn svg_figure(
 }
 
 /// Series `i`'s line through `points` in its colour, then its marker at each point.
-pub fn draw_line_with_markers<DB, X, Y>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+pub fn draw_line_with_markers<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
+    chart: &mut Chart<'_, DB, X, Y>,
     root: &DrawingArea<DB, Shift>,
     i: usize,
     points: &[(f64, f64)],
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
-where
-    DB: DrawingBackend,
-    X: Ranged<ValueType = f64>,
-    Y: Ranged<ValueType = f64>,
-{
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let c = colour(i);
     chart.draw_series(LineSeries::new(points.to_vec(), c.stroke_width(2)))?;
     for p in points {
@@ -198,33 +234,23 @@ where
 }
 
 /// A dashed grey reference line through `points` (a rate guide, a nominal level).
-pub fn draw_guide<DB, X, Y>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+pub fn draw_guide<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
+    chart: &mut Chart<'_, DB, X, Y>,
     points: Vec<(f64, f64)>,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
-where
-    DB: DrawingBackend,
-    X: Ranged<ValueType = f64>,
-    Y: Ranged<ValueType = f64>,
-{
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     chart.draw_series(DashedLineSeries::new(points, 8, 5, GUIDE.stroke_width(2)))?;
     Ok(())
 }
 
 /// The light grey band `band` (clipped to the chart's `y` range) across the `x` range, and the
 /// dashed line at `level` inside it: where a calibrated share falls (math.md §7).
-pub fn draw_level_band<DB, X, Y>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+pub fn draw_level_band<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
+    chart: &mut Chart<'_, DB, X, Y>,
     x: (f64, f64),
     y: (f64, f64),
     band: (f64, f64),
     level: f64,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
-where
-    DB: DrawingBackend,
-    X: Ranged<ValueType = f64>,
-    Y: Ranged<ValueType = f64>,
-{
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     chart.draw_series(std::iter::once(Rectangle::new(
         [(x.0, band.0.max(y.0)), (x.1, band.1.min(y.1))],
         GUIDE.mix(0.15).filled(),
@@ -233,16 +259,11 @@ where
 }
 
 /// Vertical interval bars `(x, lo, hi)` in series `i`'s colour.
-pub fn draw_bars<DB, X, Y>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+pub fn draw_bars<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
+    chart: &mut Chart<'_, DB, X, Y>,
     i: usize,
     bars: impl Iterator<Item = (f64, f64, f64)>,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
-where
-    DB: DrawingBackend,
-    X: Ranged<ValueType = f64>,
-    Y: Ranged<ValueType = f64>,
-{
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let c = colour(i);
     chart.draw_series(bars.map(|(x, lo, hi)| PathElement::new(vec![(x, lo), (x, hi)], c.stroke_width(2))))?;
     Ok(())

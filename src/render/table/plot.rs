@@ -5,7 +5,7 @@
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
 use crate::estimator::Method;
-use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
 use crate::render::integrator::IntegratorKind;
 use plotters::prelude::*;
 
@@ -103,31 +103,26 @@ fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
         per_variant,
         dodge,
         guide,
-        x: Axis {
-            range: (x0, x1),
-            ticks: style::count_ticks(&plan.spp, x0, x1, style::PLOT_WIDTH),
-            desc: "samples per pixel (spp)".into(),
-            labels: Labels::Count,
-        },
-        y: Axis {
-            range: (y0, y1),
-            ticks: style::log_ticks(y0, y1),
-            desc: "RMSE against the reference (linear RGB)".into(),
-            labels: Labels::Log {
-                decimal: style::decimal_axis(y0, y1),
-            },
-        },
+        x: Axis::counts(&plan.spp, (x0, x1), "samples per pixel (spp)"),
+        y: Axis::log_values((y0, y1), RMSE_AXIS),
     }
+}
+
+/// What the y axis of a table's RMSE plot shows.
+pub const RMSE_AXIS: &str = "RMSE against the reference (linear RGB)";
+
+/// One legend entry per variant, in its series' colour and marker.
+pub fn variant_entries(plan: &TablePlan) -> Vec<LegendEntry> {
+    plan.variants
+        .iter()
+        .enumerate()
+        .map(|(v, variant)| LegendEntry::series(v, variant.label.clone()))
+        .collect()
 }
 
 /// One entry per variant, the guide, and what the points and bars are.
 fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<LegendEntry> {
-    let mut legend: Vec<LegendEntry> = plan
-        .variants
-        .iter()
-        .enumerate()
-        .map(|(v, variant)| LegendEntry::series(v, variant.label.clone()))
-        .collect();
+    let mut legend = variant_entries(plan);
     if let Some((v, _)) = guide {
         legend.push(LegendEntry {
             swatch: Swatch::Guide,
@@ -153,8 +148,8 @@ fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<Leg
 }
 
 /// The guide, then every variant's bars, then its line and markers (so no bar hides a marker).
-fn draw_variants<'s, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
-    chart: &mut ChartContext<'_, SVGBackend<'s>, Cartesian2d<X, Y>>,
+fn draw_variants<'s, X: style::F64Coord, Y: style::F64Coord>(
+    chart: &mut style::Chart<'_, SVGBackend<'s>, X, Y>,
     root: &style::SvgArea<'s>,
     per_variant: &[Vec<&Cell>],
     dodge: &[f64],

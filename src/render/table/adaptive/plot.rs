@@ -4,9 +4,9 @@
 //! are not drawn (they are machine-dependent, see `timings.md`).
 
 use super::summary::AdaptiveCell;
-use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
+use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
 use crate::render::table::plan::TablePlan;
-use crate::render::table::plot::reference_caption;
+use crate::render::table::plot::{RMSE_AXIS, reference_caption, variant_entries};
 
 const CHART_HEIGHT: u32 = 500;
 
@@ -43,27 +43,14 @@ fn draw(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> style::Fig
         .adaptive
         .as_ref()
         .map_or_else(Vec::new, |a| a.settings(1.0).stages);
-    let x = Axis {
-        range: (x0, x1),
-        ticks: style::count_ticks(&stages, x0, x1, style::PLOT_WIDTH),
-        desc: "mean samples per pixel (the stopping rule's choice; ticks at the stages)".into(),
-        labels: Labels::Count,
-    };
-    let y = Axis {
-        range: (y0, y1),
-        ticks: style::log_ticks(y0, y1),
-        desc: "RMSE against the reference (linear RGB)".into(),
-        labels: Labels::Log {
-            decimal: style::decimal_axis(y0, y1),
-        },
-    };
+    let x = Axis::counts(
+        &stages,
+        (x0, x1),
+        "mean samples per pixel (the stopping rule's choice; ticks at the stages)",
+    );
+    let y = Axis::log_values((y0, y1), RMSE_AXIS);
 
-    let mut legend: Vec<LegendEntry> = plan
-        .variants
-        .iter()
-        .enumerate()
-        .map(|(v, variant)| LegendEntry::series(v, variant.label.clone()))
-        .collect();
+    let mut legend = variant_entries(plan);
     let listed = targets
         .iter()
         .map(|t| t.to_string())
