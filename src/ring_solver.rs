@@ -54,6 +54,7 @@ pub const MAX_RING_POINTS: usize = 1 << 16;
 
 /// A discrete Fourier transform of length `M`, unnormalised: radix-2 FFT for powers of two, the
 /// direct sum otherwise.
+#[derive(Clone, Debug)]
 struct Dft {
     len: usize,
     /// `cos(2πk/M)`, `sin(2πk/M)` for `k < M`.
@@ -127,6 +128,7 @@ impl Dft {
 }
 
 /// `Q` of a ring set as its frequency blocks' Cholesky factors (see the module documentation).
+#[derive(Clone, Debug)]
 pub struct RingFactor {
     layout: RingLayout,
     /// `L_f` with `L_f L_fᵀ = B_f + jitter·I`, for `f = 0 ..= M/2` (lower triangles).
