@@ -53,14 +53,7 @@ impl SetFactor {
     pub fn solve_columns_in_place(&self, b: &mut [f64], columns: usize) {
         match self {
             SetFactor::Dense(f) => f.solve_columns_in_place(b, columns),
-            SetFactor::Rings(f) => {
-                if columns > 0 {
-                    let n = b.len() / columns;
-                    for column in b.chunks_mut(n) {
-                        f.solve_in_place(column);
-                    }
-                }
-            }
+            SetFactor::Rings(f) => f.solve_columns_in_place(b, columns),
         }
     }
 
@@ -136,11 +129,7 @@ impl BmcSets {
                 })
             })
             .collect::<Result<_, _>>()?;
-        Ok(BmcSets {
-            sets,
-            rotate,
-            design,
-        })
+        Ok(BmcSets { sets, rotate, design })
     }
 
     /// Keeps each set's factorisation (and `diag(Q⁻¹)` for `loo`) for per-pixel amplitudes.
