@@ -27,7 +27,7 @@ pub const MANIFEST: &str = "manifest.json";
 /// Files a command may write into its result folder while it runs (outside the staging folder),
 /// so that an interrupted command keeps what it measured. They are never part of a finished
 /// set: the next successful run replaces the folder, and them with it.
-pub const PARTIAL_FILES: &[&str] = &["rmse.partial.csv"];
+pub const PARTIAL_FILES: &[&str] = &["rmse.partial.csv", "trials.partial.csv"];
 
 /// An exclusive claim on an output path, held as an advisory lock (`flock`) on
 /// `.workbench-lock-<name>` beside it. The kernel drops the lock when its process ends, however
@@ -262,6 +262,46 @@ impl ResultFolder {
         })?;
         self.files.insert(name.into(), description.into());
         Ok(())
+    }
+
+    /// Writes one file of the set (into the staging folder) by streaming it: `fill` writes
+    /// the bytes, buffered. For files too large to hold in memory.
+    pub fn write_stream(
+        &mut self,
+        name: &str,
+        description: &str,
+        fill: &mut dyn FnMut(&mut dyn Write) -> Result<()>,
+    ) -> Result<()> {
+        assert!(is_plain_name(name), "{name:?} is not a plain file name");
+        let path = self.staging.join(name);
+        let failed = |e: std::io::Error| {
+            Error::io(
+                format!(
+                    "writing {} ({} is left as it was)",
+                    self.shown.join(name).display(),
+                    self.shown.display()
+                ),
+                e,
+            )
+        };
+        let file = File::create(&path).map_err(failed)?;
+        let mut writer = std::io::BufWriter::with_capacity(1 << 16, file);
+        fill(&mut writer)?;
+        crate::io::injected_failure(&path).map_err(failed)?;
+        let file = writer.into_inner().map_err(|e| failed(e.into_error()))?;
+        file.sync_all().map_err(failed)?;
+        self.files.insert(name.into(), description.into());
+        Ok(())
+    }
+
+    /// Where one of [`PARTIAL_FILES`] goes: straight in the folder (created if need be), so
+    /// that it survives the command failing or being interrupted. As the user named the
+    /// folder, for messages.
+    pub fn partial_path(&self, name: &str) -> Result<PathBuf> {
+        assert!(PARTIAL_FILES.contains(&name), "{name} is not a partial file");
+        std::fs::create_dir_all(&self.target)
+            .map_err(|e| Error::io(format!("creating folder {}", self.shown.display()), e))?;
+        Ok(self.shown.join(name))
     }
 
     /// Writes one of [`PARTIAL_FILES`] straight into the folder (atomically), so that it

@@ -132,13 +132,17 @@ fn results_folder_holds_one_run_after_another_experiment() {
     assert_eq!(
         listing(&d.join("o")),
         [
+            "cos-cost.svg",
             "cos-coverage.svg",
             "cos.svg",
+            "cos2-cost.svg",
             "cos2-coverage.svg",
             "cos2.svg",
             "fits.csv",
             "manifest.json",
             "summary.csv",
+            "timings-summary.csv",
+            "timings-trials.csv",
             "timings.json",
             "trials.csv"
         ]
@@ -324,7 +328,13 @@ fn results_folder_holds_one_run_with_two_concurrent_runs() {
     // Each integrand's error plot and calibration plot (sorted as the listing is).
     let mut expected: Vec<String> = integrands
         .iter()
-        .flat_map(|i| [format!("{i}.svg"), format!("{i}-coverage.svg")])
+        .flat_map(|i| {
+            [
+                format!("{i}.svg"),
+                format!("{i}-coverage.svg"),
+                format!("{i}-cost.svg"),
+            ]
+        })
         .collect();
     expected.sort();
     assert_eq!(
@@ -384,17 +394,31 @@ fn half_replaced_result_set_run_failing_midway_keeps_the_earlier_set() {
                  WORKBENCH_TEST_FAIL_WRITE)"
             ),
         );
-        assert_eq!(snapshot(d), before, "{file}");
+        // The earlier set as it was, and beside it the failed run's units, for --resume.
+        let mut after = snapshot(d);
+        let log = after
+            .remove(&d.join("o/trials.partial.csv"))
+            .expect("the unit log");
+        assert_eq!(after, before, "{file}");
         assert_eq!(listing(d), ["a.json", "b.json", "o"], "{file}");
+        assert_eq!(
+            String::from_utf8(log).unwrap().lines().count(),
+            2 + 2 * 2 * 2 * 40
+        );
     }
-    // A first run that fails leaves no folder behind.
+    // A first run that fails leaves only its units, which --resume turns into the set without
+    // running them again.
     let o = workbench_env(
         d,
         &["run", "b.json", "-q", "--out", "new/o"],
         &[("WORKBENCH_TEST_FAIL_WRITE", "trials.csv")],
     );
     assert_eq!(o.status.code(), Some(2));
-    assert!(!d.join("new").exists());
+    assert_eq!(listing(&d.join("new/o")), ["trials.partial.csv"]);
+    let o = workbench(d, &["run", "b.json", "-q", "--out", "new/o", "--resume"]);
+    ok(&o);
+    assert!(stderr(&o).contains("resumed: 80 of 80 units"), "{}", stderr(&o));
+    assert_eq!(listing(&d.join("new/o")), manifest_files(&d.join("new/o")));
 }
 
 /// The same with a real write error from the kernel (a file-size limit, like a full disk:
@@ -413,11 +437,13 @@ fn half_replaced_result_set_run_hitting_a_real_write_error_keeps_the_earlier_set
         "trap '' XFSZ; ulimit -f 1",
         &["run", "b.json", "-q", "--out", "o"],
     );
-    refused(
-        &o,
-        "Error: writing o/trials.csv (o is left as it was): File too large",
-    );
-    assert_eq!(snapshot(d), before);
+    // The unit log, appended as the run goes, is the first file to outgrow the limit.
+    refused(&o, "Error: appending to o/trials.partial.csv: File too large");
+    let mut after = snapshot(d);
+    after
+        .remove(&d.join("o/trials.partial.csv"))
+        .expect("the unit log");
+    assert_eq!(after, before);
     assert_eq!(listing(d), ["a.json", "b.json", "o"]);
 }
 

@@ -1,6 +1,7 @@
 //! The command line (binary only): options → validated plan → run → export, and the one place
 //! that prints. Exit codes: 0 success, 1 a check failed (outputs still written), 2 any error.
 
+mod merge;
 mod model_args;
 mod output;
 mod progress;
@@ -37,6 +38,8 @@ enum Command {
     Run(run::RunArgs),
     /// Check an experiment or render-table file and print the resolved plan, without running it.
     Validate(run::ValidateArgs),
+    /// Merge the shard folders of a run (`run --shard i/n`) into the files of one run.
+    Merge(merge::MergeArgs),
     /// Compute a BMC quadrature rule (points and weights) for use in other code.
     Rule(rule::RuleArgs),
     /// Render the sphere-on-a-plane scene with any estimator, or an RMSE-against-spp table.
@@ -62,6 +65,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(args),
         Command::Validate(args) => run::validate(&args),
+        Command::Merge(args) => merge::merge(args),
         Command::Rule(args) => rule::rule(args),
         Command::Render(args) => render::render(args),
         Command::Schema(args) => schema::schema(args),

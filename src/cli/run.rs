@@ -10,7 +10,9 @@ use workbench::json::SpecKind;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
     workbench run experiments/cos3.json\n  \
-    workbench run experiments/cos3.json --trials 50 --out /tmp/cos3 -q\n\n\
+    workbench run experiments/cos3.json --trials 50 --out /tmp/cos3 -q\n  \
+    workbench run experiments/cos3.json --shard 2/4 --out shards/2   (then: workbench merge OUT shards/*)\n  \
+    workbench run experiments/cos3.json --resume                       (after an interrupted run)\n\n\
     The fields of experiment files are documented in the README (\"Experiment files\").\n\n\
     Exit codes: 0 every check passed; 1 a check failed (outputs are still written); 2 any error \
     (bad input, I/O), before anything is written for bad input.")]
@@ -26,6 +28,13 @@ pub struct RunArgs {
     /// Worker threads, 1 to 256 [default: one per core]. Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
+    /// Run only shard i of n (1 <= i <= n) of the (N, trial) units, into a shard folder for
+    /// `workbench merge` [default --out: results/<name>-shard-<i>-of-<n>/].
+    #[arg(long, value_name = "i/n")]
+    shard: Option<String>,
+    /// Continue an interrupted run from the units its folder's trials.partial.csv holds.
+    #[arg(long)]
+    resume: bool,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -42,26 +51,52 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let shard = args
+        .shard
+        .as_deref()
+        .map(ex::unit_log::Shard::parse)
+        .transpose()
+        .map_err(|m| workbench::InputError::new(format!("--shard: {m}")))?;
     let overrides = ex::Overrides {
         out: args.out,
         trials: args.trials,
         threads: args.threads,
         spec: Some(args.file.clone()),
+        shard,
+        resume: args.resume,
     };
     let plan = ex::load_plan(&args.file, &overrides)?;
     for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
         status!("warning: {w}");
     }
     let report = ex::run_plan(&plan, &overrides, &Bar::new(args.quiet))?;
+    if report.resumed > 0 {
+        status!(
+            "resumed: {} of {} units were done already",
+            report.resumed,
+            report.units
+        );
+    }
+    for (message, count) in &report.warnings {
+        status!("warning: {count} weight set(s): {message}");
+    }
+    if shard.is_some() {
+        status!(
+            "wrote shard {} to {} ({:.2} s on {} thread{}); merge the shards with `workbench merge OUT DIR…`",
+            report.shard,
+            report.out_dir.display(),
+            report.wall_seconds,
+            report.threads,
+            if report.threads == 1 { "" } else { "s" }
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     stdout(&ex::format_report(&plan, &report))?;
     stdout(&ex::adaptive::format_report(
         &plan,
         &report.stopping,
         &report.tolerance_checks,
     ))?;
-    for (message, count) in &report.warnings {
-        status!("warning: {count} weight set(s): {message}");
-    }
     status!(
         "wrote {} ({:.2} s on {} thread{})",
         report.out_dir.display(),

@@ -4,9 +4,37 @@
 //! `f64` values and are byte-identical for identical results.
 
 use super::plan::Plan;
-use super::runner::Results;
+use super::rows::csv_field;
 use super::summary::{CalibrationOutcome, CellSummary, CheckOutcome};
 use std::fmt::Write;
+
+/// `timings-summary.csv`: per (integrand, estimator, N), the mean absolute error against the
+/// mean integrand evaluations and wall-clock seconds per trial (its weight set's mean, which
+/// estimators with the same model and design share, and the estimator alone: mean and
+/// median). Machine-dependent.
+pub fn timings_summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
+    let mut s = String::from(
+        "integrand,estimator,n,trials,mean_abs_error,mean_evaluations,mean_weight_set_seconds,mean_seconds,\
+         median_seconds\n",
+    );
+    for c in cells {
+        writeln!(
+            s,
+            "{},{},{},{},{:?},{:?},{:?},{:?},{:?}",
+            plan.integrands[c.integrand].name(),
+            csv_field(&plan.estimators[c.estimator].label),
+            c.n,
+            c.trials,
+            c.mean_abs_error,
+            c.mean_evaluations,
+            c.mean_weight_set_seconds,
+            c.mean_seconds,
+            c.median_seconds as f32
+        )
+        .expect("writing to a String");
+    }
+    s.into_bytes()
+}
 
 fn opt(v: Option<f64>) -> String {
     v.map_or(String::new(), |x| format!("{x:?}"))
@@ -19,50 +47,6 @@ fn num(v: f64) -> String {
     } else {
         format!("{v:?}")
     }
-}
-
-/// `trials.csv`: one row per (integrand, estimator, N, trial).
-pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
-    let mut s = String::from(
-        "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,warnings,\
-         weight_sum,negative_weights,jitter,condition_estimate,amplitude,dof\n",
-    );
-    for (fi, f) in plan.integrands.iter().enumerate() {
-        let truth = f.integral();
-        for (ei, e) in plan.estimators.iter().enumerate() {
-            for (ni, &n) in plan.samples.iter().enumerate() {
-                for t in 0..plan.trials {
-                    let u = results.unit(plan, ni, t);
-                    let est = u.estimates[fi][ei];
-                    let uncertainty = u.uncertainty[fi][ei];
-                    // The weight set's diagnostics (empty for MC).
-                    let diagnostics = u.diagnostics[ei].as_ref().map_or(",,,".to_string(), |d| {
-                        format!(
-                            "{:?},{},{:?},{:?}",
-                            d.weight_sum, d.negative_weights, d.jitter, d.condition_estimate
-                        )
-                    });
-                    writeln!(
-                        s,
-                        "{},{},{},{},{n},{t},{est:?},{truth:?},{:?},{},{},{diagnostics},{},{}",
-                        f.name(),
-                        csv_field(&e.label),
-                        e.method.name(),
-                        e.design.name(),
-                        (est - truth).abs(),
-                        opt(uncertainty.map(|x| x.sd)),
-                        u.warnings_for(fi, ei),
-                        opt(uncertainty.and_then(|x| x.amplitude)),
-                        uncertainty
-                            .and_then(|x| x.dof)
-                            .map_or(String::new(), |d| d.to_string())
-                    )
-                    .expect("writing to a String");
-                }
-            }
-        }
-    }
-    s.into_bytes()
 }
 
 /// `summary.csv`: one row per (integrand, estimator, N).
@@ -96,15 +80,6 @@ pub fn summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
         .expect("writing to a String");
     }
     s.into_bytes()
-}
-
-/// Quotes a field if CSV needs it (labels are free text).
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
 }
 
 /// The resolved plan as JSON (what `validate` prints and the manifest records).

@@ -1,22 +1,30 @@
 //! `workbench run` and `workbench validate`: declarative experiments.
 //!
-//! spec (JSON) → [`plan::Plan`] (validated) → [`runner::run`] (parallel) → [`summary`] →
-//! [`export`] / [`plot`] (pure) → one atomic write per file.
+//! spec (JSON) → [`plan::Plan`] (validated) → [`drive`] (batches of units in parallel,
+//! [`runner`]) → the unit log ([`unit_log`]) and the [`summary`] → [`finish`] ([`export`] /
+//! [`plot`], pure) → one atomic swap of the results folder. A run may be a shard of the units
+//! ([`unit_log::Shard`]), whose logs [`merge`] turns into the same files.
 
 pub mod adaptive;
 pub mod adaptive_plot;
 pub mod adaptive_unit;
+pub mod cost_plot;
 pub mod coverage_plot;
+pub mod drive;
 pub mod export;
+pub mod finish;
 pub mod fit;
+pub mod merge;
 pub mod plan;
 pub mod plot;
+pub mod rows;
 pub mod runner;
 pub mod spec;
 pub mod summary;
 pub mod sweep;
 pub mod text;
 pub mod tolerance;
+pub mod unit_log;
 
 pub use text::{describe, format_report};
 
@@ -35,10 +43,19 @@ pub struct Overrides {
     /// The experiment file itself, so that the outputs can never replace it (`run
     /// D/manifest.json --out D`).
     pub spec: Option<PathBuf>,
+    /// Run only this share of the units, into a shard folder for [`merge`] (`--shard i/n`).
+    pub shard: Option<unit_log::Shard>,
+    /// Continue the run the folder's unit log holds, without redoing its units (`--resume`).
+    pub resume: bool,
 }
 
 /// Reads, applies overrides, validates. Errors are [`InputError`]s naming the file.
 pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, InputError> {
+    load(path, overrides).map(|(_, plan)| plan)
+}
+
+/// [`load_plan`], also returning the spec with the overrides applied (what a shard records).
+pub fn load(path: &Path, overrides: &Overrides) -> Result<(spec::ExperimentSpec, plan::Plan), InputError> {
     let file = path.display().to_string();
     let text = crate::json::read_spec(path)?;
     let mut spec = plan::parse(&text).map_err(|m| InputError::new(format!("{file}: {m}")))?;
@@ -56,12 +73,14 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
     if let Some(t) = overrides.threads {
         crate::threads::check_threads(t)?;
     }
-    plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))
+    let plan = plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))?;
+    Ok((spec, plan))
 }
 
 /// What a run produced, for the caller to report.
 pub struct RunReport {
     pub out_dir: PathBuf,
+    /// Empty for a shard (its summary comes with the merge).
     pub cells: Vec<summary::CellSummary>,
     pub checks: Vec<summary::CheckOutcome>,
     pub calibration: Vec<summary::CalibrationOutcome>,
@@ -70,7 +89,12 @@ pub struct RunReport {
     pub tolerance_checks: Vec<adaptive::CheckOutcome>,
     pub wall_seconds: f64,
     pub threads: usize,
+    /// Weight sets' numerical warnings of the units run now (not of resumed ones).
     pub warnings: Vec<(String, usize)>,
+    pub shard: unit_log::Shard,
+    /// Units found done in the unit log (`--resume`), and units in the run (or shard).
+    pub resumed: usize,
+    pub units: usize,
 }
 
 /// Runs a validated plan and writes every output under the output folder.
@@ -78,20 +102,47 @@ pub struct RunReport {
 /// The folder holds one run: its files are built in a staging folder beside it and replace the
 /// old folder as a whole once all are written ([`ResultFolder`]), so a run that fails (a full
 /// disk) or is killed leaves the earlier results as they were, and a run never leaves another
-/// run's files beside its own. Everything that can be refused is refused before the trials.
+/// run's files beside its own — apart from the unit log, `trials.partial.csv`, which keeps the
+/// finished units of an interrupted run for `--resume`. Everything that can be refused is
+/// refused before the trials.
 pub fn run_plan(
     plan: &plan::Plan,
     overrides: &Overrides,
     reporter: &dyn Reporter,
 ) -> crate::Result<RunReport> {
-    let out_dir = overrides
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("results").join(&plan.name));
+    let shard = overrides.shard.unwrap_or(unit_log::Shard::WHOLE);
+    let out_dir = overrides.out.clone().unwrap_or_else(|| {
+        let name = if overrides.shard.is_some() {
+            format!("{}-shard-{}-of-{}", plan.name, shard.index, shard.count)
+        } else {
+            plan.name.clone()
+        };
+        Path::new("results").join(name)
+    });
     let what = match &overrides.out {
         Some(out) => format!("--out {}", out.display()),
         None => out_dir.display().to_string(),
     };
+    // A shard records the experiment as run, for the merge to rebuild the plan from.
+    let shard_spec = match (&overrides.shard, &overrides.spec) {
+        (Some(_), Some(path)) => Some(load(path, overrides)?.0),
+        (Some(_), None) => return Err(InputError::new("--shard: needs the experiment file").into()),
+        _ => None,
+    };
+    if (overrides.shard.is_some() || overrides.resume)
+        && plan.estimators.iter().any(|e| e.tolerance.is_some())
+    {
+        return Err(InputError::new(format!(
+            "{}: the file has tolerance estimators, whose stopping outputs are not kept in the unit log \
+             yet; run it whole, without --shard or --resume",
+            if overrides.shard.is_some() {
+                "--shard"
+            } else {
+                "--resume"
+            }
+        ))
+        .into());
+    }
     let inputs: Vec<(&str, &Path)> = overrides
         .spec
         .iter()
@@ -101,68 +152,56 @@ pub fn run_plan(
 
     let pool = crate::threads::pool(overrides.threads)?;
     let threads = pool.current_num_threads();
-    let units = (plan.samples.len() * plan.trials) as u64;
-    reporter.start("trials×N", units);
+    let identity = unit_log::Identity::new(plan, shard);
+    let mut summary = overrides.shard.is_none().then(|| summary::Accumulator::new(plan));
+    let log_path = folder.partial_path(unit_log::PARTIAL_LOG)?;
+    let (mut log, resumed) = unit_log::open(
+        &log_path,
+        plan,
+        &identity,
+        overrides.resume,
+        &mut |_, fi, ei, ni, v| {
+            if let Some(s) = summary.as_mut() {
+                s.push(fi, ei, ni, v);
+            }
+        },
+    )?;
+    let units = shard.len(plan.samples.len() * plan.trials);
+    reporter.start("trials×N", units as u64);
+    reporter.advance(resumed as u64);
     let start = Instant::now();
-    let results = pool.install(|| runner::run(plan, &|| reporter.advance(1)))?;
+    let (warnings, stopped) =
+        drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
+            reporter.advance(1)
+        })?;
     reporter.finish();
+    drop(log);
     let wall_seconds = start.elapsed().as_secs_f64();
 
-    let cells = summary::summarize(plan, &results);
-    let checks: Vec<_> = plan
-        .checks
-        .iter()
-        .map(|c| summary::evaluate_check(plan, &results, c))
-        .collect();
-    let calibration: Vec<_> = plan
-        .calibration_checks
-        .iter()
-        .map(|c| summary::evaluate_calibration(plan, &results, c))
-        .collect();
+    let (findings, manifest) = match (summary, shard_spec) {
+        (Some(summary), _) => {
+            let logs = unit_log::LogSet {
+                paths: vec![log_path],
+            };
+            let findings = finish::write_set(plan, &mut folder, &summary, &logs)?;
+            let manifest = export::manifest_json(plan, &findings.checks, &findings.calibration);
+            (Some(findings), manifest)
+        }
+        (None, Some(spec)) => {
+            merge::write_shard(&spec, &identity, &mut folder, &log_path)?;
+            (None, merge::shard_manifest(plan, &identity))
+        }
+        (None, None) => unreachable!("a shard has its spec"),
+    };
+    // Tolerance estimators' outcomes, kept per unit by the drive (only for plans that have
+    // them; `--shard` and `--resume` refuse those plans).
+    let results = runner::Results { units: stopped };
     let stopping = adaptive::summarize(plan, &results);
     let tolerance_checks: Vec<_> = plan
         .tolerance_checks
         .iter()
         .map(|c| adaptive::evaluate_check(plan, &stopping, c))
         .collect();
-
-    folder.write(
-        "trials.csv",
-        "one row per (integrand, estimator, n, trial)",
-        &export::trials_csv(plan, &results),
-    )?;
-    folder.write(
-        "summary.csv",
-        "one row per (integrand, estimator, n)",
-        &export::summary_csv(plan, &cells),
-    )?;
-    folder.write(
-        "fits.csv",
-        "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
-        &export::fits_csv(plan, &cells),
-    )?;
-    // With only tolerance estimators every cell sits at its first stage, so error and coverage
-    // against N say nothing; `<integrand>-tolerance.svg` replaces them.
-    let only_tolerance = plan.estimators.iter().all(|e| e.tolerance.is_some());
-    for (fi, f) in plan.integrands.iter().enumerate().filter(|_| !only_tolerance) {
-        let svg = plot::error_plot_svg(plan, &cells, fi)?;
-        folder.write(
-            &format!("{}.svg", f.name()),
-            &format!("absolute error against n for {}, every estimator", f.name()),
-            svg.as_bytes(),
-        )?;
-        if cells.iter().any(|c| c.integrand == fi && c.coverage.is_some()) {
-            let svg = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
-            folder.write(
-                &format!("{}-coverage.svg", f.name()),
-                &format!(
-                    "95% coverage against n for {}, every estimator with an interval, with the binomial 99% band",
-                    f.name()
-                ),
-                svg.as_bytes(),
-            )?;
-        }
-    }
     if !stopping.is_empty() {
         folder.write(
             "stopping_trials.csv",
@@ -192,42 +231,29 @@ pub fn run_plan(
         "wall-clock seconds and threads of the run (machine-dependent; not committed)",
         &export::timings_json(threads, wall_seconds),
     )?;
-    let mut manifest: serde_json::Value =
-        serde_json::from_slice(&export::manifest_json(plan, &checks, &calibration))
-            .expect("the manifest is JSON");
-    if !plan.tolerance_checks.is_empty() {
+    let mut manifest: serde_json::Value = serde_json::from_slice(&manifest).expect("the manifest is JSON");
+    if !plan.tolerance_checks.is_empty() && overrides.shard.is_none() {
         manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
         manifest["tolerance_checks"] = adaptive::checks_json(plan, &tolerance_checks);
     }
     folder.commit(manifest)?;
-
-    let mut warnings: Vec<(String, usize)> = Vec::new();
-    for u in &results.units {
-        for m in &u.messages {
-            // Group by the message's first words (the amounts differ).
-            let key = m
-                .split(';')
-                .next()
-                .unwrap_or(m)
-                .split(" (")
-                .next()
-                .unwrap_or(m)
-                .to_string();
-            match warnings.iter_mut().find(|(k, _)| *k == key) {
-                Some((_, c)) => *c += 1,
-                None => warnings.push((key, 1)),
-            }
-        }
-    }
+    let findings = findings.unwrap_or(finish::Findings {
+        cells: Vec::new(),
+        checks: Vec::new(),
+        calibration: Vec::new(),
+    });
     Ok(RunReport {
         out_dir,
-        cells,
-        checks,
-        calibration,
+        cells: findings.cells,
+        checks: findings.checks,
+        calibration: findings.calibration,
         stopping,
         tolerance_checks,
         wall_seconds,
         threads,
         warnings,
+        shard,
+        resumed,
+        units,
     })
 }

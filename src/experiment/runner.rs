@@ -11,6 +11,7 @@ use crate::linalg::SpdWorkspace;
 use crate::rng::stream;
 use crate::sampling::SetDesign;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// Stream identifiers under the experiment's seed.
 const SAMPLES_STREAM: u64 = 1;
@@ -35,6 +36,23 @@ pub struct UnitResult {
     /// `sequential[integrand][estimator]`: where a tolerance estimator stopped (None for the
     /// others; [`super::adaptive`]).
     pub sequential: Vec<Vec<Option<crate::sequential::Outcome>>>,
+    /// What each estimator cost ([`Cost`]); wall-clock, so outside the byte-identical outputs.
+    pub cost: Cost,
+}
+
+/// Wall-clock seconds of one unit, split so that work shared between estimators is visible.
+#[derive(Debug, Clone, Default)]
+pub struct Cost {
+    /// `weight_set[estimator]`: seconds to compute the estimator's weight set (and the fitted
+    /// amplitudes that use its factor); an estimator sharing the set with others shows the
+    /// same figure (0 for MC).
+    pub weight_set: Vec<f64>,
+    /// `seconds[integrand][estimator]`: what the estimator alone would have cost on this
+    /// integrand: drawing its points, its weight set, evaluating the integrand, combining.
+    pub seconds: Vec<Vec<f64>>,
+    /// `evaluations[integrand][estimator]`: integrand evaluations the estimator needs (a
+    /// tolerance estimator: the points it used).
+    pub evaluations: Vec<Vec<u64>>,
 }
 
 impl UnitResult {
@@ -66,23 +84,28 @@ impl Results {
 
 /// Runs every unit; `tick` is called once per finished unit (for a progress bar).
 pub fn run(plan: &Plan, tick: &(dyn Fn() + Sync)) -> crate::Result<Results> {
-    let units = plan.samples.len() * plan.trials;
+    let units: Vec<usize> = (0..plan.samples.len() * plan.trials).collect();
+    Ok(Results {
+        units: run_units(plan, &units, tick)?,
+    })
+}
+
+/// Runs the given units (`u = n_index · trials + trial`) in parallel; results in their order.
+pub fn run_units(plan: &Plan, units: &[usize], tick: &(dyn Fn() + Sync)) -> crate::Result<Vec<UnitResult>> {
     thread_local! {
         // One workspace per worker thread for the whole run (map_init would make one per
         // work split, churning allocations of n_max² matrices).
         static WORKSPACE: std::cell::RefCell<SpdWorkspace> = std::cell::RefCell::new(SpdWorkspace::new());
     }
-    let results: Vec<crate::Result<UnitResult>> = (0..units)
-        .into_par_iter()
-        .map(|u| {
+    let results: Vec<crate::Result<UnitResult>> = units
+        .par_iter()
+        .map(|&u| {
             let r = WORKSPACE.with_borrow_mut(|ws| run_unit(plan, u / plan.trials, u % plan.trials, ws));
             tick();
             r
         })
         .collect();
-    Ok(Results {
-        units: results.into_iter().collect::<crate::Result<_>>()?,
-    })
+    results.into_iter().collect()
 }
 
 /// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`.
@@ -93,17 +116,21 @@ pub fn run_unit(
     workspace: &mut SpdWorkspace,
 ) -> crate::Result<UnitResult> {
     let n = plan.samples[n_index];
+    let mut sample_seconds = Vec::with_capacity(plan.designs.len());
     let sets: Vec<Vec<crate::geometry::Vec3>> = plan
         .designs
         .iter()
         .map(|&d| {
-            d.sample_set(
+            let clock = Instant::now();
+            let set = d.sample_set(
                 n,
                 &mut stream(
                     plan.seed,
                     &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
                 ),
-            )
+            );
+            sample_seconds.push(clock.elapsed().as_secs_f64());
+            set
         })
         .collect();
     let set_of = |d: SetDesign| {
@@ -120,6 +147,7 @@ pub fn run_unit(
     // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
     // estimator uses `loo`.
     // Tolerance estimators extend the unit's set of their design (same stream, nested).
+    let adaptive_clock = Instant::now();
     let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
         d.sample_set(
             count,
@@ -129,9 +157,12 @@ pub fn run_unit(
             ),
         )
     })?;
+    // Every tolerance estimator's stages, on every integrand: one shared cost, shown as such.
+    let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
     let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
+    let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {
             continue;
@@ -139,6 +170,7 @@ pub fn run_unit(
         if weights.iter().any(|(k, _)| *k == (m, e.design)) {
             continue;
         }
+        let clock = Instant::now();
         let mut rng = stream(
             plan.seed,
             &[
@@ -188,6 +220,7 @@ pub fn run_unit(
             }
         }
         weights.push(((m, e.design), w));
+        weight_seconds.push(clock.elapsed().as_secs_f64());
     }
     let weights_of = |e: &super::plan::PlannedEstimator| {
         e.model.filter(|_| e.tolerance.is_none()).map(|m| {
@@ -199,16 +232,39 @@ pub fn run_unit(
         })
     };
 
+    let weight_set_seconds: Vec<f64> = plan
+        .estimators
+        .iter()
+        .map(|e| {
+            if e.tolerance.is_some() {
+                return adaptive_seconds;
+            }
+            e.model.map_or(0.0, |m| {
+                weight_seconds[weights
+                    .iter()
+                    .position(|(k, _)| *k == (m, e.design))
+                    .expect("computed above")]
+            })
+        })
+        .collect();
     let mut estimates = Vec::with_capacity(ni);
     let mut uncertainty = Vec::with_capacity(ni);
     let mut fitted = Vec::with_capacity(ni);
+    let mut seconds = Vec::with_capacity(ni);
     for (fi, f) in plan.integrands.iter().enumerate() {
+        let mut evaluate_seconds = Vec::with_capacity(sets.len());
         let values: Vec<Vec<f64>> = sets
             .iter()
-            .map(|s| s.iter().map(|w| f.value(w)).collect())
+            .map(|s| {
+                let clock = Instant::now();
+                let v = s.iter().map(|w| f.value(w)).collect();
+                evaluate_seconds.push(clock.elapsed().as_secs_f64());
+                v
+            })
             .collect();
         let mut row = Vec::with_capacity(plan.estimators.len());
         let mut sds = Vec::with_capacity(plan.estimators.len());
+        let mut costs = Vec::with_capacity(plan.estimators.len());
         for (ei, e) in plan.estimators.iter().enumerate() {
             if let Some(run) = &adaptive[ei] {
                 let o = run.outcomes[fi];
@@ -217,8 +273,10 @@ pub fn run_unit(
                 if run.fitted {
                     amplitudes[fi][ei] = o.uncertainty.and_then(|u| u.amplitude);
                 }
+                costs.push(adaptive_seconds);
                 continue;
             }
+            let clock = Instant::now();
             let d = plan
                 .designs
                 .iter()
@@ -237,7 +295,14 @@ pub fn run_unit(
                 e.scale.unwrap_or(Scale::Unit),
                 amplitudes[fi][ei].unwrap_or(1.0),
             ));
+            costs.push(
+                sample_seconds[d]
+                    + weight_set_seconds[ei]
+                    + evaluate_seconds[d]
+                    + clock.elapsed().as_secs_f64(),
+            );
         }
+        seconds.push(costs);
         estimates.push(row);
         uncertainty.push(sds);
         fitted.push(amplitudes[fi].iter().map(Option::is_some).collect::<Vec<bool>>());
@@ -304,6 +369,14 @@ pub fn run_unit(
             }
         }
     }
+    let evaluations: Vec<Vec<u64>> = (0..ni)
+        .map(|fi| {
+            adaptive
+                .iter()
+                .map(|r| r.as_ref().map_or(n as u64, |r| r.outcomes[fi].n_used as u64))
+                .collect()
+        })
+        .collect();
     Ok(UnitResult {
         estimates,
         uncertainty,
@@ -319,5 +392,10 @@ pub fn run_unit(
                     .collect()
             })
             .collect(),
+        cost: Cost {
+            weight_set: weight_set_seconds,
+            seconds,
+            evaluations,
+        },
     })
 }

@@ -1,7 +1,6 @@
 //! Per-cell summaries and the evaluation of checks.
 
 use super::plan::{CalibrationCheck, Check, Plan};
-use super::runner::Results;
 use crate::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
 
 /// The levels at which `summary.csv` reports coverage (math.md §7).
@@ -27,100 +26,225 @@ pub struct CellSummary {
     /// Median over the trials of `|Î − I| / sd` (0/0 counts as 0, e/0 as ∞).
     pub median_error_over_sd: Option<f64>,
     pub warnings: u64,
+    /// Mean integrand evaluations per trial (deterministic).
+    pub mean_evaluations: f64,
+    /// Mean and median wall-clock seconds per trial of the estimator alone, and the mean of
+    /// its weight set's (machine-dependent: `timings-summary.csv` only). The median shrugs off
+    /// the trials a busy machine preempted.
+    pub mean_seconds: f64,
+    pub median_seconds: f64,
+    pub mean_weight_set_seconds: f64,
 }
 
-/// Absolute errors of one cell, in trial order.
-pub fn abs_errors(
-    plan: &Plan,
-    results: &Results,
-    integrand: usize,
-    estimator: usize,
-    n_index: usize,
-) -> Vec<f64> {
-    let truth = plan.integrands[integrand].integral();
-    (0..plan.trials)
-        .map(|t| (results.unit(plan, n_index, t).estimates[integrand][estimator] - truth).abs())
-        .collect()
+/// What the summary needs from one row of `trials.csv` (and its cost columns): the same
+/// values whether the row was computed now or read back from a unit log or a shard, since
+/// floats are written in shortest round-trip form.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowValues {
+    pub abs_error: f64,
+    /// The stated sd and the interval's degrees of freedom (None when there is no interval).
+    pub sd: Option<(f64, Option<usize>)>,
+    pub warnings: u32,
+    pub evaluations: u64,
+    /// Wall-clock seconds (machine-dependent): the estimator's weight set, and the whole.
+    pub weight_set_seconds: f64,
+    pub seconds: f64,
 }
 
-/// All cell summaries, ordered by integrand, estimator, N (the plan's orders).
-pub fn summarize(plan: &Plan, results: &Results) -> Vec<CellSummary> {
-    let mut out = Vec::new();
-    for fi in 0..plan.integrands.len() {
-        for ei in 0..plan.estimators.len() {
-            for (ni, &n) in plan.samples.iter().enumerate() {
-                let errors = abs_errors(plan, results, fi, ei, ni);
-                let mut sorted = errors.clone();
-                sorted.sort_by(f64::total_cmp);
-                let units: Vec<_> = (0..plan.trials).map(|t| results.unit(plan, ni, t)).collect();
-                let sds: Option<Vec<f64>> = units
-                    .iter()
-                    .map(|u| u.uncertainty[fi][ei].map(|x| x.sd))
-                    .collect();
-                let coverage = sds.as_ref().map(|_| {
-                    COVERAGE_LEVELS.map(|level| {
-                        coverage_at(plan, results, fi, ei, ni, level).expect("every trial has an sd")
-                    })
-                });
-                let median_error_over_sd = sds.as_ref().map(|sds| {
-                    let mut ratios: Vec<f64> = errors
-                        .iter()
-                        .zip(sds)
-                        .map(|(&e, &sd)| if e == 0.0 { 0.0 } else { e / sd })
-                        .collect();
-                    ratios.sort_by(f64::total_cmp);
-                    quantile_sorted(&ratios, 0.5)
-                });
-                out.push(CellSummary {
-                    integrand: fi,
-                    estimator: ei,
-                    n,
-                    trials: plan.trials,
-                    mean_abs_error: mean(&errors),
-                    ci95: mean_ci95(&errors),
-                    median_abs_error: quantile_sorted(&sorted, 0.5),
-                    q10_abs_error: quantile_sorted(&sorted, 0.1),
-                    q90_abs_error: quantile_sorted(&sorted, 0.9),
-                    mean_posterior_sd: sds.as_ref().map(|s| mean(s)),
-                    coverage,
-                    median_error_over_sd,
-                    warnings: units.iter().map(|u| u.warnings_for(fi, ei) as u64).sum(),
-                });
+/// One cell's running state. Keeps two `f64` per trial (the absolute error and the stated sd,
+/// which medians, quantiles and the paired tests need), one `f32` (the seconds, for their
+/// median) and counters for the rest.
+#[derive(Debug, Clone)]
+struct CellState {
+    errors: Vec<f64>,
+    /// NaN-free while `all_sd`; emptied of meaning (and not pushed) once a trial has no sd.
+    sds: Vec<f64>,
+    all_sd: bool,
+    /// Trials whose interval holds the truth, per level of [`Accumulator::levels`].
+    hits: Vec<u64>,
+    /// The interval quantiles per level, per law met so far (keyed by the dof).
+    quantiles: Vec<(Option<usize>, Vec<f64>)>,
+    warnings: u64,
+    evaluations: u64,
+    seconds: f64,
+    /// Each trial's seconds, for the median (single precision is plenty for a clock reading).
+    trial_seconds: Vec<f32>,
+    weight_set_seconds: f64,
+}
+
+/// Per-cell summaries built row by row, in trial order within each cell, so that memory grows
+/// by 20 bytes per row (not by whole rows) and every statistic is the same as from all rows
+/// at once.
+#[derive(Debug, Clone)]
+pub struct Accumulator {
+    estimators: usize,
+    samples: Vec<usize>,
+    /// The coverage levels counted: [`COVERAGE_LEVELS`], then the calibration checks' levels.
+    levels: Vec<f64>,
+    cells: Vec<CellState>,
+}
+
+impl Accumulator {
+    /// Empty cells for every (integrand, estimator, N) of the plan, with room for its trials.
+    pub fn new(plan: &Plan) -> Accumulator {
+        let mut levels = COVERAGE_LEVELS.to_vec();
+        for c in &plan.calibration_checks {
+            if !levels.contains(&c.level) {
+                levels.push(c.level);
             }
         }
-    }
-    out
-}
-
-/// The share of the cell's trials whose interval `Î ± q · sd` at `level` holds the truth;
-/// None if a trial has no interval. The quantile `q` depends on the interval's law only (the
-/// same in every trial of a cell), so it is computed once per law.
-pub fn coverage_at(
-    plan: &Plan,
-    results: &Results,
-    integrand: usize,
-    estimator: usize,
-    n_index: usize,
-    level: f64,
-) -> Option<f64> {
-    let errors = abs_errors(plan, results, integrand, estimator, n_index);
-    let mut quantiles: Vec<(Option<usize>, f64)> = Vec::new();
-    let mut hits = 0usize;
-    for (t, e) in errors.iter().enumerate() {
-        let u = results.unit(plan, n_index, t).uncertainty[integrand][estimator]?;
-        let q = match quantiles.iter().find(|(d, _)| *d == u.dof) {
-            Some(&(_, q)) => q,
-            None => {
-                let q = u.quantile(level);
-                quantiles.push((u.dof, q));
-                q
-            }
+        let count = plan.integrands.len() * plan.estimators.len() * plan.samples.len();
+        let cell = CellState {
+            errors: Vec::new(),
+            sds: Vec::new(),
+            all_sd: true,
+            hits: vec![0; levels.len()],
+            quantiles: Vec::new(),
+            warnings: 0,
+            evaluations: 0,
+            seconds: 0.0,
+            trial_seconds: Vec::new(),
+            weight_set_seconds: 0.0,
         };
-        if *e <= q * u.sd {
-            hits += 1;
+        let mut cells = vec![cell; count];
+        for c in &mut cells {
+            c.errors.reserve_exact(plan.trials);
+            c.sds.reserve_exact(plan.trials);
+            c.trial_seconds.reserve_exact(plan.trials);
+        }
+        Accumulator {
+            estimators: plan.estimators.len(),
+            samples: plan.samples.clone(),
+            levels,
+            cells,
         }
     }
-    Some(hits as f64 / errors.len() as f64)
+
+    fn index(&self, integrand: usize, estimator: usize, n_index: usize) -> usize {
+        (integrand * self.estimators + estimator) * self.samples.len() + n_index
+    }
+
+    /// Adds the next trial of cell (integrand, estimator, N): trials must come in order.
+    pub fn push(&mut self, integrand: usize, estimator: usize, n_index: usize, row: &RowValues) {
+        let i = self.index(integrand, estimator, n_index);
+        let levels = &self.levels;
+        let c = &mut self.cells[i];
+        c.errors.push(row.abs_error);
+        c.warnings += u64::from(row.warnings);
+        c.evaluations += row.evaluations;
+        c.seconds += row.seconds;
+        c.trial_seconds.push(row.seconds as f32);
+        c.weight_set_seconds += row.weight_set_seconds;
+        match row.sd {
+            Some((sd, dof)) if c.all_sd => {
+                c.sds.push(sd);
+                let k = match c.quantiles.iter().position(|(d, _)| *d == dof) {
+                    Some(k) => k,
+                    None => {
+                        let q = levels
+                            .iter()
+                            .map(|&l| crate::stats::interval_quantile(dof, l))
+                            .collect();
+                        c.quantiles.push((dof, q));
+                        c.quantiles.len() - 1
+                    }
+                };
+                for (hit, q) in c.hits.iter_mut().zip(&c.quantiles[k].1) {
+                    *hit += u64::from(row.abs_error <= q * sd);
+                }
+            }
+            Some(_) => {}
+            None => {
+                c.all_sd = false;
+                c.sds = Vec::new();
+            }
+        }
+    }
+
+    /// Trials added to cell (integrand, estimator, N) so far.
+    pub fn trials(&self, integrand: usize, estimator: usize, n_index: usize) -> usize {
+        self.cells[self.index(integrand, estimator, n_index)].errors.len()
+    }
+
+    /// Absolute errors of one cell, in trial order.
+    pub fn abs_errors(&self, integrand: usize, estimator: usize, n_index: usize) -> &[f64] {
+        &self.cells[self.index(integrand, estimator, n_index)].errors
+    }
+
+    /// The share of the cell's trials whose interval `Î ± q · sd` at `level` holds the truth;
+    /// None if a trial has no interval. `level` must be one of [`COVERAGE_LEVELS`] or a
+    /// calibration check's.
+    pub fn coverage_at(&self, integrand: usize, estimator: usize, n_index: usize, level: f64) -> Option<f64> {
+        let c = &self.cells[self.index(integrand, estimator, n_index)];
+        let k = self
+            .levels
+            .iter()
+            .position(|&l| l == level)
+            .expect("the level is counted");
+        c.all_sd.then(|| c.hits[k] as f64 / c.errors.len() as f64)
+    }
+
+    /// All cell summaries, ordered by integrand, estimator, N (the plan's orders).
+    pub fn summarize(&self, plan: &Plan) -> Vec<CellSummary> {
+        let mut out = Vec::with_capacity(self.cells.len());
+        for fi in 0..plan.integrands.len() {
+            for ei in 0..plan.estimators.len() {
+                for (ni, &n) in plan.samples.iter().enumerate() {
+                    let c = &self.cells[self.index(fi, ei, ni)];
+                    out.push(summarize_cell(c, fi, ei, n, |level| {
+                        self.coverage_at(fi, ei, ni, level)
+                    }));
+                }
+            }
+        }
+        out
+    }
+}
+
+fn summarize_cell(
+    c: &CellState,
+    integrand: usize,
+    estimator: usize,
+    n: usize,
+    coverage_at: impl Fn(f64) -> Option<f64>,
+) -> CellSummary {
+    let errors = &c.errors;
+    let mut sorted = errors.clone();
+    sorted.sort_by(f64::total_cmp);
+    let sds = c.all_sd.then_some(&c.sds);
+    let coverage =
+        sds.map(|_| COVERAGE_LEVELS.map(|level| coverage_at(level).expect("every trial has an sd")));
+    let median_error_over_sd = sds.map(|sds| {
+        let mut ratios: Vec<f64> = errors
+            .iter()
+            .zip(sds)
+            .map(|(&e, &sd)| if e == 0.0 { 0.0 } else { e / sd })
+            .collect();
+        ratios.sort_by(f64::total_cmp);
+        quantile_sorted(&ratios, 0.5)
+    });
+    let trials = errors.len();
+    let mut seconds: Vec<f64> = c.trial_seconds.iter().map(|&x| f64::from(x)).collect();
+    seconds.sort_by(f64::total_cmp);
+    CellSummary {
+        integrand,
+        estimator,
+        n,
+        trials,
+        mean_abs_error: mean(errors),
+        ci95: mean_ci95(errors),
+        median_abs_error: quantile_sorted(&sorted, 0.5),
+        q10_abs_error: quantile_sorted(&sorted, 0.1),
+        q90_abs_error: quantile_sorted(&sorted, 0.9),
+        mean_posterior_sd: sds.map(|s| mean(s)),
+        coverage,
+        median_error_over_sd,
+        warnings: c.warnings,
+        mean_evaluations: c.evaluations as f64 / trials as f64,
+        mean_seconds: c.seconds / trials as f64,
+        median_seconds: quantile_sorted(&seconds, 0.5),
+        mean_weight_set_seconds: c.weight_set_seconds / trials as f64,
+    }
 }
 
 /// The binomial 99% band around `level` for `trials` trials: `level ± z₀.₉₉₅ sqrt(level (1 −
@@ -157,17 +281,17 @@ impl CheckOutcome {
 
 /// Evaluates a check: for every integrand and N ≥ from_n, A's mean absolute error is below B's
 /// and the one-sided paired t-test on per-trial differences rejects "A is no better" at α.
-pub fn evaluate_check(plan: &Plan, results: &Results, check: &Check) -> CheckOutcome {
+pub fn evaluate_check(plan: &Plan, summary: &Accumulator, check: &Check) -> CheckOutcome {
     let mut cells = Vec::new();
     for fi in 0..plan.integrands.len() {
         for (ni, &n) in plan.samples.iter().enumerate() {
             if n < check.from_n {
                 continue;
             }
-            let a = abs_errors(plan, results, fi, check.better_index, ni);
-            let b = abs_errors(plan, results, fi, check.than_index, ni);
-            let test = paired_t_less(&a, &b);
-            let (mean_better, mean_than) = (mean(&a), mean(&b));
+            let a = summary.abs_errors(fi, check.better_index, ni);
+            let b = summary.abs_errors(fi, check.than_index, ni);
+            let test = paired_t_less(a, b);
+            let (mean_better, mean_than) = (mean(a), mean(b));
             cells.push(CheckCell {
                 integrand: fi,
                 n,
@@ -210,7 +334,11 @@ impl CalibrationOutcome {
 
 /// Evaluates a calibration check: in every (integrand, N ≥ from_n) cell the estimator's
 /// coverage at the level lies within [`binomial_band`] around it.
-pub fn evaluate_calibration(plan: &Plan, results: &Results, check: &CalibrationCheck) -> CalibrationOutcome {
+pub fn evaluate_calibration(
+    plan: &Plan,
+    summary: &Accumulator,
+    check: &CalibrationCheck,
+) -> CalibrationOutcome {
     let band = binomial_band(check.level, plan.trials);
     let mut cells = Vec::new();
     for fi in 0..plan.integrands.len() {
@@ -218,7 +346,8 @@ pub fn evaluate_calibration(plan: &Plan, results: &Results, check: &CalibrationC
             if n < check.from_n {
                 continue;
             }
-            let coverage = coverage_at(plan, results, fi, check.index, ni, check.level)
+            let coverage = summary
+                .coverage_at(fi, check.index, ni, check.level)
                 .expect("validation ensures an interval at every checked N");
             cells.push(CalibrationCell {
                 integrand: fi,

@@ -1,0 +1,59 @@
+//! `workbench merge OUT DIR…`.
+
+use super::output::{status, stdout};
+use super::progress::Bar;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use workbench::experiment as ex;
+
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    workbench run experiments/cos3.json --shard 1/2 --out shards/1\n  \
+    workbench run experiments/cos3.json --shard 2/2 --out shards/2\n  \
+    workbench merge results/cos3 shards/1 shards/2\n\n\
+    The merged files are byte for byte those of one run of the whole file (the timings* files and \
+    *-cost.svg aside).\n\n\
+    Exit codes: 0 every check passed; 1 a check failed (outputs are still written); 2 any error \
+    (shards of different runs, a shard missing or given twice, an unfinished shard, I/O), before \
+    anything is written for bad input.")]
+pub struct MergeArgs {
+    /// The output folder (replaced as a whole, like `run`'s).
+    out: PathBuf,
+    /// The shard folders, every shard of the run once, in any order.
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
+    let (plan, merged) = ex::merge::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
+    let report = ex::RunReport {
+        out_dir: merged.out_dir,
+        cells: merged.findings.cells,
+        checks: merged.findings.checks,
+        calibration: merged.findings.calibration,
+        stopping: Vec::new(),
+        tolerance_checks: Vec::new(),
+        wall_seconds: merged.wall_seconds,
+        threads: 1,
+        warnings: Vec::new(),
+        shard: ex::unit_log::Shard::WHOLE,
+        resumed: 0,
+        units: plan.samples.len() * plan.trials,
+    };
+    stdout(&ex::format_report(&plan, &report))?;
+    status!(
+        "merged {} shards into {} ({:.2} s)",
+        merged.shards,
+        report.out_dir.display(),
+        report.wall_seconds
+    );
+    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed());
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}

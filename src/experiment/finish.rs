@@ -1,0 +1,123 @@
+//! The files of a finished run, from its summary and its unit logs: the same code whether the
+//! units were run in one go, resumed, or run as shards and merged, so the files are the same
+//! bytes (the wall-clock `timings*` files and `*-cost.svg` aside).
+
+use super::plan::Plan;
+use super::rows::{TRIALS_HEADER, timing_part, trials_part};
+use super::summary::{self, Accumulator, CalibrationOutcome, CellSummary, CheckOutcome};
+use super::unit_log::{LogSet, rows_per_unit};
+use super::{cost_plot, coverage_plot, export, plot};
+use crate::error::Error;
+use crate::output_set::ResultFolder;
+
+/// What the summary of a finished run found.
+pub struct Findings {
+    pub cells: Vec<CellSummary>,
+    pub checks: Vec<CheckOutcome>,
+    pub calibration: Vec<CalibrationOutcome>,
+}
+
+/// Writes every file of a finished run into `folder` (not the manifest): `trials.csv` in
+/// (integrand, estimator, N, trial) order from the unit-ordered logs, one pass per
+/// (integrand, estimator); the summary, fits and plots; and the cost files.
+pub fn write_set(
+    plan: &Plan,
+    folder: &mut ResultFolder,
+    summary: &Accumulator,
+    logs: &LogSet,
+) -> crate::Result<Findings> {
+    let cells = summary.summarize(plan);
+    let checks: Vec<_> = plan
+        .checks
+        .iter()
+        .map(|c| summary::evaluate_check(plan, summary, c))
+        .collect();
+    let calibration: Vec<_> = plan
+        .calibration_checks
+        .iter()
+        .map(|c| summary::evaluate_calibration(plan, summary, c))
+        .collect();
+    let failed = |e: std::io::Error| Error::io("writing trials.csv", e);
+    folder.write_stream(
+        "trials.csv",
+        "one row per (integrand, estimator, n, trial)",
+        &mut |w| {
+            writeln!(w, "{TRIALS_HEADER}").map_err(failed)?;
+            for pair in 0..rows_per_unit(plan) {
+                logs.for_each_row(plan, &mut |_, fi, ei, line| {
+                    if fi * plan.estimators.len() + ei == pair {
+                        writeln!(w, "{}", trials_part(line)).map_err(failed)?;
+                    }
+                    Ok(())
+                })?;
+            }
+            Ok(())
+        },
+    )?;
+    folder.write(
+        "summary.csv",
+        "one row per (integrand, estimator, n)",
+        &export::summary_csv(plan, &cells),
+    )?;
+    folder.write(
+        "fits.csv",
+        "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
+        &export::fits_csv(plan, &cells),
+    )?;
+    // With only tolerance estimators every cell sits at its first stage, so error and coverage
+    // against N say nothing; `<integrand>-tolerance.svg` replaces them.
+    let only_tolerance = plan.estimators.iter().all(|e| e.tolerance.is_some());
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        if only_tolerance {
+            continue;
+        }
+        let svg = plot::error_plot_svg(plan, &cells, fi)?;
+        folder.write(
+            &format!("{}.svg", f.name()),
+            &format!("absolute error against n for {}, every estimator", f.name()),
+            svg.as_bytes(),
+        )?;
+        if cells.iter().any(|c| c.integrand == fi && c.coverage.is_some()) {
+            let svg = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
+            folder.write(
+                &format!("{}-coverage.svg", f.name()),
+                &format!(
+                    "95% coverage against n for {}, every estimator with an interval, with the binomial 99% band",
+                    f.name()
+                ),
+                svg.as_bytes(),
+            )?;
+        }
+        let svg = cost_plot::cost_plot_svg(plan, &cells, fi)?;
+        folder.write(
+            &format!("{}-cost.svg", f.name()),
+            &format!(
+                "mean absolute error against median seconds per trial for {} (machine-dependent; not committed)",
+                f.name()
+            ),
+            svg.as_bytes(),
+        )?;
+    }
+    let failed = |e: std::io::Error| Error::io("writing timings-trials.csv", e);
+    folder.write_stream(
+        "timings-trials.csv",
+        "integrand evaluations and wall-clock seconds per (integrand, estimator, n, trial), in unit order (machine-dependent; not committed)",
+        &mut |w| {
+            writeln!(w, "integrand,estimator,n,trial,evaluations,weight_set_seconds,seconds").map_err(failed)?;
+            logs.for_each_row(plan, &mut |_, _, _, line| {
+                let row = timing_part(line).unwrap_or_default();
+                writeln!(w, "{row}").map_err(failed)
+            })
+        },
+    )?;
+    folder.write(
+        "timings-summary.csv",
+        "mean evaluations and wall-clock seconds per (integrand, estimator, n) (machine-dependent; not committed)",
+        &export::timings_summary_csv(plan, &cells),
+    )?;
+    Ok(Findings {
+        cells,
+        checks,
+        calibration,
+    })
+}

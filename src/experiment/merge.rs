@@ -1,0 +1,275 @@
+//! Shards and `workbench merge OUT DIR…`.
+//!
+//! `run FILE --shard i/n` runs the units of shard i ([`Shard`]) and writes a shard folder:
+//! `units.csv` (its unit log: rows in unit order, with the cost columns), `shard.json` (the
+//! experiment as run, and the [`Identity`] the merge checks), `timings.json` and a manifest.
+//! `merge` checks that the folders are the shards 1…n of one run (same plan, seed, trials and
+//! tool version, each shard once), reads their rows in unit order and writes the run's files
+//! with the code a single run uses ([`super::finish`]) — so they are the same bytes as one run
+//! of the whole file, the wall-clock `timings*` files and `*-cost.svg` aside.
+
+use super::export;
+use super::finish::{self, Findings};
+use super::plan::{self, Plan};
+use super::rows::parse_row;
+use super::spec::ExperimentSpec;
+use super::summary::Accumulator;
+use super::unit_log::{Identity, LogSet, SHARD_UNITS, Shard};
+use crate::error::{Error, InputError};
+use crate::output_set::ResultFolder;
+use crate::report::Reporter;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// A shard folder's record of what it holds.
+pub const SHARD_FILE: &str = "shard.json";
+
+/// Writes a shard's own files into its folder: its unit log as `units.csv`, and `shard.json`.
+pub fn write_shard(
+    spec: &ExperimentSpec,
+    identity: &Identity,
+    folder: &mut ResultFolder,
+    log: &Path,
+) -> crate::Result<()> {
+    folder.write_stream(
+        SHARD_UNITS,
+        "this shard's rows in unit order: the trials.csv columns, then integrand evaluations and wall-clock seconds",
+        &mut |w| {
+            let mut file = std::fs::File::open(log).map_err(|e| Error::io(format!("opening {}", log.display()), e))?;
+            std::io::copy(&mut file, w).map_err(|e| Error::io(format!("copying {}", log.display()), e))?;
+            Ok(())
+        },
+    )?;
+    let record = serde_json::json!({
+        "shard": identity.shard.to_string(),
+        "plan_hash": identity.plan_hash,
+        "seed": identity.seed,
+        "trials": identity.trials,
+        "workbench_version": identity.version,
+        "experiment": spec,
+    });
+    let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
+    bytes.push(b'\n');
+    folder.write(
+        SHARD_FILE,
+        "which shard this is, of which run, and the experiment as run (for workbench merge)",
+        &bytes,
+    )
+}
+
+/// A shard folder's manifest: the plan and the shard.
+pub fn shard_manifest(plan: &Plan, identity: &Identity) -> Vec<u8> {
+    let v = serde_json::json!({
+        "plan": export::plan_json(plan),
+        "seed": plan.seed,
+        "workbench_version": identity.version,
+        "shard": identity.shard.to_string(),
+    });
+    serde_json::to_vec_pretty(&v).expect("the manifest serializes")
+}
+
+/// One shard folder, read.
+struct ShardFolder {
+    dir: PathBuf,
+    identity: Identity,
+    spec: serde_json::Value,
+}
+
+fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
+    let shown = dir.display();
+    let path = dir.join(SHARD_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|_| {
+        InputError::new(format!(
+            "merge: {shown} is not a shard folder (no readable {SHARD_FILE}); make shards with `workbench run FILE --shard i/n --out DIR`"
+        ))
+    })?;
+    let bad = |what: &str| InputError::new(format!("merge: {}: {what}", path.display()));
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&format!("not JSON ({e})")))?;
+    let field = |k: &str| v.get(k).ok_or_else(|| bad(&format!("has no \"{k}\"")));
+    let string = |k: &str| -> Result<String, InputError> {
+        Ok(field(k)?
+            .as_str()
+            .ok_or_else(|| bad(&format!("\"{k}\" is not a string")))?
+            .to_string())
+    };
+    let number = |k: &str| -> Result<u64, InputError> {
+        field(k)?
+            .as_u64()
+            .ok_or_else(|| bad(&format!("\"{k}\" is not a whole number")))
+    };
+    let shard = Shard::parse(&string("shard")?).map_err(|m| bad(&format!("\"shard\": {m}")))?;
+    let identity = Identity {
+        plan_hash: string("plan_hash")?,
+        seed: number("seed")?,
+        trials: number("trials")? as usize,
+        version: string("workbench_version")?,
+        shard,
+    };
+    // The log must be this shard's, and complete (checked while reading it).
+    let units = dir.join(SHARD_UNITS);
+    let mut first = String::new();
+    std::fs::File::open(&units)
+        .map(BufReader::new)
+        .and_then(|mut r| r.read_line(&mut first))
+        .map_err(|_| InputError::new(format!("merge: {shown}: {SHARD_UNITS} is missing or unreadable")))?;
+    if Identity::from_header(&first).as_ref() != Some(&identity) {
+        return Err(InputError::new(format!(
+            "merge: {}: its first line does not match {SHARD_FILE}",
+            units.display()
+        )));
+    }
+    Ok(ShardFolder {
+        dir: dir.to_path_buf(),
+        identity,
+        spec: field("experiment")?.clone(),
+    })
+}
+
+/// Checks that `shards` are the shards 1…n of one run, and puts them in shard order.
+fn check_set(mut shards: Vec<ShardFolder>) -> Result<Vec<ShardFolder>, InputError> {
+    let first = &shards[0];
+    let (d0, a) = (first.dir.display(), &first.identity);
+    for s in &shards[1..] {
+        let (d, b) = (s.dir.display(), &s.identity);
+        let differ = |what: &str, x: String, y: String| {
+            InputError::new(format!(
+                "merge: {d0} and {d} are shards of different runs ({what} {x} and {y}); merge the shards of one run"
+            ))
+        };
+        if a.version != b.version {
+            return Err(differ("workbench versions", a.version.clone(), b.version.clone()));
+        }
+        if a.seed != b.seed {
+            return Err(differ("seeds", a.seed.to_string(), b.seed.to_string()));
+        }
+        if a.trials != b.trials {
+            return Err(differ("trials", a.trials.to_string(), b.trials.to_string()));
+        }
+        if a.plan_hash != b.plan_hash {
+            return Err(differ(
+                "experiment plans",
+                a.plan_hash.clone(),
+                b.plan_hash.clone(),
+            ));
+        }
+        if a.shard.count != b.shard.count {
+            return Err(differ("shard counts", a.shard.to_string(), b.shard.to_string()));
+        }
+    }
+    let count = a.shard.count;
+    shards.sort_by_key(|s| s.identity.shard.index);
+    for w in shards.windows(2) {
+        if w[0].identity.shard == w[1].identity.shard {
+            return Err(InputError::new(format!(
+                "merge: {} and {} are both shard {}; give each shard once",
+                w[0].dir.display(),
+                w[1].dir.display(),
+                w[0].identity.shard
+            )));
+        }
+    }
+    if shards.len() < count {
+        let missing: Vec<String> = (1..=count)
+            .filter(|i| !shards.iter().any(|s| s.identity.shard.index == *i))
+            .map(|i| format!("{i}/{count}"))
+            .collect();
+        return Err(InputError::new(format!(
+            "merge: shard {} missing: the run was split in {count}; give every shard folder",
+            missing.join(", ")
+        )));
+    }
+    Ok(shards)
+}
+
+/// The plan the shards were run from, checked against their identity.
+fn rebuild_plan(shard: &ShardFolder) -> Result<Plan, InputError> {
+    let path = shard.dir.join(SHARD_FILE);
+    let bad = |m: String| InputError::new(format!("merge: {}: \"experiment\": {m}", path.display()));
+    let spec: ExperimentSpec = serde_json::from_value(shard.spec.clone()).map_err(|e| bad(e.to_string()))?;
+    let plan = plan::resolve(&spec).map_err(bad)?;
+    if super::unit_log::plan_hash(&plan) != shard.identity.plan_hash {
+        return Err(bad("does not resolve to the plan its shards were run from".into()));
+    }
+    Ok(plan)
+}
+
+/// What a merge produced.
+pub struct MergeReport {
+    pub out_dir: PathBuf,
+    pub findings: Findings,
+    pub shards: usize,
+    pub wall_seconds: f64,
+}
+
+/// Merges shard folders into `out`: see the module documentation. Every check is made before
+/// `out` is touched.
+pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Result<(Plan, MergeReport)> {
+    if dirs.is_empty() {
+        return Err(InputError::new("merge: give the shard folders to merge").into());
+    }
+    let shards = dirs
+        .iter()
+        .map(|d| read_shard(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let shards = check_set(shards)?;
+    let plan = rebuild_plan(&shards[0])?;
+    let inputs: Vec<(&str, &Path)> = shards
+        .iter()
+        .map(|s| ("the shard folder", s.dir.as_path()))
+        .collect();
+    let mut folder = ResultFolder::prepare(out, &out.display().to_string(), "give another OUT", &inputs)?;
+    let start = Instant::now();
+    let logs = LogSet {
+        paths: shards.iter().map(|s| s.dir.join(SHARD_UNITS)).collect(),
+    };
+    let units = plan.samples.len() * plan.trials;
+    reporter.start("trials×N", units as u64);
+    let mut summary = Accumulator::new(&plan);
+    let per_unit = super::unit_log::rows_per_unit(&plan);
+    logs.for_each_row(&plan, &mut |u, fi, ei, line| {
+        let (ni, t) = (u / plan.trials, u % plan.trials);
+        let shard_log = &logs.paths[u % logs.paths.len()];
+        let wrong = |m: String| -> Error {
+            InputError::new(format!(
+                "merge: {}: unit N = {}, trial {t}: {m}",
+                shard_log.display(),
+                plan.samples[ni]
+            ))
+            .into()
+        };
+        let (n, trial, values) = parse_row(line).map_err(|m| wrong(format!("a row {m}")))?;
+        if (n, trial) != (plan.samples[ni], t) {
+            return Err(wrong(format!("found a row of N = {n}, trial {trial}")));
+        }
+        summary.push(fi, ei, ni, &values);
+        if fi * plan.estimators.len() + ei + 1 == per_unit {
+            reporter.advance(1);
+        }
+        Ok(())
+    })?;
+    reporter.finish();
+    let findings = finish::write_set(&plan, &mut folder, &summary, &logs)?;
+    let wall_seconds = start.elapsed().as_secs_f64();
+    folder.write(
+        "timings.json",
+        "wall-clock seconds and threads of the run (machine-dependent; not committed)",
+        &export::timings_json(1, wall_seconds),
+    )?;
+    let manifest: serde_json::Value = serde_json::from_slice(&export::manifest_json(
+        &plan,
+        &findings.checks,
+        &findings.calibration,
+    ))
+    .expect("the manifest is JSON");
+    folder.commit(manifest)?;
+    Ok((
+        plan,
+        MergeReport {
+            out_dir: out.to_path_buf(),
+            findings,
+            shards: shards.len(),
+            wall_seconds,
+        },
+    ))
+}

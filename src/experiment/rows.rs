@@ -1,0 +1,182 @@
+//! The rows of `trials.csv`, one per (integrand, estimator, N, trial), and the cost columns a
+//! unit log adds to them ([`super::unit_log`]).
+//!
+//! A row is written once, as text, when its unit finishes; everything downstream (the summary,
+//! `trials.csv`, a resumed run, a merge of shards) reads these values back. Floats are written
+//! in Rust's shortest round-trip form (`{:?}`), so reading a row gives back the exact `f64`s
+//! and the outputs are the same bytes whichever way the rows arrived.
+
+use super::plan::Plan;
+use super::runner::UnitResult;
+use super::summary::RowValues;
+use std::fmt::Write;
+
+/// The columns of `trials.csv`.
+pub const TRIALS_HEADER: &str = "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,\
+                                 warnings,weight_sum,negative_weights,jitter,condition_estimate,amplitude,dof";
+
+/// The columns a unit log adds after [`TRIALS_HEADER`]: integrand evaluations (deterministic)
+/// and wall-clock seconds (not).
+pub const COST_HEADER: &str = "evaluations,weight_set_seconds,seconds";
+
+/// Number of [`COST_HEADER`] columns.
+const COST_COLUMNS: usize = 3;
+/// Columns of a log row after the estimator label: `method` … `dof`, then the cost columns.
+const TAIL_COLUMNS: usize = 15 + COST_COLUMNS;
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |x| format!("{x:?}"))
+}
+
+/// Quotes a field if CSV needs it (labels are free text).
+pub fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Appends the log rows of unit (`n_index`, `trial`) to `out` — every (integrand, estimator)
+/// in the plan's order, each a `trials.csv` row followed by the cost columns — and returns
+/// their values for the summary, in the same order.
+pub fn unit_rows(
+    plan: &Plan,
+    unit: &UnitResult,
+    n_index: usize,
+    trial: usize,
+    out: &mut String,
+) -> Vec<RowValues> {
+    let n = plan.samples[n_index];
+    let mut values = Vec::with_capacity(plan.integrands.len() * plan.estimators.len());
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        let truth = f.integral();
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            let est = unit.estimates[fi][ei];
+            let uncertainty = unit.uncertainty[fi][ei];
+            // The weight set's diagnostics (empty for MC).
+            let diagnostics = unit.diagnostics[ei].as_ref().map_or(",,,".to_string(), |d| {
+                format!(
+                    "{:?},{},{:?},{:?}",
+                    d.weight_sum, d.negative_weights, d.jitter, d.condition_estimate
+                )
+            });
+            let row = RowValues {
+                abs_error: (est - truth).abs(),
+                sd: uncertainty.map(|u| (u.sd, u.dof)),
+                warnings: unit.warnings_for(fi, ei),
+                evaluations: unit.cost.evaluations[fi][ei],
+                weight_set_seconds: unit.cost.weight_set[ei],
+                seconds: unit.cost.seconds[fi][ei],
+            };
+            writeln!(
+                out,
+                "{},{},{},{},{n},{trial},{est:?},{truth:?},{:?},{},{},{diagnostics},{},{},{},{:?},{:?}",
+                f.name(),
+                csv_field(&e.label),
+                e.method.name(),
+                e.design.name(),
+                row.abs_error,
+                opt(uncertainty.map(|x| x.sd)),
+                row.warnings,
+                opt(uncertainty.and_then(|x| x.amplitude)),
+                uncertainty
+                    .and_then(|x| x.dof)
+                    .map_or(String::new(), |d| d.to_string()),
+                row.evaluations,
+                row.weight_set_seconds,
+                row.seconds,
+            )
+            .expect("writing to a String");
+            values.push(row);
+        }
+    }
+    values
+}
+
+/// The `trials.csv` part of a log row (without its cost columns).
+pub fn trials_part(line: &str) -> &str {
+    line.rsplitn(COST_COLUMNS + 1, ',').last().unwrap_or(line)
+}
+
+/// `integrand,estimator,n,trial` and the cost columns of a log row (a `timings-trials.csv`
+/// row).
+pub fn timing_part(line: &str) -> Option<String> {
+    let mut tail: Vec<&str> = line.rsplitn(TAIL_COLUMNS + 1, ',').collect();
+    if tail.len() != TAIL_COLUMNS + 1 {
+        return None;
+    }
+    tail.reverse();
+    // tail: [integrand,estimator], method, design, n, trial, …, evaluations, weight set, seconds
+    Some(format!(
+        "{},{},{},{},{},{}",
+        tail[0],
+        tail[3],
+        tail[4],
+        tail[TAIL_COLUMNS - 2],
+        tail[TAIL_COLUMNS - 1],
+        tail[TAIL_COLUMNS]
+    ))
+}
+
+/// Reads a log row back: its N, trial and values; `Err` says what is wrong with it.
+pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues), String> {
+    let mut tail: Vec<&str> = line.rsplitn(TAIL_COLUMNS + 1, ',').collect();
+    if tail.len() != TAIL_COLUMNS + 1 {
+        return Err(format!("has {} columns, not {}", tail.len(), TAIL_COLUMNS + 2));
+    }
+    tail.reverse();
+    // After the prefix: 1 method, 2 design, 3 n, 4 trial, 5 estimate, 6 truth, 7 abs_error,
+    // 8 posterior_sd, 9 warnings, 10–13 diagnostics, 14 amplitude, 15 dof, 16–18 cost.
+    fn num<T: std::str::FromStr>(s: &str, what: &str) -> Result<T, String> {
+        s.parse().map_err(|_| format!("has {what} {s:?}"))
+    }
+    let sd = match (tail[8], tail[15]) {
+        ("", _) => None,
+        (sd, "") => Some((num(sd, "posterior_sd")?, None)),
+        (sd, dof) => Some((num(sd, "posterior_sd")?, Some(num(dof, "dof")?))),
+    };
+    Ok((
+        num(tail[3], "n")?,
+        num(tail[4], "trial")?,
+        RowValues {
+            abs_error: num(tail[7], "abs_error")?,
+            sd,
+            warnings: num(tail[9], "warnings")?,
+            evaluations: num(tail[16], "evaluations")?,
+            weight_set_seconds: num(tail[17], "weight_set_seconds")?,
+            seconds: num(tail[18], "seconds")?,
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_log_row_reads_back_exactly_and_splits_into_its_parts() {
+        let line = "cos3,\"BMC, ml\",bmc,uniform,16,7,0.1234567890123,0.125,0.0015432109877,\
+                    1e-300,2,1.0,0,0.0,12.5,0.3,,16,0.001,0.0025";
+        let (n, t, v) = parse_row(line).unwrap();
+        assert_eq!((n, t), (16, 7));
+        assert_eq!(v.abs_error, 0.0015432109877);
+        assert_eq!(v.sd, Some((1e-300, None)));
+        assert_eq!((v.warnings, v.evaluations), (2, 16));
+        assert_eq!((v.weight_set_seconds, v.seconds), (0.001, 0.0025));
+        assert_eq!(
+            trials_part(line),
+            "cos3,\"BMC, ml\",bmc,uniform,16,7,0.1234567890123,0.125,0.0015432109877,1e-300,2,1.0,0,0.0,12.5,0.3,"
+        );
+        assert_eq!(
+            timing_part(line).unwrap(),
+            "cos3,\"BMC, ml\",16,7,16,0.001,0.0025"
+        );
+        let mc = "f,MC,mc,uniform,1,0,0.5,0.25,0.25,,0,,,,,,,1,0.0,1e-6";
+        assert_eq!(parse_row(mc).unwrap().2.sd, None);
+        let t = "f,BSQ,bsq,uniform,8,0,0.5,0.25,0.25,0.1,0,1.0,0,0.0,3.0,0.2,7,8,0.0,1e-6";
+        assert_eq!(parse_row(t).unwrap().2.sd, Some((0.1, Some(7))));
+        assert!(parse_row("f,MC,mc,uniform,1,0").is_err());
+        assert!(parse_row(&mc.replace("0.25,0.25", "0.25,zz")).is_err());
+    }
+}

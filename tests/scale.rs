@@ -1,0 +1,333 @@
+//! Runs past one process: `run --shard i/n` + `merge`, and `run --resume`, must end with the
+//! same bytes as one uninterrupted run (the wall-clock `timings*` files and `*-cost.svg` aside).
+
+mod common;
+use common::*;
+use std::path::Path;
+use std::process::Output;
+
+const SMALL: &str = r#"{
+  "name": "small",
+  "title": "small test",
+  "integrands": ["cos", "cos3"],
+  "estimators": [
+    { "label": "MC", "method": "mc" },
+    { "label": "BMC", "method": "bmc" },
+    { "label": "BMCP", "method": "bmcp", "prior": 0.2 },
+    { "label": "BSQ, ml", "method": "bsq", "scale": "ml" }
+  ],
+  "samples": [4, 16, 32],
+  "trials": 13,
+  "seed": 5,
+  "checks": [
+    { "better": "BMC", "than": "MC", "from_n": 16, "alpha": 0.05 },
+    { "calibrated": "BSQ, ml", "level": 0.9, "from_n": 16 }
+  ]
+}"#;
+
+fn ok(o: &Output) {
+    assert!(o.status.success(), "{}", stderr(o));
+}
+
+/// Exit 2 with one line naming `what`; returns the line.
+fn refused(o: &Output, what: &str) -> String {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains(what), "{what:?} not in {err}");
+    err
+}
+
+/// The files of a finished run that must be identical (not the wall-clock ones).
+fn deterministic_files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| !n.starts_with("timings") && !n.ends_with("-cost.svg"))
+        .collect();
+    names.sort();
+    names
+}
+
+fn assert_same_files(a: &Path, b: &Path) {
+    let names = deterministic_files(a);
+    assert_eq!(names, deterministic_files(b), "file lists");
+    assert!(names.contains(&"trials.csv".to_string()) && names.contains(&"manifest.json".to_string()));
+    for n in names {
+        let (x, y) = (
+            std::fs::read(a.join(&n)).unwrap(),
+            std::fs::read(b.join(&n)).unwrap(),
+        );
+        assert!(x == y, "{n} differs between {} and {}", a.display(), b.display());
+    }
+}
+
+#[test]
+fn shards_merge_to_the_bytes_of_one_run_whatever_the_count_order_and_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("small.json"), SMALL).unwrap();
+    ok(&workbench(d, &["run", "small.json", "-q", "--out", "full"]));
+    for count in 1..=3 {
+        let mut shards = Vec::new();
+        for index in (1..=count).rev() {
+            let out = format!("s{count}-{index}");
+            let threads = (1 + index % 2).to_string();
+            let shard = format!("{index}/{count}");
+            let args = [
+                "run",
+                "small.json",
+                "-q",
+                "--threads",
+                &threads,
+                "--shard",
+                &shard,
+                "--out",
+                &out,
+            ];
+            let o = workbench(d, &args);
+            ok(&o);
+            assert!(stdout(&o).is_empty(), "a shard has no summary to print");
+            shards.push(out);
+        }
+        let merged = format!("m{count}");
+        let mut args = vec!["merge", merged.as_str(), "-q"];
+        args.extend(shards.iter().map(String::as_str));
+        let o = workbench(d, &args);
+        ok(&o);
+        assert!(stdout(&o).contains("PASS check BMC < MC"), "{}", stdout(&o));
+        assert_same_files(&d.join("full"), &d.join(&merged));
+        // The cost files exist and list every estimator.
+        let costs = std::fs::read_to_string(d.join(&merged).join("timings-summary.csv")).unwrap();
+        assert_eq!(costs.lines().count(), 1 + 2 * 4 * 3, "{costs}");
+        let trials = std::fs::read_to_string(d.join(&merged).join("timings-trials.csv")).unwrap();
+        assert_eq!(trials.lines().count(), 1 + 2 * 4 * 3 * 13);
+        check_cost_rows(&d.join(&merged).join("timings-trials.csv"));
+    }
+}
+
+/// Every row: N evaluations, 0 ≤ weight-set seconds ≤ seconds (0 for MC), and BMC and BMCP,
+/// which share one weight set, show the same weight-set seconds in the same trial.
+fn check_cost_rows(path: &Path) {
+    let (header, rows) = read_csv(path);
+    assert_eq!(
+        header,
+        [
+            "integrand",
+            "estimator",
+            "n",
+            "trial",
+            "evaluations",
+            "weight_set_seconds",
+            "seconds"
+        ]
+    );
+    let mut bmc = std::collections::HashMap::new();
+    for r in &rows {
+        let (set, total): (f64, f64) = (r[5].parse().unwrap(), r[6].parse().unwrap());
+        assert_eq!(r[4], r[2], "evaluations = N: {r:?}");
+        assert!(0.0 <= set && set <= total && total < 10.0, "{r:?}");
+        if r[1] == "MC" {
+            assert_eq!(set, 0.0, "{r:?}");
+        }
+        if r[1] == "BMC" || r[1] == "BMCP" {
+            let key = (r[0].clone(), r[2].clone(), r[3].clone());
+            if let Some(other) = bmc.insert(key, set) {
+                assert_eq!(other, set, "BMC and BMCP share their weight set: {r:?}");
+            }
+        }
+    }
+    assert_eq!(bmc.len(), 2 * 3 * 13);
+}
+
+#[test]
+fn merge_refuses_shards_of_other_runs_and_incomplete_sets_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("small.json"), SMALL).unwrap();
+    std::fs::write(d.join("seed6.json"), SMALL.replace("\"seed\": 5", "\"seed\": 6")).unwrap();
+    std::fs::write(d.join("other.json"), SMALL.replace("[4, 16, 32]", "[4, 16, 64]")).unwrap();
+    let shard = |file: &str, s: &str, out: &str, extra: &[&str]| {
+        let mut args = vec!["run", file, "-q", "--shard", s, "--out", out];
+        args.extend(extra);
+        ok(&workbench(d, &args));
+    };
+    shard("small.json", "1/3", "a1", &[]);
+    shard("small.json", "2/3", "a2", &[]);
+    shard("small.json", "3/3", "a3", &[]);
+    shard("seed6.json", "3/3", "seed", &[]);
+    shard("small.json", "3/3", "trials", &["--trials", "12"]);
+    shard("other.json", "3/3", "other", &[]);
+    shard("small.json", "2/2", "two", &[]);
+    let merge = |dirs: &[&str]| {
+        let mut args = vec!["merge", "out", "-q"];
+        args.extend(dirs);
+        workbench(d, &args)
+    };
+    refused(&merge(&["a1", "a2", "seed"]), "seeds 5 and 6");
+    refused(&merge(&["a1", "a2", "trials"]), "trials 13 and 12");
+    refused(&merge(&["a1", "a2", "other"]), "different runs (experiment plans");
+    refused(&merge(&["a1", "a2", "two"]), "shard counts 1/3 and 2/2");
+    refused(&merge(&["a1", "a3"]), "shard 2/3 missing");
+    refused(&merge(&["a1", "a2", "a2", "a3"]), "a2 and a2 are both shard 2/3");
+    refused(
+        &merge(&["a1", "a2", "small.json"]),
+        "small.json is not a shard folder",
+    );
+    // A shard whose log was cut short (a copied folder, a full disk) is refused, not merged.
+    let units = d.join("a2/units.csv");
+    let text = std::fs::read_to_string(&units).unwrap();
+    let cut: String = text
+        .lines()
+        .take(text.lines().count() - 3)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&units, cut).unwrap();
+    refused(
+        &merge(&["a1", "a2", "a3"]),
+        "a2/units.csv: ends before its last unit",
+    );
+    assert!(!d.join("out").exists(), "nothing written for refused input");
+}
+
+#[test]
+fn bad_shard_specs_are_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("small.json"), SMALL).unwrap();
+    for bad in ["0/3", "4/3", "1/0", "2", "a/b"] {
+        let e = refused(
+            &workbench(d, &["run", "small.json", "-q", "--shard", bad]),
+            "--shard",
+        );
+        assert!(e.contains(bad), "{e}");
+    }
+    assert!(!d.join("results").exists());
+}
+
+/// A run's unit log is what `--shard 1/1` leaves as `units.csv`: cut it after a few units and
+/// half a row, as a killed run leaves it, and resume.
+#[test]
+fn resume_continues_a_cut_unit_log_to_the_same_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("small.json"), SMALL).unwrap();
+    ok(&workbench(d, &["run", "small.json", "-q", "--out", "full"]));
+    ok(&workbench(
+        d,
+        &["run", "small.json", "-q", "--shard", "1/1", "--out", "whole"],
+    ));
+    let log = std::fs::read_to_string(d.join("whole/units.csv")).unwrap();
+    let lines: Vec<&str> = log.lines().collect();
+    let rows_per_unit = 2 * 4;
+    let kept_units = 5;
+    let mut cut: String = lines[..2 + kept_units * rows_per_unit + 3]
+        .iter()
+        .map(|l| format!("{l}\n"))
+        .collect();
+    cut.push_str(&lines[2 + kept_units * rows_per_unit + 3][..10]);
+    std::fs::create_dir(d.join("resumed")).unwrap();
+    std::fs::write(d.join("resumed/trials.partial.csv"), &cut).unwrap();
+
+    // Another run's log is refused, and left for the right run.
+    let o = workbench(
+        d,
+        &[
+            "run",
+            "small.json",
+            "-q",
+            "--trials",
+            "12",
+            "--resume",
+            "--out",
+            "resumed",
+        ],
+    );
+    refused(&o, "resumed/trials.partial.csv: was written for another run");
+    assert!(d.join("resumed/trials.partial.csv").exists());
+
+    let o = workbench(d, &["run", "small.json", "-q", "--resume", "--out", "resumed"]);
+    ok(&o);
+    assert!(
+        stderr(&o).contains(&format!("resumed: {kept_units} of {} units", 3 * 13)),
+        "{}",
+        stderr(&o)
+    );
+    assert_same_files(&d.join("full"), &d.join("resumed"));
+    assert!(
+        !d.join("resumed/trials.partial.csv").exists(),
+        "the log goes with the finished run"
+    );
+}
+
+/// A real interruption: the run is killed while its log grows, then resumed.
+#[test]
+fn a_killed_run_resumes_without_redoing_its_finished_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = SMALL
+        .replace("[4, 16, 32]", "[64, 128, 192]")
+        .replace("\"trials\": 13", "\"trials\": 40");
+    std::fs::write(d.join("slow.json"), spec).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_workbench"))
+        .args(["run", "slow.json", "-q", "--threads", "1", "--out", "killed"])
+        .current_dir(d)
+        .stderr(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = d.join("killed/trials.partial.csv");
+    let started = std::time::Instant::now();
+    // Two header lines and more than one unit (8 rows).
+    while std::fs::read_to_string(&log).map_or(0, |t| t.lines().count()) < 2 + 9 {
+        assert!(started.elapsed().as_secs() < 60, "the log never grew");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it was killed"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let running = child.try_wait().unwrap().is_none();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        running,
+        "the run finished before it could be killed; make it slower"
+    );
+    assert!(!d.join("killed/manifest.json").exists());
+
+    let o = workbench(d, &["run", "slow.json", "-q", "--resume", "--out", "killed"]);
+    ok(&o);
+    let err = stderr(&o);
+    let resumed: usize = err
+        .split("resumed: ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no resumed count in {err}"));
+    assert!((1..3 * 40).contains(&resumed), "{err}");
+    ok(&workbench(d, &["run", "slow.json", "-q", "--out", "full"]));
+    assert_same_files(&d.join("full"), &d.join("killed"));
+}
+
+/// Tolerance estimators' stopping outputs are not in the unit log: sharding or resuming such a
+/// file is refused before any work.
+#[test]
+fn files_with_tolerance_estimators_refuse_shard_and_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = SMALL.replace(
+        r#"{ "label": "MC", "method": "mc" },"#,
+        r#"{ "label": "MC", "method": "mc" }, { "label": "MC tol", "method": "mc", "tolerance": { "abs": 0.1, "max_n": 64 } },"#,
+    );
+    std::fs::write(d.join("tol.json"), spec).unwrap();
+    refused(
+        &workbench(d, &["run", "tol.json", "-q", "--shard", "1/2"]),
+        "--shard: the file has tolerance estimators",
+    );
+    refused(
+        &workbench(d, &["run", "tol.json", "-q", "--resume"]),
+        "--resume: the file has tolerance estimators",
+    );
+    assert!(!d.join("results").exists());
+}
