@@ -18,6 +18,7 @@ figures:
     cargo run --release -- run experiments/adaptive.json -q
     cargo run --release -- run experiments/rings.json -q
     cargo run --release -- render experiments/render-table.json -q
+    cargo run --release -- render experiments/render-adaptive.json -q
 
 # The default test suite (what CI runs).
 test:

@@ -53,17 +53,30 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
             "bmcp_edge_normal_exponent": crate::render::integrator::neighbours::EDGE_NORMAL_EXPONENT,
         },
     });
+    let mut json = json;
+    if let Some(a) = &plan.adaptive {
+        // An adaptive table's columns are its targets: no spp list, its own render seeds.
+        if let Some(obj) = json.as_object_mut() {
+            obj.remove("spp");
+            obj.remove("coverage95");
+        }
+        json["adaptive"] = a.json();
+        json["render_seed"] =
+            "mix(seed, [0xada7ab, target_sd's f64 bits, repetition]), the same for every variant".into();
+        json["within"] =
+            "share of the hit pixels' channels with |render − reference| ≤ 1.96·target_sd".into();
+    }
     let mut bytes = serde_json::to_vec_pretty(&json).expect("serialisable");
     bytes.push(b'\n');
     bytes
 }
 
 /// The columns that say which variant a row belongs to.
-const VARIANT_COLUMNS: [&str; 4] = ["variant", "integrator", "gps", "rotate"];
+pub const VARIANT_COLUMNS: [&str; 4] = ["variant", "integrator", "gps", "rotate"];
 
 /// A variant's label, integrator, and for integrators with weights its sets and rotation
 /// (empty otherwise).
-fn variant_fields(v: &VariantPlan) -> [String; 4] {
+pub fn variant_fields(v: &VariantPlan) -> [String; 4] {
     let (gps, rotate) = if v.kind.uses_sets() {
         (v.gps.to_string(), v.rotate.to_string())
     } else {
@@ -104,7 +117,8 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
     w.into_inner().expect(IN_MEMORY)
 }
 
-fn num(x: f64) -> String {
+/// `x` in Rust's shortest round-trip form, empty when not finite.
+pub fn num(x: f64) -> String {
     if x.is_finite() {
         format!("{x:?}")
     } else {

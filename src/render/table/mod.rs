@@ -14,10 +14,16 @@
 //! - `reference.png`, `manifest.json` (which lists every file of the set);
 //! - `timings.csv`, `timings.md` — wall-clock seconds (machine-dependent; not committed).
 //!
+//! With `"adaptive"` ([`adaptive`]) the columns are target sds instead of spp: the same
+//! reference, folder, manifest and timings files, with `rmse.csv`, `table.*`, `rmse_vs_spp.svg`
+//! (against mean spp) and per-cell PNGs (`<variant>-sd<T>.png`, `-spp.png`, `-error.png`) of
+//! their own.
+//!
 //! While the table runs, `rmse.partial.csv` in the folder holds the rows of every finished
 //! round, so an interrupted table keeps what it measured; the finished table's folder does not
 //! have it.
 
+pub mod adaptive;
 pub mod export;
 pub mod plan;
 pub mod plot;
@@ -41,6 +47,8 @@ use std::path::{Path, PathBuf};
 pub struct TableReport {
     pub out_dir: PathBuf,
     pub cells: Vec<Cell>,
+    /// The cells of an adaptive table (empty otherwise, as `cells` is for an adaptive one).
+    pub adaptive_cells: Vec<adaptive::summary::AdaptiveCell>,
     /// `table.md`'s text.
     pub table_md: String,
     /// Mean seconds per image, in Markdown (also in `timings.md`).
@@ -84,6 +92,19 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         &reference.to_png()?,
     )?;
 
+    if let Some(adaptive_plan) = &plan.adaptive {
+        let report = adaptive::run(plan, adaptive_plan, &renderer, &reference, &mut folder, reporter)?;
+        let manifest: serde_json::Value =
+            serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
+        folder.commit(manifest)?;
+        return Ok(TableReport {
+            out_dir: out,
+            cells: Vec::new(),
+            adaptive_cells: report.cells,
+            table_md: report.table_md,
+            times_md: report.times_md,
+        });
+    }
     let mut sink = FileSink {
         plan,
         folder: &mut folder,
@@ -128,6 +149,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     Ok(TableReport {
         out_dir: out,
         cells,
+        adaptive_cells: Vec::new(),
         table_md,
         times_md,
     })
@@ -174,11 +196,19 @@ impl runner::TableSink for FileSink<'_> {
 /// A human-readable account of a table plan (for `validate`), followed by the resolved JSON.
 pub fn describe(plan: &TablePlan) -> String {
     let renders: usize = plan.repetitions.iter().sum::<usize>() * plan.variants.len();
+    let columns = match &plan.adaptive {
+        Some(a) => format!(
+            "{} adaptive target sd(s) (stages {}…{} spp)",
+            a.targets.len(),
+            a.first_spp,
+            a.max_spp
+        ),
+        None => format!("{} spp value(s)", plan.spp.len()),
+    };
     let mut s = format!(
-        "{}: {} variant(s) × {} spp value(s) = {renders} renders of {}×{} against {}\n",
+        "{}: {} variant(s) × {columns} = {renders} renders of {}×{} against {}\n",
         plan.name,
         plan.variants.len(),
-        plan.spp.len(),
         plan.width,
         plan.height,
         plan.reference.describe()

@@ -2,6 +2,7 @@
 //! one-line error naming the file, the JSON path, the value and what is accepted — the same
 //! form as experiment files.
 
+use super::adaptive::plan::AdaptivePlan;
 use super::spec::{ReferenceMethod, Repetitions, TableSpec, VariantSpec};
 use crate::bmc::{BmcModel, Scale};
 use crate::error::InputError;
@@ -70,8 +71,10 @@ pub struct TablePlan {
     pub env: Environment,
     pub env_arg: String,
     pub spp: Vec<usize>,
-    /// Repetitions per entry of `spp`.
+    /// Repetitions per entry of `spp` (per target of an adaptive table).
     pub repetitions: Vec<usize>,
+    /// Adaptive sampling: the columns are its targets and `spp` is empty.
+    pub adaptive: Option<AdaptivePlan>,
     pub reference: ReferencePlan,
     /// The BMC model, built only when a variant needs it.
     pub model: Option<BmcModel>,
@@ -129,8 +132,22 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         .map_err(|e| err("width/height", e.0.trim_start_matches("--width/--height: ")))?;
     let env_arg = spec.env.clone().unwrap_or_else(|| "sky".into());
     let env = Environment::from_arg(&env_arg).map_err(|e| err("env", e.0))?;
-    let spp = resolve_spp(spec.spp.as_deref())?;
-    let repetitions = resolve_repetitions(spec.repetitions.as_ref(), spp.len())?;
+    let adaptive = spec
+        .adaptive
+        .as_ref()
+        .map(|a| super::adaptive::plan::resolve(a, spec.spp.as_deref()))
+        .transpose()?;
+    let (spp, repetitions) = match &adaptive {
+        Some(a) => (
+            Vec::new(),
+            resolve_repetitions(spec.repetitions.as_ref(), a.targets.len(), "adaptive.target_sd")?,
+        ),
+        None => {
+            let spp = resolve_spp(spec.spp.as_deref())?;
+            let repetitions = resolve_repetitions(spec.repetitions.as_ref(), spp.len(), "spp")?;
+            (spp, repetitions)
+        }
+    };
     let reference = resolve_reference(spec, seed)?;
 
     if spec.variants.is_empty() {
@@ -138,7 +155,11 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     }
     let mut variants: Vec<VariantPlan> = Vec::new();
     for (k, v) in spec.variants.iter().enumerate() {
-        let variant = resolve_variant(v, &format!("variants[{k}]"), &variants)?;
+        let at = format!("variants[{k}]");
+        let variant = resolve_variant(v, &at, &variants)?;
+        if let Some(a) = &adaptive {
+            super::adaptive::plan::check_variant(a, variant.kind, v.scale, &at)?;
+        }
         for &n in &spp {
             check_spp(variant.kind, n, "spp").map_err(|e| {
                 err(
@@ -165,6 +186,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         env_arg,
         spp,
         repetitions,
+        adaptive,
         reference,
         model: needed.then(|| model.build()),
         model_json: model.to_json(),
@@ -215,14 +237,20 @@ fn resolve_spp(spp: Option<&[u64]>) -> Result<Vec<usize>, String> {
     Ok(out)
 }
 
-fn resolve_repetitions(reps: Option<&Repetitions>, n_spp: usize) -> Result<Vec<usize>, String> {
+/// Repetitions per column: `columns` entries of the list named `per` (`spp`, or the adaptive
+/// targets).
+fn resolve_repetitions(reps: Option<&Repetitions>, columns: usize, per: &str) -> Result<Vec<usize>, String> {
+    let n_spp = columns;
     let check = |path: String, r: u64| {
         if r == 0 {
             Err(err(path, "must be at least 1, got 0"))
         } else if r > MAX_REPETITIONS as u64 {
             Err(err(
                 path,
-                format!("at most {MAX_REPETITIONS} renders per spp, got {r}"),
+                format!(
+                    "at most {MAX_REPETITIONS} renders per {}, got {r}",
+                    if per == "spp" { "spp" } else { "target" }
+                ),
             ))
         } else {
             Ok(r as usize)
@@ -236,7 +264,7 @@ fn resolve_repetitions(reps: Option<&Repetitions>, n_spp: usize) -> Result<Vec<u
                 return Err(err(
                     "repetitions",
                     format!(
-                        "has {} entries; it needs one count per entry of spp ({n_spp}), or one number",
+                        "has {} entries; it needs one count per entry of {per} ({n_spp}), or one number",
                         list.len()
                     ),
                 ));

@@ -43,6 +43,10 @@ pub struct TableSpec {
     /// Renders per spp: one number, or one per `spp` entry; default 10.
     #[serde(default)]
     pub repetitions: Option<Repetitions>,
+    /// Adaptive sampling for every variant (README, "Adaptive sampling"): the table's columns
+    /// are target sds instead of `spp`, which must then be absent.
+    #[serde(default)]
+    pub adaptive: Option<AdaptiveSpec>,
     /// The reference; default exact (certified quadrature at 1e-9).
     #[serde(default)]
     pub reference: Option<ReferenceSpec>,
@@ -71,6 +75,21 @@ pub struct VariantSpec {
     /// weights only): `unit`, `ml` or `loo` (math.md §7); default `ml`.
     #[serde(default)]
     pub scale: Option<crate::bmc::Scale>,
+}
+
+/// `{"target_sd": [0.08, 0.04, 0.02], "max_spp": 512, "first_spp": 16}`: each pixel doubles its
+/// samples from `first_spp` until the sd it states for every channel is at most the target, or
+/// `max_spp` is reached; one column of the table per target.
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveSpec {
+    /// Target sds `T` per pixel and channel (each finite and > 0, distinct), one column each.
+    pub target_sd: Vec<f64>,
+    /// The most samples a pixel may take (≥ `first_spp`).
+    pub max_spp: u64,
+    /// The first stage; default 16 (MC needs at least 2).
+    #[serde(default)]
+    pub first_spp: Option<u64>,
 }
 
 /// The reference image: `{"method": "exact"}` (the default; optional `tolerance`) or
