@@ -455,3 +455,63 @@ fn edge_weights_separate_the_scene_surfaces() {
     );
     assert!(same_jump < EDGE_DEPTH_TOLERANCE && cross_pairs > 100);
 }
+
+/// Ring sample sets (`bmc-rings`, `bmcp-rings`, `bsq-rings`): their weights (by the `J × J`
+/// ring solver) equal the dense Cholesky weights of the same points to 1e-10 relative, and so
+/// do a few pixels' estimates and their sds (`ml` and `loo`, through the kept ring factor) when
+/// the same points are weighted densely and picked, rotated, with the same pixel stream.
+#[test]
+fn ring_sets_match_the_dense_solve_on_the_same_points() {
+    use workbench::bmc::Scale;
+    use workbench::render::integrator::ShadingPoint;
+    use workbench::rng::stream;
+    let r = Renderer::new(32, 32, Environment::Sky);
+    let m = model();
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
+    for name in ["bmc", "bmcp", "bsq"] {
+        let dense_kind = IntegratorKind::from_name(name).unwrap();
+        let ring_kind = IntegratorKind::from_name(&format!("{name}-rings")).unwrap();
+        for spp in [36, 64] {
+            let rings = bmc(ring_kind, spp, 2, true, &m, 11);
+            let points: Vec<Vec<Vec3>> = sets(&rings).sets.iter().map(|s| s.points.clone()).collect();
+            let dense = Integrator {
+                kind: dense_kind,
+                spp,
+                sets: Some(BmcSets::from_points(points, true, &m, 11).unwrap()),
+                uncertainty: None,
+            };
+            for (a, b) in sets(&rings).sets.iter().zip(&sets(&dense).sets) {
+                let scale = b.weights.weights.iter().fold(0.0f64, |s, w| s.max(w.abs()));
+                for (x, y) in a.weights.weights.iter().zip(&b.weights.weights) {
+                    assert!((x - y).abs() <= 1e-10 * scale, "{ring_kind} N={spp}: {x} vs {y}");
+                }
+            }
+            for scale in [Scale::Ml, Scale::Loo] {
+                let rings = rings.clone().with_uncertainty(scale, Some(&m)).unwrap();
+                let dense = dense.clone().with_uncertainty(scale, Some(&m)).unwrap();
+                for (i, j) in [(16, 28), (16, 12), (5, 20)] {
+                    let p: ShadingPoint = r.shading_point(i, j).expect("a hit pixel");
+                    let prior = [0.1, 0.2, 0.05];
+                    let rng = stream(3, &[i as u64, j as u64]);
+                    let (va, sa) = rings.estimate_with_sd(&p, &r.scene, &r.env, &mut rng.clone(), prior);
+                    let (vb, sb) = dense.estimate_with_sd(&p, &r.scene, &r.env, &mut rng.clone(), prior);
+                    let (sa, sb) = (sa.unwrap(), sb.unwrap());
+                    for c in 0..3 {
+                        assert!(
+                            rel(va[c], vb[c]) < 1e-10,
+                            "{ring_kind} N={spp} ({i}, {j}) channel {c}: {} vs {}",
+                            va[c],
+                            vb[c]
+                        );
+                        assert!(
+                            rel(sa[c].sd, sb[c].sd) < 1e-10,
+                            "{ring_kind} {scale:?} N={spp} ({i}, {j}) channel {c}: sd {} vs {}",
+                            sa[c].sd,
+                            sb[c].sd
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

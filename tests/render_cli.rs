@@ -42,6 +42,22 @@ fn bad_input_is_exit_2_with_a_clear_message() {
     );
     assert_input_error(&["render", "--spp", "20000", "--out", "a.exr"], &["--spp", "GiB"]);
     assert_input_error(&["render", "--gps", "0", "--out", "a.exr"], &["--gps"]);
+    // Ring sets need N = J·M with J near √N.
+    assert_input_error(
+        &[
+            "render",
+            "--integrator",
+            "bmc-rings",
+            "--spp",
+            "38",
+            "--out",
+            "a.exr",
+        ],
+        &[
+            "--spp: got 38 for bmc-rings; the rings design needs N = J·M",
+            "36 or 40",
+        ],
+    );
     // Options that do not apply are errors, not silently ignored.
     assert_input_error(
         &["render", "--integrator", "mc", "--gps", "3", "--out", "a.exr"],

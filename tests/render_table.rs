@@ -164,6 +164,11 @@ fn spec_errors_are_exit_2_before_any_work() {
             "bad.json: variants[2].label: \"bmc-2-gp\" gives the same file names as variants[1] (\"BMC 2 GP\")",
         ),
         (
+            SPEC.replace("\"mc\"}", "\"bsq-rings\"}")
+                .replace("[4, 8]", "[4, 38]"),
+            "bad.json: spp with variants[0] (bsq-rings): got 38 for bsq-rings; the rings design needs N = J·M",
+        ),
+        (
             SPEC.replace("[3, 2]", "[3, 4611686018427387904]"),
             "bad.json: repetitions[1]: at most 10000 renders per spp, got 4611686018427387904",
         ),

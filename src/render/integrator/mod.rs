@@ -20,17 +20,21 @@ use crate::error::InputError;
 use crate::estimator::{Method, Uncertainty};
 use crate::geometry::{Frame, Vec3};
 use crate::rng::WorkbenchRng;
-use crate::sampling::Design;
+use crate::sampling::{Design, SetDesign};
 pub use neighbours::NeighbourPrior;
 pub use sets::{BmcSets, SampleSet};
 use std::f64::consts::PI;
 
-/// A render integrator: an estimator and the density of its fresh samples (MC only; estimators
-/// with weights use uniform sets).
+/// A render integrator: an estimator, the density of its fresh samples (MC only) and the design
+/// of its weighted sample sets (estimators with weights only).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct IntegratorKind {
     pub method: Method,
     pub design: Design,
+    /// How the weighted sample sets are drawn: independent uniform points
+    /// ([`SetDesign::Iid`]`(Uniform)`, the default and the only one for MC) or rings
+    /// ([`SetDesign::Rings`], weights by the `J × J` ring solver, [`crate::ring_solver`]).
+    pub set_design: SetDesign,
     /// How an estimator with a prior mean (`bmcp`) gets its constant from the neighbours
     /// ([`NeighbourPrior`]); [`NeighbourPrior::Mean`] for every other estimator.
     pub neighbours: NeighbourPrior,
@@ -43,6 +47,7 @@ impl IntegratorKind {
     pub const MC_COS: Self = IntegratorKind {
         method: Method::Mc,
         design: Design::Cosine,
+        set_design: UNIFORM_SETS,
         neighbours: NeighbourPrior::Mean,
     };
     /// `bmc`: precomputed sample sets rotated to the normal (math.md §4–5).
@@ -54,6 +59,7 @@ impl IntegratorKind {
     pub const BMCP_EDGE: Self = IntegratorKind {
         method: Method::Bmcp,
         design: Design::Uniform,
+        set_design: UNIFORM_SETS,
         neighbours: NeighbourPrior::EdgeAware,
     };
 
@@ -61,13 +67,15 @@ impl IntegratorKind {
         IntegratorKind {
             method,
             design: Design::Uniform,
+            set_design: UNIFORM_SETS,
             neighbours: NeighbourPrior::Mean,
         }
     }
 
     /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
-    /// uniform samples, those without weights also on cosine-weighted ones, and those with a
-    /// prior mean also with the edge-aware neighbour prior.
+    /// uniform samples, those without weights also on cosine-weighted ones, those with a
+    /// prior mean also with the edge-aware neighbour prior; then every estimator with weights
+    /// (and neighbour prior) again on ring sets.
     pub fn all() -> Vec<Self> {
         let mut all = Vec::new();
         for method in Method::ALL {
@@ -76,6 +84,7 @@ impl IntegratorKind {
                 all.push(IntegratorKind {
                     method,
                     design: Design::Cosine,
+                    set_design: UNIFORM_SETS,
                     neighbours: NeighbourPrior::Mean,
                 });
             }
@@ -86,20 +95,34 @@ impl IntegratorKind {
                 });
             }
         }
+        let on_rings: Vec<Self> = all
+            .iter()
+            .filter(|k| k.uses_sets())
+            .map(|k| IntegratorKind {
+                set_design: SetDesign::Rings,
+                ..*k
+            })
+            .collect();
+        all.extend(on_rings);
         all
     }
 
     /// The name on the command line and in files: the estimator's, with `-cos` for
-    /// cosine-weighted samples and `-edge` for the edge-aware neighbour prior (`mc`, `mc-cos`,
-    /// `bmc`, `bmcp`, `bmcp-edge`, `bsq`).
+    /// cosine-weighted samples, `-edge` for the edge-aware neighbour prior and `-rings` for
+    /// ring sample sets (`mc`, `mc-cos`, `bmc`, `bmcp`, `bmcp-edge`, `bsq`, `bmc-rings`,
+    /// `bmcp-rings`, `bmcp-edge-rings`, `bsq-rings`).
     pub fn name(self) -> String {
         let base = match self.design {
             Design::Uniform => self.method.name().to_string(),
             Design::Cosine => format!("{}-cos", self.method.name()),
         };
-        match self.neighbours {
+        let base = match self.neighbours {
             NeighbourPrior::Mean => base,
             NeighbourPrior::EdgeAware => format!("{base}-edge"),
+        };
+        match self.set_design {
+            UNIFORM_SETS => base,
+            other => format!("{base}-{}", other.name()),
         }
     }
 
@@ -135,6 +158,9 @@ impl serde::Serialize for IntegratorKind {
     }
 }
 
+/// The sets of [`IntegratorKind::set_design`] by default: independent uniform points.
+const UNIFORM_SETS: SetDesign = SetDesign::Iid(Design::Uniform);
+
 /// Most samples per pixel for MC (ten times the thesis's 3000-spp reference would already take
 /// minutes per image).
 pub const MAX_MC_SPP: usize = 1_000_000;
@@ -143,10 +169,14 @@ pub const DEFAULT_GPS: usize = 4;
 /// Most sample sets.
 pub const MAX_GPS: usize = 1024;
 
-/// Validates the sample count of `kind` (`what` names the option or field).
+/// Validates the sample count of `kind` (`what` names the option or field): ring sets also
+/// need `spp = J·M` with `J` near `√spp` ([`crate::sampling::rings::check`]).
 pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), InputError> {
     if kind.uses_sets() {
-        crate::rule::check_point_count(spp, what)
+        crate::rule::check_point_count(spp, what)?;
+        kind.set_design
+            .check_count(spp)
+            .map_err(|m| InputError::new(format!("{what}: got {spp} for {kind}; {m}")))
     } else if spp == 0 {
         Err(InputError::new(format!("{what}: must be at least 1, got 0")))
     } else if spp > MAX_MC_SPP {
@@ -244,6 +274,7 @@ impl Integrator {
             kind: IntegratorKind {
                 method: Method::Mc,
                 design,
+                set_design: UNIFORM_SETS,
                 neighbours: NeighbourPrior::Mean,
             },
             spp,
@@ -253,7 +284,7 @@ impl Integrator {
     }
 
     /// Builds the integrator `kind` with `spp` samples; for estimators with weights, `gps`
-    /// uniform sample sets drawn from `seed` and weighted under `model` (needed only by those,
+    /// sample sets of `kind.set_design` drawn from `seed` and weighted under `model` (needed only by those,
     /// so that MC never pays for the kernel-mean table).
     pub fn build(
         kind: IntegratorKind,
@@ -266,7 +297,7 @@ impl Integrator {
         let sets = if kind.uses_sets() {
             let model =
                 model.ok_or_else(|| InputError::new(format!("--integrator {kind}: needs a BMC model")))?;
-            Some(BmcSets::generate(spp, gps, rotate, model, seed)?)
+            Some(BmcSets::generate(spp, gps, rotate, kind.set_design, model, seed)?)
         } else {
             None
         };

@@ -8,9 +8,10 @@
 
 use crate::bmc::{BmcModel, BmcWeights, Scale};
 use crate::geometry::Vec3;
-use crate::linalg::{CholeskyFactor, NotPositiveDefinite, SpdWorkspace};
+use crate::linalg::{CholeskyFactor, NotPositiveDefinite, SpdWorkspace, StructuredFactor};
+use crate::ring_solver::RingFactor;
 use crate::rng::{WorkbenchRng, stream};
-use crate::sampling::Design;
+use crate::sampling::{Design, SetDesign, rings};
 use rand::RngExt;
 use std::f64::consts::TAU;
 
@@ -25,17 +26,44 @@ pub struct SampleSet {
     pub points: Vec<Vec3>,
     pub weights: BmcWeights,
     /// What a pixel's fitted amplitude needs (math.md §7), kept only when per-pixel posterior
-    /// sds are asked for ([`BmcSets::keep_solvers`]): 8 N² bytes per set.
+    /// sds are asked for ([`BmcSets::keep_solvers`]): 8 N² bytes per uniform set, about
+    /// `4 N J` bytes per ring set.
     pub solver: Option<SetSolver>,
 }
 
-/// The Cholesky factor of a set's `Q` and, for the `loo` amplitude, `diag(Q⁻¹)`. A rotation
+/// The factorisation of a set's `Q` and, for the `loo` amplitude, `diag(Q⁻¹)`. A rotation
 /// about the normal leaves every `k(x_i, x_j)` and so `Q` unchanged (the kernels depend on
 /// `x·y` only), so one factor serves every pixel that uses the set.
 #[derive(Clone, Debug)]
 pub struct SetSolver {
-    pub factor: CholeskyFactor,
+    pub factor: SetFactor,
     pub inverse_diagonal: Option<Vec<f64>>,
+}
+
+/// A kept factorisation of `Q`: dense Cholesky, or the per-frequency `J × J` Cholesky factors
+/// of a ring set ([`RingFactor`]).
+#[derive(Clone, Debug)]
+pub enum SetFactor {
+    Dense(CholeskyFactor),
+    Rings(RingFactor),
+}
+
+impl SetFactor {
+    /// Solves `Q X = B` in place for `columns` right-hand sides, column-major.
+    pub fn solve_columns_in_place(&self, b: &mut [f64], columns: usize) {
+        match self {
+            SetFactor::Dense(f) => f.solve_columns_in_place(b, columns),
+            SetFactor::Rings(f) => f.solve_columns_in_place(b, columns),
+        }
+    }
+
+    /// `diag(Q⁻¹)`.
+    pub fn inverse_diagonal(&self) -> Vec<f64> {
+        match self {
+            SetFactor::Dense(f) => f.inverse_diagonal(),
+            SetFactor::Rings(f) => f.inverse_diagonal(),
+        }
+    }
 }
 
 /// The sets ("GPs") of a BMC integrator.
@@ -44,27 +72,45 @@ pub struct BmcSets {
     pub sets: Vec<SampleSet>,
     /// Rotate the chosen set by a random azimuth per pixel.
     pub rotate: bool,
+    /// How the sets were drawn ([`SetDesign::Iid`]`(Uniform)` or [`SetDesign::Rings`]).
+    pub design: SetDesign,
 }
 
 impl BmcSets {
-    /// `gps` sets of `spp` uniform points each; set `s` depends only on `(seed, s)`.
+    /// `gps` sets of `spp` points each, drawn with `design` (independent uniform points or
+    /// rings, [`IntegratorKind::set_design`](super::IntegratorKind::set_design)); set `s`
+    /// depends only on `(seed, s)`. A rotated ring set is still a ring set, so its weights
+    /// (constant on each ring) hold at every pixel.
     pub fn generate(
         spp: usize,
         gps: usize,
         rotate: bool,
+        design: SetDesign,
         model: &BmcModel,
         seed: u64,
     ) -> Result<Self, NotPositiveDefinite> {
         let points = (0..gps as u64)
-            .map(|s| Design::Uniform.sample_set(spp, &mut stream(seed, &[SET_POINTS, s])))
+            .map(|s| design.sample_set(spp, &mut stream(seed, &[SET_POINTS, s])))
             .collect();
-        Self::from_points(points, rotate, model, seed)
+        Self::from_design_points(points, rotate, design, model, seed)
     }
 
-    /// Sets with the given local points (normal `+z`).
+    /// Sets with the given local uniform points (normal `+z`).
     pub fn from_points(
         points: Vec<Vec<Vec3>>,
         rotate: bool,
+        model: &BmcModel,
+        seed: u64,
+    ) -> Result<Self, NotPositiveDefinite> {
+        Self::from_design_points(points, rotate, SetDesign::Iid(Design::Uniform), model, seed)
+    }
+
+    /// Sets with the given local points drawn with `design`, weighted by
+    /// [`BmcModel::weights_for_design`] (the ring solver on ring sets).
+    fn from_design_points(
+        points: Vec<Vec<Vec3>>,
+        rotate: bool,
+        design: SetDesign,
         model: &BmcModel,
         seed: u64,
     ) -> Result<Self, NotPositiveDefinite> {
@@ -75,7 +121,7 @@ impl BmcSets {
             .enumerate()
             .map(|(s, points)| {
                 let mut rng = stream(seed, &[SET_KERNEL_MEANS, s as u64]);
-                let weights = model.weights(&points, &mut rng, &mut ws)?;
+                let weights = model.weights_for_design(&points, design, &mut rng, &mut ws)?;
                 Ok(SampleSet {
                     points,
                     weights,
@@ -83,26 +129,36 @@ impl BmcSets {
                 })
             })
             .collect::<Result<_, _>>()?;
-        Ok(BmcSets { sets, rotate })
+        Ok(BmcSets { sets, rotate, design })
     }
 
-    /// Keeps each set's Cholesky factor (and `diag(Q⁻¹)` for `loo`) for per-pixel amplitudes.
+    /// Keeps each set's factorisation (and `diag(Q⁻¹)` for `loo`) for per-pixel amplitudes.
     /// `Q` does not depend on the kernel means, so factoring it again (the same assembly and
     /// jitter ladder, hence the same factor) costs one factorisation per set, draws nothing and
-    /// changes no weight.
+    /// changes no weight. Ring sets keep their per-frequency block factors ([`RingFactor`]).
     pub fn keep_solvers(&mut self, model: &BmcModel, scale: Scale) -> Result<(), NotPositiveDefinite> {
         let mut ws = SpdWorkspace::new();
         for set in &mut self.sets {
-            let no_means = vec![0.0; set.points.len()];
-            crate::bmc::bmc_weights(
-                &set.points,
-                &no_means,
-                model.prior_variance(),
-                &model.kernel,
-                model.noise,
-                &mut ws,
-            )?;
-            let factor = ws.keep_factor();
+            let factor = match self.design {
+                SetDesign::Rings => SetFactor::Rings(RingFactor::new(
+                    &set.points,
+                    rings::layout(set.points.len()),
+                    &model.kernel,
+                    model.noise,
+                )?),
+                SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
+                    let no_means = vec![0.0; set.points.len()];
+                    crate::bmc::bmc_weights(
+                        &set.points,
+                        &no_means,
+                        model.prior_variance(),
+                        &model.kernel,
+                        model.noise,
+                        &mut ws,
+                    )?;
+                    SetFactor::Dense(ws.keep_factor())
+                }
+            };
             let inverse_diagonal = (scale == Scale::Loo).then(|| factor.inverse_diagonal());
             set.solver = Some(SetSolver {
                 factor,
@@ -163,10 +219,10 @@ mod tests {
     /// `+z` (same heights, same lengths, not all in place), so the weights still apply.
     #[test]
     fn picked_points_are_the_set_rotated_about_the_normal() {
-        let still = BmcSets::generate(30, 2, false, &model(), 9).unwrap();
+        let still = BmcSets::generate(30, 2, false, SetDesign::Iid(Design::Uniform), &model(), 9).unwrap();
         let (set, points) = still.pick(&mut stream(1, &[]));
         assert_eq!(&points, &set.points);
-        let turning = BmcSets::generate(30, 2, true, &model(), 9).unwrap();
+        let turning = BmcSets::generate(30, 2, true, SetDesign::Iid(Design::Uniform), &model(), 9).unwrap();
         let (set, points) = turning.pick(&mut stream(1, &[]));
         let mut moved = 0;
         for (p, q) in points.iter().zip(&set.points) {

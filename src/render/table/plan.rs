@@ -509,7 +509,7 @@ mod tests {
         ));
         assert_eq!(
             err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),
-            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bmcp-edge, bsq"
+            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bmcp-edge, bsq, bmc-rings, bmcp-rings, bmcp-edge-rings, bsq-rings"
         );
         assert_eq!(
             err(&format!("{{{base}, \"spp\": [20, 0]}}")),
