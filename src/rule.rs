@@ -8,9 +8,16 @@ use crate::rng::stream;
 use crate::sampling::SetDesign;
 use std::path::Path;
 
-/// Largest number of points a weight set may have: `Q` and its factor take `16 N²` bytes,
-/// and this keeps them under 4 GiB.
+/// Largest number of points a weight set may have: `Q` is assembled straight into its Cholesky
+/// factor's buffer, one `N × N` matrix of `f64` per worker thread ([`matrix_gib`]), and this
+/// keeps it at 2 GiB.
 pub const MAX_POINTS: usize = 16_384;
+
+/// GiB of the one `N × N` matrix (`8 N²` bytes) a weight set of `n` points needs per worker
+/// thread: `Q`, factored in place.
+pub fn matrix_gib(n: usize) -> f64 {
+    8.0 * (n as f64).powi(2) / (1u64 << 30) as f64
+}
 
 /// Rejects `n = 0` and `n` whose matrices would not fit the memory budget.
 pub fn check_point_count(n: usize, what: &str) -> Result<(), InputError> {
@@ -18,10 +25,11 @@ pub fn check_point_count(n: usize, what: &str) -> Result<(), InputError> {
         return Err(InputError::new(format!("{what}: must be at least 1, got 0")));
     }
     if n > MAX_POINTS {
-        let gib = 16.0 * (n as f64).powi(2) / (1u64 << 30) as f64;
+        let gib = matrix_gib(n);
         return Err(InputError::new(format!(
-            "{what}: {n} points would need {gib:.1} GiB for Q and its Cholesky factor; \
-             the limit is {MAX_POINTS} points (4 GiB)"
+            "{what}: {n} points would need {gib:.1} GiB for Q (factored in place); \
+             the limit is {MAX_POINTS} points ({:.0} GiB)",
+            matrix_gib(MAX_POINTS)
         )));
     }
     Ok(())

@@ -2,7 +2,7 @@
 
 use crate::error::{Error, InputError};
 
-/// Most worker threads (each holds its own `Q` and factor, up to 4 GiB at the largest N).
+/// Most worker threads (each holds its own `Q`, factored in place: up to 2 GiB at the largest N).
 pub const MAX_THREADS: usize = 256;
 
 /// The number of worker threads: `requested` (validated by the caller), else

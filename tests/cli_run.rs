@@ -346,7 +346,7 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
         ),
         (
             SMALL.replace("[4, 16, 32]", "[4, 16, 100000]"),
-            "samples[2]: N = 100000 would need 149.0 GiB",
+            "samples[2]: N = 100000 would need 74.5 GiB",
         ),
         (
             SMALL.replace("\"cos3\"]", "\"sin\"]"),

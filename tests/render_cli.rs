@@ -61,11 +61,14 @@ fn bad_input_is_exit_2_with_a_clear_message() {
     // Options that do not apply are errors, not silently ignored.
     assert_input_error(
         &["render", "--integrator", "mc", "--gps", "3", "--out", "a.exr"],
-        &["--gps: applies to --integrator bmc and bmcp, not mc"],
+        &[
+            "--gps: applies to the integrators with weights (bmc, bmcp, bmcp-edge, bsq, bmc-rings",
+            "), not mc",
+        ],
     );
     assert_input_error(
         &["render", "--integrator", "mc-cos", "--s", "1.5", "--out", "a.exr"],
-        &["--s: applies to --integrator bmc and bmcp"],
+        &["--s: applies to the integrators with weights (bmc,"],
     );
     assert_input_error(
         &["render", "--error-colours", "grey", "--out", "a.exr"],

@@ -525,7 +525,13 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
             .or(args.model.given());
         if let Some(flag) = given {
             return Err(InputError::new(format!(
-                "{flag}: applies to --integrator bmc and bmcp, not {}",
+                "{flag}: applies to the integrators with weights ({}), not {}",
+                IntegratorKind::all()
+                    .into_iter()
+                    .filter(|k| k.uses_sets())
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
                 args.integrator
             ))
             .into());

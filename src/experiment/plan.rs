@@ -369,12 +369,13 @@ fn check_limits(
             .iter()
             .position(|&n| n == max_n)
             .expect("max is in the list");
-        let gib = 16.0 * (max_n as f64).powi(2) / (1u64 << 30) as f64;
+        let gib = crate::rule::matrix_gib(max_n as usize);
         return Err(err(
             format!("samples[{i}]"),
             format!(
-                "N = {max_n} would need {gib:.1} GiB per worker thread for Q and its Cholesky factor; \
-                 BMC estimators allow at most N = {MAX_POINTS} (4 GiB)"
+                "N = {max_n} would need {gib:.1} GiB per worker thread for Q (factored in place); \
+                 BMC estimators allow at most N = {MAX_POINTS} ({:.0} GiB)",
+                crate::rule::matrix_gib(MAX_POINTS)
             ),
         ));
     }

@@ -34,7 +34,7 @@ pub fn describe(plan: &plan::Plan) -> String {
         weight_sets,
         weight_sets * plan.samples.len() * plan.trials,
         if weight_sets > 0 {
-            16.0 * (max_n as f64).powi(2) / (1u64 << 20) as f64
+            crate::rule::matrix_gib(max_n) * 1024.0
         } else {
             0.0
         }
