@@ -249,24 +249,7 @@ impl NestedCholesky {
     /// `diag(Q⁻¹)` of the factored block, `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` (as
     /// [`crate::linalg::SpdWorkspace::inverse_diagonal`]); O(n³), for the `loo` amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
-        let n = self.n;
-        let mut out = vec![0.0; n];
-        let mut x = vec![0.0; n];
-        for i in 0..n {
-            x[i..].fill(0.0);
-            x[i] = 1.0;
-            for j in i..n {
-                let xj = x[j] / self.factor[(j, j)];
-                x[j] = xj;
-                if xj != 0.0 {
-                    for (k, xk) in x.iter_mut().enumerate().take(n).skip(j + 1) {
-                        *xk -= self.factor[(k, j)] * xj;
-                    }
-                }
-            }
-            out[i] = x[i..].iter().map(|v| v * v).sum();
-        }
-        out
+        crate::linalg::lower_inverse_diagonal(&self.factor, self.n)
     }
 
     /// `L[i, j]` of the factored block (`j ≤ i < n`), for tests.

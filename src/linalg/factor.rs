@@ -52,24 +52,7 @@ impl CholeskyFactor {
     /// `diag(Q⁻¹)`, `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` (see [`SpdWorkspace::inverse_diagonal`]): O(n³),
     /// for the leave-one-out amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
-        let n = self.n();
-        let mut out = vec![0.0; n];
-        let mut x = vec![0.0; n];
-        for i in 0..n {
-            x[i..].fill(0.0);
-            x[i] = 1.0;
-            for j in i..n {
-                let xj = x[j] / self.l[(j, j)];
-                x[j] = xj;
-                if xj != 0.0 {
-                    for (k, xk) in x.iter_mut().enumerate().skip(j + 1) {
-                        *xk -= self.l[(k, j)] * xj;
-                    }
-                }
-            }
-            out[i] = x[i..].iter().map(|v| v * v).sum();
-        }
-        out
+        crate::linalg::lower_inverse_diagonal(&self.l, self.n())
     }
 }
 
