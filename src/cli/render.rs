@@ -319,18 +319,15 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         None
     };
     let reference = match &args.reference {
-        Some(path) => Some(Image::read(path, "--reference")?),
+        Some(path) => Some(Image::read_reference(
+            path,
+            "--reference",
+            args.width,
+            args.height,
+        )?),
         None => None,
     };
     let renderer = Renderer::new(args.width, args.height, env);
-    if let Some(r) = &reference {
-        let probe = Image {
-            width: args.width,
-            height: args.height,
-            data: Vec::new(),
-        };
-        probe.check_same_size(r, "--reference")?;
-    }
     // The image and its PNGs are one set: no other command may write them meanwhile.
     let mut files = FileSet::lock(&outputs, "use another --out")?;
 

@@ -147,18 +147,15 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     };
     workbench::io::check_writable_dir(&dir)?;
     let reference = match args.reference {
-        Some(path) => Some(Image::read(path, "--reference")?),
+        Some(path) => Some(Image::read_reference(
+            path,
+            "--reference",
+            args.width,
+            args.height,
+        )?),
         None => None,
     };
     let renderer = Renderer::new(args.width, args.height, env);
-    if let Some(r) = &reference {
-        let probe = Image {
-            width: args.width,
-            height: args.height,
-            data: Vec::new(),
-        };
-        probe.check_same_size(r, "--reference")?;
-    }
     let model = if kind.uses_sets() {
         Some(args.model.build()?)
     } else {

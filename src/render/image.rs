@@ -108,6 +108,19 @@ impl Image {
         }
     }
 
+    /// Reads the reference a `width × height` render is compared with ([`Image::read`]), and
+    /// refuses one of another size ([`Image::check_same_size`]) before anything is rendered.
+    pub fn read_reference(path: &Path, what: &str, width: usize, height: usize) -> Result<Image, InputError> {
+        let reference = Image::read(path, what)?;
+        let probe = Image {
+            width,
+            height,
+            data: Vec::new(),
+        };
+        probe.check_same_size(&reference, what)?;
+        Ok(reference)
+    }
+
     /// The linear image as OpenEXR, 32-bit float RGB.
     pub fn to_exr(&self) -> crate::Result<Vec<u8>> {
         let buf = Rgb32FImage::from_fn(self.width as u32, self.height as u32, |x, y| {
