@@ -22,6 +22,26 @@ const SHIFTER: f64 = 6_755_399_441_055_744.0;
 /// Taylor series it replaces). Coefficients computed at 80 digits (`decimal`), rounded once.
 #[inline(always)]
 fn ln(x: f64) -> f64 {
+    let (e, r) = ln_reduce(x);
+    ln_from_reduced(e, r)
+}
+
+/// The first half of [`ln`]: `x = m·2^e`, `m ∈ [√½, √2)`, and `r = (m − 1)/(m + 1)`.
+#[inline(always)]
+fn ln_reduce(x: f64) -> (f64, f64) {
+    let bits = x.to_bits();
+    // The biased exponent as a double, without an int→float conversion (none in AVX2).
+    let e_biased = f64::from_bits((bits >> 52) | 0x4330_0000_0000_0000) - 4_503_599_627_370_496.0;
+    let m0 = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
+    let big = m0 > SQRT_2;
+    let m = if big { 0.5 * m0 } else { m0 };
+    let e = e_biased - 1023.0 + if big { 1.0 } else { 0.0 };
+    (e, (m - 1.0) / (m + 1.0))
+}
+
+/// The second half of [`ln`]: `e ln 2 + 2r·g(r²)`.
+#[inline(always)]
+fn ln_from_reduced(e: f64, r: f64) -> f64 {
     const G: [f64; 8] = [
         1.0,
         0.333_333_333_333_338_26,
@@ -32,14 +52,6 @@ fn ln(x: f64) -> f64 {
         0.076_562_565_573_691_5,
         0.074_049_337_861_565_31,
     ];
-    let bits = x.to_bits();
-    // The biased exponent as a double, without an int→float conversion (none in AVX2).
-    let e_biased = f64::from_bits((bits >> 52) | 0x4330_0000_0000_0000) - 4_503_599_627_370_496.0;
-    let m0 = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
-    let big = m0 > SQRT_2;
-    let m = if big { 0.5 * m0 } else { m0 };
-    let e = e_biased - 1023.0 + if big { 1.0 } else { 0.0 };
-    let r = (m - 1.0) / (m + 1.0);
     let t = r * r;
     // Estrin's scheme with fused multiply–adds: short dependency chains, one rounding each.
     let t2 = t * t;
@@ -124,11 +136,57 @@ pub fn pow_inline(x: f64, p: f64) -> f64 {
     if tiny { 0.0 } else { v }
 }
 
+/// [`pow_inline`] of the first `lanes` entries of a block (`out` beyond them is left as it
+/// was), in three stages over the lanes (reduce, `ln`, `exp`) rather than lane by lane: the
+/// operations per lane are those of [`pow_inline`], so the bits are too, but each stage's lanes
+/// are independent, so a vectorised loop keeps several vectors in flight instead of waiting on
+/// one long dependency chain (assembly at N = 512 ~20% faster in `cargo bench --bench core`).
+#[inline(always)]
+pub fn pow_block<const B: usize>(x: &[f64; B], p: f64, out: &mut [f64; B], lanes: usize) {
+    let lanes = lanes.min(B);
+    let mut e = [0.0f64; B];
+    let mut r = [0.0f64; B];
+    for l in 0..lanes {
+        let tiny = x[l] < 1e-290;
+        (e[l], r[l]) = ln_reduce(if tiny { 1.0 } else { x[l] });
+    }
+    let mut y = [0.0f64; B];
+    for l in 0..lanes {
+        y[l] = p * ln_from_reduced(e[l], r[l]);
+    }
+    for l in 0..lanes {
+        let tiny = x[l] < 1e-290;
+        let v = exp(y[l]);
+        out[l] = if tiny { 0.0 } else { v };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::rng::stream;
     use rand::RngExt;
+
+    /// The staged block gives [`pow_inline`]'s bits in every lane, whatever the lane count,
+    /// zero and tiny arguments included.
+    #[test]
+    fn block_matches_the_scalar_pow_bit_for_bit() {
+        let mut rng = stream(7, &[]);
+        for lanes in [0, 1, 7, 8, 13, 32] {
+            let mut x = [0.0f64; 32];
+            for v in x.iter_mut() {
+                *v = 4.0 * 10f64.powf(-20.0 * rng.random::<f64>());
+            }
+            x[0] = 0.0;
+            x[3] = 1e-300;
+            let mut out = [-1.0f64; 32];
+            pow_block(&x, 0.4, &mut out, lanes);
+            for l in 0..32 {
+                let want = if l < lanes { pow_inline(x[l], 0.4) } else { -1.0 };
+                assert_eq!(out[l].to_bits(), want.to_bits(), "lanes {lanes}, lane {l}");
+            }
+        }
+    }
 
     #[test]
     fn agrees_with_powf_to_rounding() {

@@ -31,6 +31,16 @@ impl Sobolev {
         })
     }
 
+    /// `s − 1`, the exponent of `d²` (for the vectorised assembly).
+    pub(crate) fn half_exponent(&self) -> f64 {
+        self.half_exponent
+    }
+
+    /// `2^(2s−1)/s`, the kernel at `d² = 0`.
+    pub(crate) fn constant(&self) -> f64 {
+        self.constant
+    }
+
     pub fn s(&self) -> f64 {
         self.s
     }
@@ -40,12 +50,6 @@ impl Sobolev {
     pub fn of_squared_distance(&self, d2: f64) -> f64 {
         // d² = 0 gives the constant exactly (pow(0, p) = 0).
         self.constant - super::fast_pow::pow(d2, self.half_exponent)
-    }
-
-    /// [`Sobolev::of_squared_distance`] for loops compiled with FMA as a whole (same bits).
-    #[inline(always)]
-    pub(crate) fn of_squared_distance_inline(&self, d2: f64) -> f64 {
-        self.constant - super::fast_pow::pow_inline(d2, self.half_exponent)
     }
 
     /// `∫_a^b [c − (2 − 2t)^(s−1)] dt = c (b − a) − [(2 − 2a)^s − (2 − 2b)^s] / (2s)`.
