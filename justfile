@@ -35,4 +35,5 @@ ci:
 # Benchmarks (figures go in the README).
 bench:
     cargo bench --bench core
+    cargo bench --bench phases
     cargo bench --bench render
