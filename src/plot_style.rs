@@ -25,8 +25,9 @@ pub const FONT: &str = "sans-serif";
 pub const GUIDE: RGBColor = RGBColor(90, 90, 90);
 
 /// Okabe–Ito colours, distinguishable with colour-vision deficiencies (their yellow, unreadable
-/// on white, left out), in the order series get them.
-pub const PALETTE: [RGBColor; 7] = [
+/// on white, left out), in the order series get them, then Paul Tol's wine and olive for an
+/// eighth and ninth series (`cos3-designs` has nine), so that no two of nine share a colour.
+pub const PALETTE: [RGBColor; 9] = [
     RGBColor(213, 94, 0),
     RGBColor(0, 114, 178),
     RGBColor(0, 158, 115),
@@ -34,6 +35,8 @@ pub const PALETTE: [RGBColor; 7] = [
     RGBColor(230, 159, 0),
     RGBColor(86, 180, 233),
     RGBColor(0, 0, 0),
+    RGBColor(136, 34, 85),
+    RGBColor(153, 153, 51),
 ];
 
 /// The colour of series `i`.
@@ -42,8 +45,7 @@ pub fn colour(i: usize) -> RGBColor {
 }
 
 /// Number of distinct marker shapes. Series `i` gets shape `(i + ⌊i/7⌋) mod 7` and colour
-/// `i mod 7`, so two series share both only 49 apart (series 7 is series 0's colour with the
-/// next shape).
+/// `i mod 9`, so two series share both only 63 apart.
 pub const MARKERS: usize = 7;
 
 /// Draws the marker of series `i` centred on pixel `at` of `area`: filled circle, filled
@@ -168,6 +170,34 @@ fn em(font: u32) -> f64 {
     font as f64 / 1.24
 }
 
+/// Estimated width in pixels of words drawn at `font` px (DejaVu Sans letters, spaces and
+/// digits average ~0.55 em; a little over, so that estimated lines never run past their room).
+pub fn estimated_width(text: &str, font: f64) -> f64 {
+    text.chars().count() as f64 * 0.55 * font / 1.24
+}
+
+/// `full` if it is estimated to fit in `px` pixels at `font` px, else `short`: for axis
+/// descriptions that name the integrand, which can be long (a render-scene pixel).
+pub fn fitting_label(full: String, short: &str, font: u32, px: f64) -> String {
+    if estimated_width(&full, font as f64) <= px {
+        full
+    } else {
+        short.to_string()
+    }
+}
+
+/// The largest font size up to `font` px at which `text` is estimated to fit in `px` pixels,
+/// but at least `min` (below that the text is clipped rather than made unreadable).
+pub fn fitted_font(text: &str, font: f64, min: f64, px: f64) -> f64 {
+    let width = estimated_width(text, font);
+    if width <= px {
+        font
+    } else {
+        // One decimal, rounded down, so the SVG stays short and the text inside `px`.
+        ((font * px / width * 10.0).floor() / 10.0).max(min)
+    }
+}
+
 /// Estimated width in pixels of a number drawn at `font` (DejaVu Sans, the usual `sans-serif`,
 /// has digits 0.64 em wide).
 pub fn text_width(text: &str, font: u32) -> f64 {
@@ -277,7 +307,12 @@ pub fn draw_minor_ticks<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Draws the title and a subtitle, centred, in the top `HEADER_HEIGHT` pixels of `area`.
+/// Room for a header line: the figure's width less 20 px on each side.
+const HEADER_TEXT_WIDTH: f64 = (WIDTH - 40) as f64;
+
+/// Draws the title (25 px) and a subtitle (18 px), centred, in the top `HEADER_HEIGHT` pixels of
+/// `area`. A line too wide for the figure is drawn smaller, down to 60% of its size
+/// ([`fitted_font`]), rather than clipped at both ends.
 pub fn draw_header<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: &str,
@@ -285,15 +320,20 @@ pub fn draw_header<DB: DrawingBackend>(
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let centre = (WIDTH / 2) as i32;
     let top = Pos::new(HPos::Center, VPos::Top);
+    let title_font = fitted_font(title, 25.0, 15.0, HEADER_TEXT_WIDTH);
     area.draw(&Text::new(
         title.to_string(),
         (centre, 10),
-        (FONT, 25).into_font().color(&BLACK).pos(top),
+        (FONT, title_font).into_font().color(&BLACK).pos(top),
     ))?;
+    let subtitle_font = fitted_font(subtitle, 18.0, 10.8, HEADER_TEXT_WIDTH);
     area.draw(&Text::new(
         subtitle.to_string(),
         (centre, 38),
-        (FONT, 18).into_font().color(&RGBColor(70, 70, 70)).pos(top),
+        (FONT, subtitle_font)
+            .into_font()
+            .color(&RGBColor(70, 70, 70))
+            .pos(top),
     ))?;
     Ok(())
 }
@@ -365,10 +405,9 @@ fn legend_rows(entries: &[LegendEntry]) -> (usize, usize) {
     (narrow.div_ceil(columns), columns)
 }
 
-/// Estimated width in pixels of legend text (DejaVu Sans letters, spaces and digits average
-/// ~0.55 em; a little over, so that estimated lines never run past the frame).
+/// Estimated width in pixels of legend text (see [`estimated_width`]).
 fn legend_text_width(text: &str) -> f64 {
-    text.chars().count() as f64 * 0.55 * em(LEGEND_FONT)
+    estimated_width(text, LEGEND_FONT as f64)
 }
 
 /// The lines of a wide entry: words wrapped so that no line is estimated wider than the legend.
@@ -530,6 +569,39 @@ pub fn signed(x: f64, decimals: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A title that fits keeps its size; one that does not is drawn smaller, so that it is
+    /// estimated to fit, but never below the minimum (regression: two experiment titles were
+    /// clipped at both ends of their plots).
+    #[test]
+    fn header_lines_shrink_to_fit_the_figure() {
+        let room = HEADER_TEXT_WIDTH;
+        let short = "MC vs BMC vs BMCP on cos³θ over the hemisphere";
+        assert_eq!(fitted_font(short, 25.0, 15.0, room), 25.0);
+        let long = "cos³θ and a tilted Gaussian: i.i.d. uniform points against symmetric rings \
+                    (J rings of M azimuths)";
+        let font = fitted_font(long, 25.0, 15.0, room);
+        assert!((15.0..25.0).contains(&font), "{font}");
+        assert!(estimated_width(long, font) <= room);
+        assert_eq!(fitted_font(&"x".repeat(1000), 25.0, 15.0, room), 15.0);
+        // In the SVG: plotters writes size / 1.24.
+        let svg = svg_figure(long, "s", 100, &[], |_, _| Ok(())).unwrap();
+        assert!(svg.contains(&format!("font-size=\"{}\"", font / 1.24)), "{svg}");
+        assert!(!svg.contains(&format!("font-size=\"{}\"", 25.0 / 1.24)), "{svg}");
+        let svg = svg_figure(short, "s", 100, &[], |_, _| Ok(())).unwrap();
+        assert!(svg.contains(&format!("font-size=\"{}\"", 25.0 / 1.24)), "{svg}");
+    }
+
+    #[test]
+    fn axis_labels_fall_back_to_the_short_form_when_too_long() {
+        let full = "absolute error |Î − I| of ∫ cos³θ dω  [sr]".to_string();
+        assert_eq!(fitting_label(full.clone(), "short", AXIS_FONT, 500.0), full);
+        let long = format!(
+            "absolute error |Î − I| of ∫ {} dω  [sr]",
+            "pixel (128, 168) ".repeat(4)
+        );
+        assert_eq!(fitting_label(long, "short", AXIS_FONT, 500.0), "short");
+    }
 
     #[test]
     fn error_axes_label_decades_and_keep_the_rest_minor() {

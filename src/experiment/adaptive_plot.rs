@@ -168,11 +168,26 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
         &legend,
         |root, area| {
             let (upper, lower) = area.split_vertically(CHART_HEIGHT / 2);
-            // No minor ticks here (unlike `log_log_chart`): the shipped figure has none.
+            // Minor ticks on the log axes, as `log_log_chart` draws them: the tolerances sit
+            // between the labelled decades.
             let mut top = style::chart_on(&upper, x.log_coord(), used_axis.log_coord())?;
             style::draw_mesh(&mut top, &x, &used_axis)?;
+            style::chart_minor_ticks(
+                root,
+                &top,
+                &x.ticks.minor,
+                &used_axis.ticks.minor,
+                (x.range.0, used_axis.range.0),
+            )?;
             let mut bottom = style::chart_on(&lower, x.log_coord(), share_axis.linear_coord())?;
             style::draw_mesh(&mut bottom, &x, &share_axis)?;
+            style::chart_minor_ticks(
+                root,
+                &bottom,
+                &x.ticks.minor,
+                &[],
+                (x.range.0, share_axis.range.0),
+            )?;
             style::draw_level_band(&mut bottom, x.range, share_axis.range, (band_lo, band_hi), LEVEL)?;
             for (i, s) in series.iter().enumerate() {
                 let colour = style::colour(i);

@@ -43,7 +43,12 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     );
     let y = Axis::log_values(
         style::padded_log_range(&ys, 1.5),
-        format!("mean absolute error |Î − I| of ∫ {name} dω  [sr]"),
+        style::fitting_label(
+            format!("mean absolute error |Î − I| of ∫ {name} dω  [sr]"),
+            "mean absolute error |Î − I|  [sr]",
+            style::AXIS_FONT,
+            style::plot_height(CHART_HEIGHT),
+        ),
     );
 
     let mut legend: Vec<LegendEntry> = plan

@@ -85,6 +85,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         |root, area| {
             let mut chart = style::chart_on(area, x.log_coord(), y.linear_coord())?;
             style::draw_mesh(&mut chart, &x, &y)?;
+            // The N grid's unlabelled values (a dense grid labels every s-th), as in the error plot.
+            style::chart_minor_ticks(root, &chart, &x.ticks.minor, &[], (x.range.0, y.range.0))?;
             style::draw_level_band(&mut chart, x.range, y.range, (band_lo, band_hi), LEVEL)?;
             for (ei, s) in series.iter().enumerate() {
                 if s.is_empty() {

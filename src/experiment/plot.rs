@@ -128,7 +128,17 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     let (y0, y1) = style::padded_log_range(&drawn, 1.5);
     let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
     let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
-    let y = Axis::log_values((y0, y1), format!("absolute error |Î − I| of ∫ {name} dω  [sr]"));
+    // The integrand's name on the axis when it fits (cos³θ), else only in the subtitle (a
+    // render-scene pixel's name runs past the chart).
+    let y = Axis::log_values(
+        (y0, y1),
+        style::fitting_label(
+            format!("absolute error |Î − I| of ∫ {name} dω  [sr]"),
+            "absolute error |Î − I|  [sr]",
+            style::AXIS_FONT,
+            style::plot_height(CHART_HEIGHT),
+        ),
+    );
 
     let mut legend: Vec<LegendEntry> = plan
         .estimators
@@ -169,10 +179,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
 
     style::svg_figure(
         &plan.title,
-        &format!(
-            "integrand {name}: ∫ {name} dω = {truth:.6} sr; {} trials per N",
-            plan.trials
-        ),
+        &subtitle(&name, truth, plan.trials),
         CHART_HEIGHT,
         &legend,
         |root, area| {
@@ -221,10 +228,37 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     )
 }
 
+/// The error plot's subtitle: `integrand f: ∫ f dω = I sr; T trials per N`, or, when a long
+/// name (a render-scene pixel) would make that run past the figure, the name once:
+/// `integrand f; integral I sr; T trials per N`.
+fn subtitle(name: &str, truth: f64, trials: usize) -> String {
+    let full = format!("integrand {name}: ∫ {name} dω = {truth:.6} sr; {trials} trials per N");
+    if style::estimated_width(&full, 18.0) <= (style::WIDTH - 40) as f64 {
+        full
+    } else {
+        format!("integrand {name}; integral {truth:.6} sr; {trials} trials per N")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::experiment::fit::SlopeFit;
+
+    /// A short integrand name appears in the integral; a render-scene pixel's is named once,
+    /// so the subtitle fits the figure.
+    #[test]
+    fn subtitles_name_a_long_integrand_once() {
+        let s = subtitle("cos³θ", std::f64::consts::FRAC_PI_2, 300);
+        assert_eq!(s, "integrand cos³θ: ∫ cos³θ dω = 1.570796 sr; 300 trials per N");
+        let name = "pixel (128, 168) of 256×256, sphere, sky, g";
+        let s = subtitle(name, 0.046001, 300);
+        assert_eq!(s.matches(name).count(), 1, "{s}");
+        assert!(
+            style::estimated_width(&s, 18.0) <= (style::WIDTH - 40) as f64,
+            "{s}"
+        );
+    }
 
     #[test]
     fn runs_split_at_gaps() {

@@ -25,6 +25,12 @@ pub const Y_LABEL_AREA: u32 = 84;
 /// Width in pixels of a chart's plotting area (what [`super::count_ticks`] spaces labels over).
 pub const PLOT_WIDTH: f64 = (WIDTH - MARGIN_LEFT - MARGIN_RIGHT - Y_LABEL_AREA) as f64;
 
+/// The plotting area's height in a chart area `chart_height` pixels high: the room for the y
+/// axis's description.
+pub fn plot_height(chart_height: u32) -> f64 {
+    chart_height.saturating_sub(MARGIN_TOP + X_LABEL_AREA) as f64
+}
+
 /// The error of a drawing: plotters' own, or a caller's.
 pub type FigureResult<T> = Result<T, Box<dyn std::error::Error>>;
 
