@@ -159,6 +159,65 @@ fn the_command_writes_the_spp_map() {
     }
 }
 
+/// An adaptive render against a reference of another size is refused before rendering, with
+/// exit 2, one line naming both sizes, and nothing written (the fixed-spp path has the same
+/// check in `tests/render_cli.rs`).
+#[test]
+fn an_adaptive_render_refuses_a_reference_of_another_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = workbench(
+        dir.path(),
+        &[
+            "render",
+            "--integrator",
+            "mc",
+            "--spp",
+            "4",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--out",
+            "ref.exr",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = workbench(
+        dir.path(),
+        &[
+            "render",
+            "--integrator",
+            "bmc",
+            "--target-sd",
+            "0.05",
+            "--max-spp",
+            "16",
+            "--spp",
+            "4",
+            "--width",
+            "20",
+            "--height",
+            "14",
+            "--reference",
+            "ref.exr",
+            "--out",
+            "a.exr",
+            "-q",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("--reference") && err.contains("8×6") && err.contains("20×14"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    for f in ["a.exr", "a.png", "a-spp.png", "a-error.png"] {
+        assert!(!dir.path().join(f).exists(), "{f} was written");
+    }
+}
+
 /// Bad adaptive options: one line naming the flag, exit 2, nothing written.
 #[test]
 fn bad_adaptive_options_are_exit_2() {
