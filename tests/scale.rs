@@ -260,6 +260,91 @@ fn resume_continues_a_cut_unit_log_to_the_same_files() {
     );
 }
 
+/// A spec whose BMC weight sets warn (MC kernel means from 8 directions make `V̂ − zᵀQ⁻¹z`
+/// negative in most of them).
+const WARNING: &str = r#"{
+  "name": "warn",
+  "title": "warnings",
+  "integrands": ["cos3"],
+  "estimators": [
+    { "label": "MC", "method": "mc" },
+    { "label": "BMC", "method": "bmc", "kernel_mean": "mc", "kernel_mean_samples": 8 }
+  ],
+  "samples": [8, 32],
+  "trials": 6,
+  "seed": 3
+}"#;
+
+/// The sum of the `warnings` column of a unit log's (or trials.csv's) rows.
+fn row_warnings(csv: &str, header_lines: usize) -> u64 {
+    let mut lines = csv.lines().skip(header_lines - 1);
+    let columns: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = columns
+        .iter()
+        .position(|c| *c == "warnings")
+        .expect("a warnings column");
+    lines
+        .map(|l| l.split(',').nth(at).unwrap().parse::<u64>().unwrap())
+        .sum()
+}
+
+/// The warnings of units done before an interruption are not lost on `--resume`, nor those of
+/// shards on `merge`: the messages were printed when those units ran, and the resumed or
+/// merged run says how many warnings their trial rows hold.
+#[test]
+fn resume_and_merge_report_the_warnings_of_units_run_before() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("warn.json"), WARNING).unwrap();
+    ok(&workbench(
+        d,
+        &["run", "warn.json", "-q", "--shard", "1/1", "--out", "whole"],
+    ));
+    let log = std::fs::read_to_string(d.join("whole/units.csv")).unwrap();
+    let lines: Vec<&str> = log.lines().collect();
+    // Two header lines, then two rows (MC, BMC) per unit: keep 8 of the 12 units.
+    let cut: String = lines[..2 + 8 * 2].iter().map(|l| format!("{l}\n")).collect();
+    let before = row_warnings(&cut, 2);
+    assert!(
+        before > 0,
+        "the kept units must warn for this test to mean anything"
+    );
+    std::fs::create_dir(d.join("resumed")).unwrap();
+    std::fs::write(d.join("resumed/trials.partial.csv"), &cut).unwrap();
+    let o = workbench(d, &["run", "warn.json", "-q", "--resume", "--out", "resumed"]);
+    ok(&o);
+    let err = stderr(&o);
+    assert!(
+        err.contains(&format!("the resumed units' trial rows hold {before} warning(s)")),
+        "{err}"
+    );
+
+    for i in 1..=2 {
+        let shard = format!("{i}/2");
+        ok(&workbench(
+            d,
+            &[
+                "run",
+                "warn.json",
+                "-q",
+                "--shard",
+                &shard,
+                "--out",
+                &format!("s{i}"),
+            ],
+        ));
+    }
+    let o = workbench(d, &["merge", "merged", "s1", "s2", "-q"]);
+    ok(&o);
+    let total = row_warnings(&std::fs::read_to_string(d.join("merged/trials.csv")).unwrap(), 1);
+    assert!(total > before, "{total} vs {before}");
+    let err = stderr(&o);
+    assert!(
+        err.contains(&format!("the shards' trial rows hold {total} warning(s)")),
+        "{err}"
+    );
+}
+
 /// A real interruption: the run is killed while its log grows, then resumed.
 #[test]
 fn a_killed_run_resumes_without_redoing_its_finished_units() {

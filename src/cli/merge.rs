@@ -41,9 +41,18 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         warnings: Vec::new(),
         shard: ex::unit_log::Shard::WHOLE,
         resumed: 0,
+        resumed_row_warnings: 0,
         units: plan.samples.len() * plan.trials,
     };
     stdout(&ex::format_report(&plan, &report))?;
+    // Each shard printed its weight sets' messages when it ran; the merge has only the counts.
+    let row_warnings: u64 = report.cells.iter().map(|c| c.warnings).sum();
+    if row_warnings > 0 {
+        status!(
+            "warning: the shards' trial rows hold {row_warnings} warning(s) (counted in \
+             summary.csv's warnings column; each shard printed their messages when it ran)"
+        );
+    }
     status!(
         "merged {} shards into {} ({:.2} s)",
         merged.shards,

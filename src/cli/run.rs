@@ -77,6 +77,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             report.units
         );
     }
+    if report.resumed_row_warnings > 0 {
+        status!(
+            "warning: the resumed units' trial rows hold {} warning(s) from before the interruption \
+             (counted in summary.csv's warnings column; the interrupted run printed their messages)",
+            report.resumed_row_warnings
+        );
+    }
     for (message, count) in &report.warnings {
         status!("warning: {count} weight set(s): {message}");
     }

@@ -94,6 +94,9 @@ pub struct RunReport {
     pub shard: unit_log::Shard,
     /// Units found done in the unit log (`--resume`), and units in the run (or shard).
     pub resumed: usize,
+    /// Warnings in the trial rows of the resumed units (the `warnings` column; their messages
+    /// were printed by the interrupted run and are not kept).
+    pub resumed_row_warnings: u64,
     pub units: usize,
 }
 
@@ -155,12 +158,14 @@ pub fn run_plan(
     let identity = unit_log::Identity::new(plan, shard);
     let mut summary = overrides.shard.is_none().then(|| summary::Accumulator::new(plan));
     let log_path = folder.partial_path(unit_log::PARTIAL_LOG)?;
+    let mut resumed_row_warnings = 0u64;
     let (mut log, resumed) = unit_log::open(
         &log_path,
         plan,
         &identity,
         overrides.resume,
         &mut |_, fi, ei, ni, v| {
+            resumed_row_warnings += u64::from(v.warnings);
             if let Some(s) = summary.as_mut() {
                 s.push(fi, ei, ni, v);
             }
@@ -254,6 +259,7 @@ pub fn run_plan(
         warnings,
         shard,
         resumed,
+        resumed_row_warnings,
         units,
     })
 }
