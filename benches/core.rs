@@ -4,6 +4,8 @@
 //! Run: `cargo bench --bench core`. Prints the median of repeated runs; the factorisation's
 //! rate counts N³/3 flops.
 
+mod common;
+use common::median_seconds;
 use std::hint::black_box;
 use std::time::Instant;
 use workbench::geometry::Vec3;
@@ -12,18 +14,6 @@ use workbench::kernel_mean::KernelMeanTable;
 use workbench::linalg::SpdWorkspace;
 use workbench::rng::stream;
 use workbench::sampling::Design;
-
-fn median_seconds(reps: usize, mut f: impl FnMut()) -> f64 {
-    let mut t: Vec<f64> = (0..reps)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed().as_secs_f64()
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[reps / 2]
-}
 
 fn main() {
     let kernel = Kernel::Sobolev(Sobolev::new(1.4).unwrap());

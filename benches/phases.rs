@@ -9,6 +9,8 @@
 //! `cargo bench --bench core`), times 300. What the run does besides (MC, estimates, statistics,
 //! CSV, plots) is the whole run's CPU less this sum.
 
+mod common;
+use common::median_seconds;
 use std::hint::black_box;
 use std::time::Instant;
 use workbench::geometry::Vec3;
@@ -30,18 +32,6 @@ struct Phases {
     assembly: f64,
     factorisation: f64,
     solves: f64,
-}
-
-fn median_seconds(reps: usize, mut f: impl FnMut()) -> f64 {
-    let mut t: Vec<f64> = (0..reps)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed().as_secs_f64()
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[reps / 2]
 }
 
 /// The points of trial `trial` at `n`: the run draws from its own streams, so these are other
