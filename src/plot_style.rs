@@ -44,9 +44,15 @@ pub fn colour(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
 }
 
-/// Number of distinct marker shapes. Series `i` gets shape `(i + ⌊i/7⌋) mod 7` and colour
-/// `i mod 9`, so two series share both only 63 apart.
+/// Number of distinct marker shapes. Series `i` gets shape `(i + ⌊i/9⌋) mod 7` and colour
+/// `i mod 9`, so two series share both only 63 apart (nine apart they share the colour, and the
+/// shape moves by three).
 pub const MARKERS: usize = 7;
+
+/// The marker shape of series `i` (see [`MARKERS`]).
+fn marker_shape(i: usize) -> usize {
+    (i + i / PALETTE.len()) % MARKERS
+}
 
 /// Draws the marker of series `i` centred on pixel `at` of `area`: filled circle, filled
 /// triangle, ×, open circle, filled square, filled diamond, open square. Shapes differ as well
@@ -64,7 +70,7 @@ pub fn draw_marker<DB: DrawingBackend>(
     let stroke = colour.stroke_width(2);
     // Open shapes get a white inside so that a band or line behind them does not show through.
     let white = WHITE.filled();
-    match (i + i / MARKERS) % MARKERS {
+    match marker_shape(i) {
         0 => area.draw(&Circle::new(at, 4, fill)),
         1 => area.draw(&TriangleMarker::new(at, 6, fill)),
         2 => area.draw(&Cross::new(at, 4, stroke)),
@@ -170,10 +176,44 @@ fn em(font: u32) -> f64 {
     font as f64 / 1.24
 }
 
-/// Estimated width in pixels of words drawn at `font` px (DejaVu Sans letters, spaces and
-/// digits average ~0.55 em; a little over, so that estimated lines never run past their room).
+/// DejaVu Sans advance widths, in em, of ASCII ' ' … '~' (read from the font's `hmtx` table;
+/// DejaVu Sans is what `sans-serif` resolves to on this machine and most Linux systems, and is
+/// wider than Helvetica or Arial, so other viewers have room to spare).
+// 0.318 em (a period, a comma) is a font width, not 1/π.
+#[allow(clippy::approx_constant)]
+const ASCII_EM: [f64; 95] = [
+    0.318, 0.401, 0.460, 0.838, 0.636, 0.950, 0.780, 0.275, 0.390, 0.390, 0.500, 0.838, 0.318, 0.361, 0.318,
+    0.337, 0.636, 0.636, 0.636, 0.636, 0.636, 0.636, 0.636, 0.636, 0.636, 0.636, 0.337, 0.337, 0.838, 0.838,
+    0.838, 0.531, 1.000, 0.684, 0.686, 0.698, 0.770, 0.632, 0.575, 0.775, 0.752, 0.295, 0.295, 0.656, 0.557,
+    0.863, 0.748, 0.787, 0.603, 0.787, 0.695, 0.635, 0.611, 0.732, 0.684, 0.989, 0.685, 0.611, 0.685, 0.390,
+    0.337, 0.390, 0.838, 0.500, 0.500, 0.613, 0.635, 0.550, 0.635, 0.615, 0.352, 0.635, 0.634, 0.278, 0.278,
+    0.579, 0.278, 0.974, 0.634, 0.612, 0.635, 0.635, 0.411, 0.521, 0.392, 0.634, 0.592, 0.818, 0.592, 0.592,
+    0.525, 0.636, 0.337, 0.636, 0.838,
+];
+
+/// The advance width of `c` in em: [`ASCII_EM`], the symbols the plots use, and a wide default.
+#[allow(clippy::approx_constant)]
+fn char_em(c: char) -> f64 {
+    match c {
+        ' '..='~' => ASCII_EM[c as usize - ' ' as usize],
+        '·' | 'Î' => 0.318,
+        '²' | '³' | '₀' | '₁' => 0.401,
+        '°' | '–' => 0.5,
+        '∫' => 0.521,
+        'λ' | 'σ' => 0.592,
+        'θ' => 0.612,
+        '∝' => 0.714,
+        '±' | '×' | '−' | '≤' | '≥' | 'ω' => 0.838,
+        '—' => 1.0,
+        _ => 0.9,
+    }
+}
+
+/// Estimated width in pixels of `text` drawn at `font` px: its DejaVu Sans advance widths
+/// ([`char_em`]) plus 3% (kerning, hinting). Decides whether a header line or an axis
+/// description fits; the legend keeps its own rougher rule.
 pub fn estimated_width(text: &str, font: f64) -> f64 {
-    text.chars().count() as f64 * 0.55 * font / 1.24
+    1.03 * text.chars().map(char_em).sum::<f64>() * font / 1.24
 }
 
 /// `full` if it is estimated to fit in `px` pixels at `font` px, else `short`: for axis
@@ -193,7 +233,7 @@ pub fn fitted_font(text: &str, font: f64, min: f64, px: f64) -> f64 {
     if width <= px {
         font
     } else {
-        // One decimal, rounded down, so the SVG stays short and the text inside `px`.
+        // Rounded down to a tenth of a pixel, so that the text stays inside `px`.
         ((font * px / width * 10.0).floor() / 10.0).max(min)
     }
 }
@@ -405,9 +445,10 @@ fn legend_rows(entries: &[LegendEntry]) -> (usize, usize) {
     (narrow.div_ceil(columns), columns)
 }
 
-/// Estimated width in pixels of legend text (see [`estimated_width`]).
+/// Estimated width in pixels of legend text (DejaVu Sans letters, spaces and digits average
+/// ~0.55 em; a little over, so that estimated lines never run past the frame).
 fn legend_text_width(text: &str) -> f64 {
-    estimated_width(text, LEGEND_FONT as f64)
+    text.chars().count() as f64 * 0.55 * em(LEGEND_FONT)
 }
 
 /// The lines of a wide entry: words wrapped so that no line is estimated wider than the legend.
@@ -590,6 +631,18 @@ mod tests {
         assert!(!svg.contains(&format!("font-size=\"{}\"", 25.0 / 1.24)), "{svg}");
         let svg = svg_figure(short, "s", 100, &[], |_, _| Ok(())).unwrap();
         assert!(svg.contains(&format!("font-size=\"{}\"", 25.0 / 1.24)), "{svg}");
+    }
+
+    /// No two of the first 63 series share both colour and marker (the [`MARKERS`] claim).
+    #[test]
+    fn series_differ_in_colour_or_marker_for_63_series() {
+        let style = |i: usize| (colour(i), marker_shape(i));
+        for i in 0..63 {
+            for j in i + 1..63 {
+                assert_ne!(style(i), style(j), "series {i} and {j}");
+            }
+        }
+        assert_eq!(style(0), style(63));
     }
 
     #[test]

@@ -146,7 +146,7 @@ mod tests {
         for k in kernels() {
             let pts = Design::Uniform.sample_set(67, &mut rng);
             let soa = PointsSoa::new(&pts);
-            for j in [0, 5, 66] {
+            for j in [0, 5, 50, 66] {
                 let mut col = vec![0.0; 67 - j];
                 k.fill_column(&soa, j, j, &mut col);
                 for (i, v) in col.iter().enumerate() {
@@ -184,6 +184,10 @@ mod tests {
         }
     }
 }
+
+/// Below this many entries a Sobolev column is filled lane by lane, not in staged blocks
+/// (measured: the blocks win from about 24 on).
+const SHORT_COLUMN: usize = 24;
 
 /// `dx² + dy² + dz²` with two fused multiply–adds (one rounding each), the same in the scalar
 /// and the vectorised paths.
@@ -265,6 +269,15 @@ impl Kernel {
         let end = start + out.len();
         let (xs, ys, zs) = (&pts.x[start..end], &pts.y[start..end], &pts.z[start..end]);
         match self {
+            // Short columns (ring solver rows, small weight sets, the first columns of every
+            // set) lane by lane: the staged blocks below cost ~50 ns a call whatever the
+            // length, more than a short column takes this way. Same bits either way.
+            Kernel::Sobolev(k) if out.len() < SHORT_COLUMN => {
+                for i in 0..out.len() {
+                    let (dx, dy, dz) = (xs[i] - qx, ys[i] - qy, zs[i] - qz);
+                    out[i] = k.constant() - fast_pow::pow_inline(squared_norm(dx, dy, dz), k.half_exponent());
+                }
+            }
             Kernel::Sobolev(k) => {
                 // Blocks of B lanes through the staged `pow_block` (see there for why); the
                 // last block computes its lanes rounded up to a whole vector (the padding lanes
