@@ -322,10 +322,7 @@ pub fn bmc_weights(
     // Column by column over structure-of-arrays points, so the kernel loop vectorises.
     let soa = crate::kernel::PointsSoa::new(points);
     // Assembled straight into the factor's buffer (no copy of Q is kept).
-    let FactorInfo {
-        jitter,
-        condition_estimate,
-    } = workspace.factor_with(n, |j, col| {
+    let info = workspace.factor_with(n, |j, col| {
         kernel.fill_column(&soa, j, j, col);
         col[0] = diag;
     })?;
@@ -334,16 +331,7 @@ pub fn bmc_weights(
     // One more O(N²) solve, for Bayes–Sard and its residuals.
     let mut ones_solve = vec![1.0; n];
     workspace.solve_in_place(&mut ones_solve);
-    Ok(with_diagnostics(
-        weights,
-        ones_solve,
-        FactorInfo {
-            jitter,
-            condition_estimate,
-        },
-        z,
-        prior_variance,
-    ))
+    Ok(with_diagnostics(weights, ones_solve, info, z, prior_variance))
 }
 
 /// The weights on a ring set ([`crate::sampling::rings`]) by the `J × J` solve of
@@ -375,8 +363,9 @@ pub fn bmc_weights_on_rings(
     Ok(with_diagnostics(weights, ones_solve, info, z, prior_variance))
 }
 
-/// Weights and `u = Q⁻¹1` with their diagnostics and warnings.
-fn with_diagnostics(
+/// Weights and `u = Q⁻¹1` with their diagnostics and warnings (for every factorisation: dense,
+/// ring, and the nested one of [`crate::sequential`]).
+pub(crate) fn with_diagnostics(
     weights: Vec<f64>,
     ones_solve: Vec<f64>,
     info: FactorInfo,

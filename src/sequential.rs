@@ -15,10 +15,10 @@
 //! small feature the interval is too narrow, and the rule stops too early; a fitted amplitude
 //! of 0 (every residual 0) stops at the first stage.
 
-use crate::bmc::{BmcModel, BmcWeights, Diagnostics, NumericalWarning, Scale};
+use crate::bmc::{BmcModel, BmcWeights, Diagnostics, Scale};
 use crate::estimator::{Method, Uncertainty};
 use crate::geometry::Vec3;
-use crate::linalg::{ILL_CONDITIONED, NotPositiveDefinite};
+use crate::linalg::NotPositiveDefinite;
 use crate::nested_cholesky::NestedCholesky;
 use crate::sampling::Design;
 
@@ -300,42 +300,9 @@ pub fn weighted_together(
 /// `w = Q⁻¹z`, `u = Q⁻¹1` and the diagnostics of the factored stage (as
 /// [`crate::bmc::bmc_weights`] computes them from a full factorisation).
 fn stage_weights(factor: &NestedCholesky, z: &[f64], prior_variance: f64) -> BmcWeights {
-    let n = z.len();
     let mut weights = z.to_vec();
     factor.solve_in_place(&mut weights);
-    let mut ones_solve = vec![1.0; n];
+    let mut ones_solve = vec![1.0; z.len()];
     factor.solve_in_place(&mut ones_solve);
-    let info = factor.info();
-    let mut warnings = Vec::new();
-    if info.jitter > 0.0 {
-        warnings.push(NumericalWarning::Jitter { amount: info.jitter });
-    }
-    if info.condition_estimate > ILL_CONDITIONED {
-        warnings.push(NumericalWarning::IllConditioned {
-            estimate: info.condition_estimate,
-        });
-    }
-    let posterior_variance = prior_variance - z.iter().zip(&weights).map(|(a, b)| a * b).sum::<f64>();
-    if posterior_variance < 0.0 {
-        warnings.push(NumericalWarning::NegativePosteriorVariance {
-            value: posterior_variance,
-        });
-    }
-    let diagnostics = Diagnostics {
-        n,
-        weight_sum: weights.iter().sum(),
-        negative_weights: weights.iter().filter(|&&w| w < 0.0).count(),
-        min_weight: weights.iter().copied().fold(f64::INFINITY, f64::min),
-        max_weight: weights.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        jitter: info.jitter,
-        condition_estimate: info.condition_estimate,
-        prior_variance,
-        posterior_variance,
-        warnings,
-    };
-    BmcWeights {
-        weights,
-        ones_solve,
-        diagnostics,
-    }
+    crate::bmc::with_diagnostics(weights, ones_solve, factor.info(), z, prior_variance)
 }
