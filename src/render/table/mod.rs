@@ -171,19 +171,12 @@ impl runner::TableSink for FileSink<'_> {
             &format!("the first render of {label} at {spp} spp, tone-mapped"),
             &image.to_png()?,
         )?;
-        let error = image.error_png(
-            self.reference,
-            crate::render::image::ErrorScale::Absolute,
-            crate::render::image::DEFAULT_ERROR_MAX,
-            crate::render::image::ColourMap::Viridis,
-        )?;
-        self.folder.write(
+        write_error_png(
+            self.folder,
             &error_png_name(label, spp),
-            &format!(
-                "its error image: ‖render − reference‖₂ per pixel, 0–{} (thesis Fig. 3.14, 4.3)",
-                crate::render::image::DEFAULT_ERROR_MAX
-            ),
-            &error.png,
+            " (thesis Fig. 3.14, 4.3)",
+            image,
+            self.reference,
         )
     }
 
@@ -191,6 +184,30 @@ impl runner::TableSink for FileSink<'_> {
         self.folder
             .write_partial("rmse.partial.csv", &export::rmse_csv(self.plan, rows))
     }
+}
+
+/// Writes `image`'s error image against `reference` as `name`: `‖render − reference‖₂` per
+/// pixel on the absolute scale up to [`crate::render::image::DEFAULT_ERROR_MAX`], viridis — what
+/// both kinds of table save beside a cell's first render (`note` ends the description).
+fn write_error_png(
+    folder: &mut ResultFolder,
+    name: &str,
+    note: &str,
+    image: &Image,
+    reference: &Image,
+) -> crate::Result<()> {
+    use crate::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale};
+    let error = image.error_png(
+        reference,
+        ErrorScale::Absolute,
+        DEFAULT_ERROR_MAX,
+        ColourMap::Viridis,
+    )?;
+    folder.write(
+        name,
+        &format!("its error image: ‖render − reference‖₂ per pixel, 0–{DEFAULT_ERROR_MAX}{note}"),
+        &error.png,
+    )
 }
 
 /// A human-readable account of a table plan (for `validate`), followed by the resolved JSON.

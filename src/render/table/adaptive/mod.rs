@@ -15,7 +15,7 @@ pub mod summary;
 
 use crate::output_set::ResultFolder;
 use crate::render::adaptive::AdaptiveImage;
-use crate::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image};
+use crate::render::image::{ColourMap, ErrorScale, Image};
 use crate::render::renderer::Renderer;
 use crate::render::table::plan::{TablePlan, png_name};
 use crate::report::Reporter;
@@ -123,16 +123,12 @@ impl runner::AdaptiveSink for FileSink<'_> {
             &map.error_png(&black, ErrorScale::Absolute, max_spp as f64, ColourMap::Viridis)?
                 .png,
         )?;
-        let error = image.image.error_png(
-            self.reference,
-            ErrorScale::Absolute,
-            DEFAULT_ERROR_MAX,
-            ColourMap::Viridis,
-        )?;
-        self.folder.write(
+        super::write_error_png(
+            self.folder,
             &adaptive_png_name(label, target, "-error"),
-            &format!("its error image: ‖render − reference‖₂ per pixel, 0–{DEFAULT_ERROR_MAX}"),
-            &error.png,
+            "",
+            &image.image,
+            self.reference,
         )
     }
 
