@@ -10,7 +10,7 @@ use std::time::Instant;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
-use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image};
+use workbench::render::image::{ColourMap, ErrorScale};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::{Environment, Renderer, check_size};
 use workbench::report::Reporter;
@@ -108,13 +108,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let gps = args.gps.unwrap_or(DEFAULT_GPS);
     check_gps(gps, "--gps")?;
     let out = args.out;
-    if out.extension().and_then(|e| e.to_str()) != Some("exr") {
-        return Err(InputError::new(format!(
-            "--out {}: the linear image is OpenEXR; use a name ending in .exr",
-            out.display()
-        ))
-        .into());
-    }
+    super::render::check_exr_out(out)?;
     check_size(args.width, args.height)?;
     let png = sibling_png(out, "");
     let spp_png = sibling_png(out, "-spp");
@@ -125,36 +119,15 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         ("--out (its spp map)", &spp_png),
         ("--out (its error image)", &error_png),
     ];
-    let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
-    if let Some(r) = args.reference {
-        inputs.push(("--reference", r));
-    }
-    if !matches!(args.env, "sky" | "white") {
-        inputs.push(("--env", std::path::Path::new(args.env)));
-    }
-    workbench::io::check_distinct(&outputs, &inputs)?;
-    for (flag, path) in &outputs {
-        workbench::io::check_name_length(flag, path)?;
-    }
-    let error_max = args.error_max.unwrap_or(DEFAULT_ERROR_MAX);
-    if !(error_max.is_finite() && error_max > 0.0) {
-        return Err(InputError::new(format!("--error-max: must be finite and > 0, got {error_max}")).into());
-    }
+    super::render::check_outputs_apart(&outputs, args.reference.map(PathBuf::as_path), args.env)?;
+    let error_max = super::render::check_error_max(args.error_max)?;
     let env = Environment::from_arg(args.env)?;
-    let dir = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    workbench::io::check_writable_dir(&dir)?;
-    let reference = match args.reference {
-        Some(path) => Some(Image::read_reference(
-            path,
-            "--reference",
-            args.width,
-            args.height,
-        )?),
-        None => None,
-    };
+    super::render::check_out_dir_writable(out)?;
+    let reference = super::render::read_optional_reference(
+        args.reference.map(PathBuf::as_path),
+        args.width,
+        args.height,
+    )?;
     let renderer = Renderer::new(args.width, args.height, env);
     let model = if kind.uses_sets() {
         Some(args.model.build()?)
@@ -212,7 +185,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         }
         None => files.remove_stale(&error_png),
     }
-    files.commit()?;
+    super::render::commit_and_report_removed(files)?;
     status!(
         "render: {kind} adaptive, target sd {target_sd:e}, stages {}…{} spp, {}×{}: {seconds:.3} s (sample sets + \
          render) → {}, {}, {}",
