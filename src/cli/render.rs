@@ -393,6 +393,18 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The first option given that only integrators with weights use (`--gps`, `--no-rotate`, the
+/// model's), if any: an error with MC rather than silently ignored.
+pub(super) fn weight_option_given(
+    gps: Option<usize>,
+    no_rotate: bool,
+    model: &ModelArgs,
+) -> Option<&'static str> {
+    gps.map(|_| "--gps")
+        .or(no_rotate.then_some("--no-rotate"))
+        .or(model.given())
+}
+
 /// `--out` names the linear image, which is OpenEXR.
 pub(super) fn check_exr_out(out: &Path) -> Result<(), InputError> {
     if out.extension().and_then(|e| e.to_str()) == Some("exr") {
@@ -555,12 +567,7 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
     }
     if kind.is_some_and(|k| !k.uses_sets()) {
         // Options of the BMC integrators are errors with MC, not silently ignored.
-        let given = args
-            .gps
-            .map(|_| "--gps")
-            .or(args.no_rotate.then_some("--no-rotate"))
-            .or(args.model.given());
-        if let Some(flag) = given {
+        if let Some(flag) = weight_option_given(args.gps, args.no_rotate, &args.model) {
             return Err(InputError::new(format!(
                 "{flag}: applies to the integrators with weights ({}), not {}",
                 IntegratorKind::all()

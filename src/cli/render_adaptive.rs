@@ -92,15 +92,10 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         ))
         .into());
     }
-    if !kind.uses_sets() {
-        let given = args
-            .gps
-            .map(|_| "--gps")
-            .or(args.no_rotate.then_some("--no-rotate"))
-            .or(args.model.given());
-        if let Some(flag) = given {
-            return Err(InputError::new(format!("{flag}: applies to --integrator bmc, not {kind}")).into());
-        }
+    if !kind.uses_sets()
+        && let Some(flag) = super::render::weight_option_given(args.gps, args.no_rotate, args.model)
+    {
+        return Err(InputError::new(format!("{flag}: applies to --integrator bmc, not {kind}")).into());
     }
     if let Some(flag) = args.unused {
         return Err(InputError::new(format!("{flag}: does not apply to an adaptive single image")).into());

@@ -156,7 +156,8 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
 }
 
 /// Saves the first image of each cell (into the set) and the rows so far (into
-/// `rmse.partial.csv`, which outlives an interrupted table), as the runner goes.
+/// `rmse.partial.csv`, which outlives an interrupted table), as the runner goes; for both the
+/// fixed-spp and the adaptive tables ([`adaptive`]).
 struct FileSink<'a> {
     plan: &'a TablePlan,
     folder: &'a mut ResultFolder,

@@ -44,7 +44,7 @@ pub fn run(
     folder: &mut ResultFolder,
     reporter: &dyn Reporter,
 ) -> crate::Result<AdaptiveReport> {
-    let mut sink = FileSink {
+    let mut sink = super::FileSink {
         plan,
         folder,
         reference,
@@ -100,14 +100,9 @@ pub fn run(
     })
 }
 
-/// Saves the first render of each cell (image, spp map, error image) and the rows so far.
-struct FileSink<'a> {
-    plan: &'a TablePlan,
-    folder: &'a mut ResultFolder,
-    reference: &'a Image,
-}
-
-impl runner::AdaptiveSink for FileSink<'_> {
+/// Saves the first render of each cell (image, spp map, error image) and the rows so far: the
+/// fixed-spp table's sink, fed adaptive renders.
+impl runner::AdaptiveSink for super::FileSink<'_> {
     fn first_image(&mut self, variant: usize, target: f64, image: &AdaptiveImage) -> crate::Result<()> {
         let label = &self.plan.variants[variant].label;
         self.folder.write(
