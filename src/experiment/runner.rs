@@ -133,13 +133,31 @@ pub fn run_unit(
             set
         })
         .collect();
-    let set_of = |d: SetDesign| {
-        &sets[plan
-            .designs
+    let design_index = |d: SetDesign| {
+        plan.designs
             .iter()
             .position(|&x| x == d)
-            .expect("design is planned")]
+            .expect("design is planned")
     };
+    // Every integrand on every design's set, once (a scene pixel traces rays): the fitted
+    // amplitudes' solves and the estimates both use them. `values[integrand][design]`.
+    let mut evaluate_seconds = vec![vec![0.0; sets.len()]; plan.integrands.len()];
+    let values: Vec<Vec<Vec<f64>>> = plan
+        .integrands
+        .iter()
+        .enumerate()
+        .map(|(fi, f)| {
+            sets.iter()
+                .enumerate()
+                .map(|(d, s)| {
+                    let clock = Instant::now();
+                    let v: Vec<f64> = s.iter().map(|w| f.value(w)).collect();
+                    evaluate_seconds[fi][d] = clock.elapsed().as_secs_f64();
+                    v
+                })
+                .collect()
+        })
+        .collect();
 
     // Weights per (model, design) pair in use, computed once. While the workspace still holds
     // a weight set's Cholesky factor, the fitted amplitudes of the estimators that use it are
@@ -181,7 +199,8 @@ pub fn run_unit(
                 trial as u64,
             ],
         );
-        let set = set_of(e.design);
+        let d = design_index(e.design);
+        let set = &sets[d];
         let w = plan.models[m]
             .weights_for_design(set, e.design, &mut rng, workspace)
             .map_err(|source| crate::Error::Numerical {
@@ -200,7 +219,7 @@ pub fn run_unit(
                 .any(|x| x.scale == Some(Scale::Loo))
                 .then(|| workspace.inverse_diagonal());
             for (fi, f) in plan.integrands.iter().enumerate() {
-                let values: Vec<f64> = set.iter().map(|p| f.value(p)).collect();
+                let values = &values[fi][d];
                 let mut values_solve = values.clone();
                 workspace.solve_in_place(&mut values_solve);
                 for (ei, x) in plan.estimators.iter().enumerate() {
@@ -210,7 +229,7 @@ pub fn run_unit(
                     let prior = x.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
                     amplitudes[fi][ei] = x.method.amplitude(
                         x.scale.expect("fitted"),
-                        &values,
+                        values,
                         &values_solve,
                         Some(&w),
                         prior,
@@ -252,16 +271,7 @@ pub fn run_unit(
     let mut fitted = Vec::with_capacity(ni);
     let mut seconds = Vec::with_capacity(ni);
     for (fi, f) in plan.integrands.iter().enumerate() {
-        let mut evaluate_seconds = Vec::with_capacity(sets.len());
-        let values: Vec<Vec<f64>> = sets
-            .iter()
-            .map(|s| {
-                let clock = Instant::now();
-                let v = s.iter().map(|w| f.value(w)).collect();
-                evaluate_seconds.push(clock.elapsed().as_secs_f64());
-                v
-            })
-            .collect();
+        let (values, evaluate_seconds) = (&values[fi], &evaluate_seconds[fi]);
         let mut row = Vec::with_capacity(plan.estimators.len());
         let mut sds = Vec::with_capacity(plan.estimators.len());
         let mut costs = Vec::with_capacity(plan.estimators.len());
@@ -277,11 +287,7 @@ pub fn run_unit(
                 continue;
             }
             let clock = Instant::now();
-            let d = plan
-                .designs
-                .iter()
-                .position(|&x| x == e.design)
-                .expect("design is planned");
+            let d = design_index(e.design);
             let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
             row.push(
                 e.method
