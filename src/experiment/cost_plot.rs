@@ -43,12 +43,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     );
     let y = Axis::log_values(
         style::padded_log_range(&ys, 1.5),
-        style::fitting_label(
-            format!("mean absolute error |Î − I| of ∫ {name} dω  [sr]"),
-            "mean absolute error |Î − I|  [sr]",
-            style::AXIS_FONT,
-            style::plot_height(CHART_HEIGHT),
-        ),
+        super::plot::error_axis_label("mean absolute error |Î − I|", &name, CHART_HEIGHT),
     );
 
     let mut legend: Vec<LegendEntry> = plan

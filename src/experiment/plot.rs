@@ -128,16 +128,9 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     let (y0, y1) = style::padded_log_range(&drawn, 1.5);
     let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
     let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
-    // The integrand's name on the axis when it fits (cos³θ), else only in the subtitle (a
-    // render-scene pixel's name runs past the chart).
     let y = Axis::log_values(
         (y0, y1),
-        style::fitting_label(
-            format!("absolute error |Î − I| of ∫ {name} dω  [sr]"),
-            "absolute error |Î − I|  [sr]",
-            style::AXIS_FONT,
-            style::plot_height(CHART_HEIGHT),
-        ),
+        error_axis_label("absolute error |Î − I|", &name, CHART_HEIGHT),
     );
 
     let mut legend: Vec<LegendEntry> = plan
@@ -225,6 +218,19 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
             }
             Ok(())
         },
+    )
+}
+
+/// An error axis's description, `<what> of ∫ f dω  [sr]`, or `<what>  [sr]` when that would not
+/// fit along a chart `chart_height` pixels high (a render-scene pixel's long name; the subtitle
+/// names the integrand either way).
+pub(super) fn error_axis_label(what: &str, name: &str, chart_height: u32) -> String {
+    let short = format!("{what}  [sr]");
+    style::fitting_label(
+        format!("{what} of ∫ {name} dω  [sr]"),
+        &short,
+        style::AXIS_FONT,
+        style::plot_height(chart_height),
     )
 }
 
