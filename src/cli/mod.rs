@@ -1,6 +1,7 @@
 //! The command line (binary only): options → validated plan → run → export, and the one place
 //! that prints. Exit codes: 0 success, 1 a check failed (outputs still written), 2 any error.
 
+mod image_files;
 mod merge;
 mod model_args;
 mod output;

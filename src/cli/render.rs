@@ -1,5 +1,6 @@
 //! `workbench render`: one image (`--out x.exr`) or a table (`workbench render SPEC.json`).
 
+use super::image_files;
 use super::model_args::ModelArgs;
 use super::output::{sibling_png, status, stdout};
 use super::progress::Bar;
@@ -10,7 +11,7 @@ use workbench::bmc::Scale;
 use workbench::error::InputError;
 use workbench::output_set::FileSet;
 use workbench::render::exact;
-use workbench::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, Image, short_number};
+use workbench::render::image::{ColourMap, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::uncertainty::{PixelSds, coverage, coverage_map_png};
 use workbench::render::{Environment, Integrator, Renderer, check_size};
@@ -229,7 +230,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     }
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
-    check_exr_out(out)?;
+    image_files::check_exr_out(out)?;
     check_size(args.width, args.height)?;
     let (kind, spp, seed, gps) = check_sampling_options(args)?;
     if args.results_dir.is_some() {
@@ -264,7 +265,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         Some("grey") => ColourMap::Grey,
         _ => ColourMap::Viridis,
     };
-    let error_max = check_error_max(args.error_max)?;
+    let error_max = image_files::check_error_max(args.error_max)?;
     let scale = check_sd_options(args, kind)?;
     // Never write over an input (the reference, an environment map) or one output over another.
     let png = sibling_png(out, "");
@@ -285,16 +286,16 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         outputs.push(("--sd-out (its PNG)", sd_png));
         outputs.push(("--sd-out (its coverage map)", coverage_png));
     }
-    check_outputs_apart(&outputs, args.reference.as_deref(), &args.env)?;
+    image_files::check_outputs_apart(&outputs, args.reference.as_deref(), &args.env)?;
     let env = Environment::from_arg(&args.env)?;
-    check_out_dir_writable(out)?;
+    image_files::check_out_dir_writable(out)?;
     let model_start = Instant::now();
     let model = if kind.is_some_and(|k| k.uses_sets()) {
         Some(args.model.build()?)
     } else {
         None
     };
-    let reference = read_optional_reference(args.reference.as_deref(), args.width, args.height)?;
+    let reference = image_files::read_optional_reference(args.reference.as_deref(), args.width, args.height)?;
     let renderer = Renderer::new(args.width, args.height, env);
     // The image and its PNGs are one set: no other command may write them meanwhile.
     let mut files = FileSet::lock(&outputs, "use another --out")?;
@@ -335,7 +336,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             None => files.remove_stale(coverage_png),
         }
     }
-    commit_and_report_removed(files)?;
+    image_files::commit_and_report_removed(files)?;
     status!(
         "render: {what}, {}×{}: {} {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
@@ -389,95 +390,6 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             ))?;
             status!("render: coverage map → {}", coverage_png.display());
         }
-    }
-    Ok(())
-}
-
-/// The first option given that only integrators with weights use (`--gps`, `--no-rotate`, the
-/// model's), if any: an error with MC rather than silently ignored.
-pub(super) fn weight_option_given(
-    gps: Option<usize>,
-    no_rotate: bool,
-    model: &ModelArgs,
-) -> Option<&'static str> {
-    gps.map(|_| "--gps")
-        .or(no_rotate.then_some("--no-rotate"))
-        .or(model.given())
-}
-
-/// `--out` names the linear image, which is OpenEXR.
-pub(super) fn check_exr_out(out: &Path) -> Result<(), InputError> {
-    if out.extension().and_then(|e| e.to_str()) == Some("exr") {
-        return Ok(());
-    }
-    Err(InputError::new(format!(
-        "--out {}: the linear image is OpenEXR; use a name ending in .exr",
-        out.display()
-    )))
-}
-
-/// `--error-max` (or its default): finite and positive.
-pub(super) fn check_error_max(given: Option<f64>) -> Result<f64, InputError> {
-    let error_max = given.unwrap_or(DEFAULT_ERROR_MAX);
-    if error_max.is_finite() && error_max > 0.0 {
-        Ok(error_max)
-    } else {
-        Err(InputError::new(format!(
-            "--error-max: must be finite and > 0, got {error_max}"
-        )))
-    }
-}
-
-/// Never write over an input (the reference, an environment map file) or one output over
-/// another, and refuse names too long for the file system, before any work.
-pub(super) fn check_outputs_apart(
-    outputs: &[(&str, &Path)],
-    reference: Option<&Path>,
-    env: &str,
-) -> anyhow::Result<()> {
-    let mut inputs: Vec<(&str, &Path)> = Vec::new();
-    if let Some(r) = reference {
-        inputs.push(("--reference", r));
-    }
-    if !matches!(env, "sky" | "white") {
-        inputs.push(("--env", Path::new(env)));
-    }
-    workbench::io::check_distinct(outputs, &inputs)?;
-    for (flag, path) in outputs {
-        workbench::io::check_name_length(flag, path)?;
-    }
-    Ok(())
-}
-
-/// Fail on an unwritable output folder now, not after the render.
-pub(super) fn check_out_dir_writable(out: &Path) -> anyhow::Result<()> {
-    let dir = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    workbench::io::check_writable_dir(&dir)?;
-    Ok(())
-}
-
-/// The `--reference` image, if given, read and checked to be the render's size.
-pub(super) fn read_optional_reference(
-    reference: Option<&Path>,
-    width: usize,
-    height: usize,
-) -> Result<Option<Image>, InputError> {
-    reference
-        .map(|path| Image::read_reference(path, "--reference", width, height))
-        .transpose()
-}
-
-/// Replaces the image's files with the staged ones, and says which earlier ones it removed
-/// (an error image or coverage map of an earlier render with `--reference`).
-pub(super) fn commit_and_report_removed(files: FileSet) -> anyhow::Result<()> {
-    for removed in files.commit()? {
-        status!(
-            "render: removed {} (an earlier render's error image or coverage map; this one has no --reference)",
-            removed.display()
-        );
     }
     Ok(())
 }
@@ -567,7 +479,7 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
     }
     if kind.is_some_and(|k| !k.uses_sets()) {
         // Options of the BMC integrators are errors with MC, not silently ignored.
-        if let Some(flag) = weight_option_given(args.gps, args.no_rotate, &args.model) {
+        if let Some(flag) = image_files::weight_option_given(args.gps, args.no_rotate, &args.model) {
             return Err(InputError::new(format!(
                 "{flag}: applies to the integrators with weights ({}), not {}",
                 IntegratorKind::all()

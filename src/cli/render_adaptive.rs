@@ -93,7 +93,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         .into());
     }
     if !kind.uses_sets()
-        && let Some(flag) = super::render::weight_option_given(args.gps, args.no_rotate, args.model)
+        && let Some(flag) = super::image_files::weight_option_given(args.gps, args.no_rotate, args.model)
     {
         return Err(InputError::new(format!("{flag}: applies to --integrator bmc, not {kind}")).into());
     }
@@ -103,7 +103,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let gps = args.gps.unwrap_or(DEFAULT_GPS);
     check_gps(gps, "--gps")?;
     let out = args.out;
-    super::render::check_exr_out(out)?;
+    super::image_files::check_exr_out(out)?;
     check_size(args.width, args.height)?;
     let png = sibling_png(out, "");
     let spp_png = sibling_png(out, "-spp");
@@ -114,11 +114,11 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         ("--out (its spp map)", &spp_png),
         ("--out (its error image)", &error_png),
     ];
-    super::render::check_outputs_apart(&outputs, args.reference.map(PathBuf::as_path), args.env)?;
-    let error_max = super::render::check_error_max(args.error_max)?;
+    super::image_files::check_outputs_apart(&outputs, args.reference.map(PathBuf::as_path), args.env)?;
+    let error_max = super::image_files::check_error_max(args.error_max)?;
     let env = Environment::from_arg(args.env)?;
-    super::render::check_out_dir_writable(out)?;
-    let reference = super::render::read_optional_reference(
+    super::image_files::check_out_dir_writable(out)?;
+    let reference = super::image_files::read_optional_reference(
         args.reference.map(PathBuf::as_path),
         args.width,
         args.height,
@@ -180,7 +180,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         }
         None => files.remove_stale(&error_png),
     }
-    super::render::commit_and_report_removed(files)?;
+    super::image_files::commit_and_report_removed(files)?;
     status!(
         "render: {kind} adaptive, target sd {target_sd:e}, stages {}…{} spp, {}×{}: {seconds:.3} s (sample sets + \
          render) → {}, {}, {}",
