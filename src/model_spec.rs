@@ -112,11 +112,6 @@ pub struct ResolvedModel {
 }
 
 impl ModelSpec {
-    /// Whether any field is given.
-    pub fn is_given(&self) -> bool {
-        *self != ModelSpec::default()
-    }
-
     /// The given fields, in file order, with their JSON names (for "not used by" messages).
     pub fn given_fields(&self) -> Vec<(ModelField, String)> {
         fn json<T: Serialize>(v: &T) -> String {

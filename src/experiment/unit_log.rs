@@ -62,10 +62,6 @@ impl Shard {
     pub fn len(self, total: usize) -> usize {
         total.saturating_sub(self.index - 1).div_ceil(self.count)
     }
-
-    pub fn is_whole(self) -> bool {
-        self.count == 1
-    }
 }
 
 impl std::fmt::Display for Shard {
