@@ -7,7 +7,7 @@
 //! lists every place that must decide what the new estimator does (its name, whether it needs
 //! BMC weights or a prior, how it estimates, its posterior). Experiments (`"method": "<name>"`)
 //! and the renderer (`--integrator <name>`) then accept it, and the conformance tests in
-//! `tests/estimators.rs` walk [`Method::ALL`].
+//! `tests/it/bq/estimators.rs` walk [`Method::ALL`].
 
 pub mod bmc;
 pub mod bmcp;

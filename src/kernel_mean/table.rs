@@ -40,7 +40,7 @@ struct Octave {
 ///
 /// Built from [`kernel_mean_exact`] at the Chebyshev nodes (a few hundred evaluations, ~10 ms);
 /// lookups are O(1) (~30 ns) with relative error ≲ 1e-14 everywhere on `[0, 1]`
-/// (tested ≤ 1e-10 in `tests/kernel_mean.rs`). Also holds `V̂ = 2π ∫_0^1 z(μ) dμ`, the integral of
+/// (tested ≤ 1e-10 in `tests/it/bq/kernel_mean.rs`). Also holds `V̂ = 2π ∫_0^1 z(μ) dμ`, the integral of
 /// the interpolant (Clenshaw–Curtis on the same exact values).
 #[derive(Clone, Debug)]
 pub struct KernelMeanTable {

@@ -48,7 +48,7 @@ pub const EDGE_NORMAL_EXPONENT: f64 = 32.0;
 /// silhouette the jump can be as small as 1.9% (where the sphere meets the ground), so there
 /// the normal test does the rejecting (every such pair has normals facing apart), and the depth
 /// test guards the case it cannot see: parallel surfaces at different depths.
-/// `tests/render.rs` (`edge_weights_separate_the_scene_surfaces`) measures both margins.
+/// `tests/it/render/analytic.rs` (`edge_weights_separate_the_scene_surfaces`) measures both margins.
 pub const EDGE_DEPTH_TOLERANCE: f64 = 0.05;
 
 /// Normals closer than this cosine (30°) count as the same surface for the edge mask.

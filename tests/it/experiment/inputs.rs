@@ -2,8 +2,7 @@
 //! refused with an unclear message. One module per class of the issue, named after it; each
 //! bad input must give exit code 2 and one line naming the file, where in it, and the value.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// A minimal valid experiment; `{extra}` is spliced in before the closing brace.

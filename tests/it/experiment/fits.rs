@@ -1,8 +1,7 @@
 //! `fits.csv`: each (integrand, estimator)'s log–log slope over the stated range, the same
 //! numbers the plot legend shows, and `fit_from_n` to choose the range.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 const SPEC: &str = r#"{
   "name": "f", "integrands": ["cos3", "cos0"],

@@ -1,9 +1,8 @@
 //! Regression tests for issue 8's fault classes that are not covered elsewhere (the others live
-//! in `tests/outputs.rs`, `tests/inputs.rs`, `tests/image_read.rs` and `tests/mc_kernel_means.rs`),
+//! in `tests/it/experiment/outputs.rs`, `tests/it/experiment/inputs.rs`, `tests/it/render/image_read.rs` and `tests/it/bq/mc_kernel_means.rs`),
 //! each named after its class.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::process::Command;
 
 const SPEC: &str = r#"{

@@ -1,8 +1,7 @@
 //! `workbench render SPEC.json` through the binary: the output layout, the reference cache,
 //! reproducible numbers, and spec errors rejected before any work.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 const SPEC: &str = r#"{
   "name": "tiny", "seed": 7, "width": 32, "height": 24, "spp": [4, 8], "repetitions": [3, 2],

@@ -2,8 +2,7 @@
 //! agreement with single adaptive renders of the same seed, and spec errors rejected before any
 //! work.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 const SPEC: &str = r#"{

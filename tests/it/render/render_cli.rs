@@ -1,8 +1,7 @@
 //! `workbench render` through the binary: outputs, and bad input rejected with exit code 2
 //! and a message naming the option or file.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// Exit 2 with every `needle` in stderr.
 fn assert_input_error(args: &[&str], needles: &[&str]) {

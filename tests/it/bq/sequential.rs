@@ -2,8 +2,7 @@
 //! weight sets of extended factors against fresh ones, and experiments with tolerance
 //! estimators end to end (outputs, the `within_tolerance` check, bad input).
 
-mod common;
-use common::*;
+use crate::common::*;
 use workbench::bmc::{BmcModel, Scale};
 use workbench::estimator::Method;
 use workbench::geometry::Vec3;

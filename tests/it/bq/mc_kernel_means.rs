@@ -186,7 +186,7 @@ fn shared_mode_keeps_the_old_numbers() {
 /// The per-point weight sum approaches the exact one: with `u = Q⁻¹1` the weight sums differ by
 /// `uᵀδz`, and the `δz_i` are independent with variance `s_i²/M`, so the difference has
 /// standard error `sqrt(Σ u_i² s_i²) / √M`; it must stay within 5 of them at every M (the
-/// shared mode's version, with correlated `δz_i`, is in tests/estimators.rs).
+/// shared mode's version, with correlated `δz_i`, is in tests/it/bq/estimators.rs).
 #[test]
 fn per_point_mode_converges_to_exact() {
     let kernel = sobolev();

@@ -1,7 +1,6 @@
 //! `workbench run` and `workbench validate` end to end through the binary.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 const SMALL: &str = r#"{

@@ -4,7 +4,6 @@
 // Channels are indexed in step across pixels, albedos and sky values.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
 use workbench::bmc::{BmcModel, DEFAULT_NOISE};
 use workbench::geometry::Vec3;
 use workbench::kernel::{Kernel, Sobolev};
@@ -113,7 +112,7 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
             .map(|set| (set.weights.diagnostics.weight_sum - std::f64::consts::TAU).abs())
             .fold(0.0, f64::max);
         // The error on cos θ is within the RKHS worst-case bound ‖cos θ‖_H e(w) of each set.
-        let (_, norm_cos) = common::rkhs_norms_of_one_and_cos(&m.kernel);
+        let (_, norm_cos) = crate::common::rkhs_norms_of_one_and_cos(&m.kernel);
         let table = workbench::kernel_mean::KernelMeanTable::new(&m.kernel);
         for set in &s.sets {
             let z: Vec<f64> = set.points.iter().map(|p| table.z(p.z)).collect();

@@ -1,7 +1,6 @@
 //! `workbench rule` through the binary.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn points_file_of_a_generated_set_reproduces_its_weights() {

@@ -2,8 +2,7 @@
 //! names, the fitting range, exact series as exact, the guide's anchor, what the reference is),
 //! and the error image carries a colour bar on a common scale.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// A text node of an SVG with the attributes of the element that holds it.

@@ -2,8 +2,7 @@
 //! a failed or killed command leaves no half-replaced set, no output replaces an input,
 //! files follow the umask, and names keep their bytes.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

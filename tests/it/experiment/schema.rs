@@ -2,9 +2,7 @@
 //! validates against its schema (checked by an independent validator, the `jsonschema` crate),
 //! and bad files fail both the schema and `workbench validate`.
 
-mod common;
-
-use common::{stderr, stdout, workbench};
+use crate::common::{stderr, stdout, workbench};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use workbench::schema::SchemaKind;

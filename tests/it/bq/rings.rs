@@ -2,9 +2,7 @@
 //! unbiased, BMC's weights, Bayes–Sard solve, `ml` and `loo` solves agree with the dense
 //! Cholesky to 1e-10, and the commands take the design (and reject counts that are not rings).
 
-mod common;
-
-use common::{stderr, workbench};
+use crate::common::{stderr, workbench};
 use workbench::bmc::BmcModel;
 use workbench::estimator::mc;
 use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
@@ -121,7 +119,7 @@ fn rule_takes_the_rings_design() {
         &["rule", "--design", "rings", "--n", "20000", "--out", "r.csv"],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let (header, rows) = common::read_csv(&dir.path().join("r.csv"));
+    let (header, rows) = crate::common::read_csv(&dir.path().join("r.csv"));
     assert_eq!(header, ["x", "y", "z", "weight"]);
     assert_eq!(rows.len(), 20000);
     let sum: f64 = rows.iter().map(|r| r[3].parse::<f64>().unwrap()).sum();

@@ -2,8 +2,7 @@
 //! tolerance is a multiple of a known standard error, a floating-point bound, or the RKHS
 //! worst-case-error bound `|∫f − Σ w_i f(x_i)| ≤ ‖f‖_H e(w)`.
 
-mod common;
-use common::{funk_hecke_0_1, rkhs_norms_of_one_and_cos};
+use crate::common::{funk_hecke_0_1, rkhs_norms_of_one_and_cos};
 
 use std::f64::consts::{PI, TAU};
 use workbench::bmc::{BmcModel, bmc_weights, worst_case_error};
@@ -324,7 +323,7 @@ fn mc_kernel_mean_mode_converges_to_exact() {
     let sd = workbench::stats::sample_sd(&g);
     for m in [100, 10_000, 1_000_000] {
         // Shared directions: the standard error above is for δz_i from one direction set (the
-        // per-point mode's version is in tests/mc_kernel_means.rs).
+        // per-point mode's version is in tests/it/bq/mc_kernel_means.rs).
         let model = BmcModel::new(kernel, 0.01, KernelMeanMode::MonteCarloShared { samples: m });
         let w = model
             .weights(&pts, &mut stream(21, &[m as u64]), &mut SpdWorkspace::new())

@@ -1,8 +1,7 @@
 //! Runs past one process: `run --shard i/n` + `merge`, and `run --resume`, must end with the
 //! same bytes as one uninterrupted run (the wall-clock `timings*` files and `*-cost.svg` aside).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 use std::process::Output;
 

@@ -1,8 +1,7 @@
 //! `render --target-sd T --max-spp M` (README, "Adaptive sampling"): the per-pixel stopping rule on a tiny
 //! image, the nested sets' stage weights against fresh ones, and bad input.
 
-mod common;
-use common::*;
+use crate::common::*;
 use workbench::bmc::BmcModel;
 use workbench::kernel::{Kernel, Sobolev};
 use workbench::kernel_mean::KernelMeanMode;
@@ -161,7 +160,7 @@ fn the_command_writes_the_spp_map() {
 
 /// An adaptive render against a reference of another size is refused before rendering, with
 /// exit 2, one line naming both sizes, and nothing written (the fixed-spp path has the same
-/// check in `tests/render_cli.rs`).
+/// check in `tests/it/render/render_cli.rs`).
 #[test]
 fn an_adaptive_render_refuses_a_reference_of_another_size() {
     let dir = tempfile::tempdir().unwrap();

@@ -3,7 +3,7 @@
 //! This pins behaviour, not correctness (the other tests do that): any change to sampling,
 //! seeding, kernels, kernel means, the solver or number formatting shows up here and must be
 //! accepted deliberately by regenerating the file:
-//! `WORKBENCH_BLESS=1 cargo test --release --test golden`.
+//! `WORKBENCH_BLESS=1 cargo test --release --test it golden`.
 //!
 //! Re-blessed once for the cheaper kernel assembly (fused multiply–adds and Chebyshev-fitted
 //! polynomials in `kernel::fast_pow`, FMA in the squared distance): every entry of Q moved by an
@@ -11,8 +11,7 @@
 //! change of an estimate was 5.5e-13 of the integral, of a summary's mean error or posterior sd
 //! 7.5e-13 relative; no coverage count changed (`python3` comparison of the old and new CSVs).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 #[test]

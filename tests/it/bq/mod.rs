@@ -1,0 +1,9 @@
+mod calibration;
+mod designs;
+mod estimators;
+mod exact;
+mod integrands;
+mod kernel_mean;
+mod mc_kernel_means;
+mod rings;
+mod sequential;

@@ -1,0 +1,2 @@
+mod cli_rule;
+mod docs_sync;

@@ -1,0 +1,9 @@
+mod cli_run;
+mod fault_classes;
+mod fits;
+mod golden;
+mod inputs;
+mod outputs;
+mod plots;
+mod scale;
+mod schema;

@@ -1,0 +1,6 @@
+mod analytic;
+mod image_read;
+mod render_adaptive;
+mod render_cli;
+mod render_table;
+mod render_table_adaptive;
