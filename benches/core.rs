@@ -8,12 +8,12 @@ mod common;
 use common::median_seconds;
 use std::hint::black_box;
 use std::time::Instant;
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, Sobolev};
-use workbench::kernel_mean::KernelMeanTable;
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, Sobolev};
+use workbench::bq::kernel_mean::KernelMeanTable;
 use workbench::sampling::Design;
+use workbench::util::geometry::Vec3;
+use workbench::util::rng::stream;
 
 fn main() {
     let kernel = Kernel::Sobolev(Sobolev::new(1.4).unwrap());
@@ -42,7 +42,7 @@ fn main() {
         let z: Vec<f64> = pts.iter().map(|p| table.z(p.z)).collect();
         let mut ws = SpdWorkspace::new();
         let diag = kernel.diagonal() + 0.01;
-        let soa = workbench::kernel::PointsSoa::new(&pts);
+        let soa = workbench::bq::kernel::PointsSoa::new(&pts);
         let fill = |j: usize, col: &mut [f64]| {
             kernel.fill_column(&soa, j, j, col);
             col[0] = diag;
@@ -95,7 +95,7 @@ fn main() {
 /// block factors, the `J × J` solve), then one general solve `Q⁻¹Y` as the `ml` amplitude needs,
 /// and `diag(Q⁻¹)` as `loo` needs. Median seconds per weight set.
 fn rings(kernel: &Kernel, table: &KernelMeanTable, sink: &mut f64) {
-    use workbench::bmc::bmc_weights_on_rings;
+    use workbench::bq::weights::bmc_weights_on_rings;
     use workbench::sampling::{SetDesign, rings};
     println!();
     println!(

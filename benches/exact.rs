@@ -11,7 +11,7 @@ use workbench::render::{Environment, Renderer};
 
 fn main() {
     let threads = rayon::current_num_threads();
-    let bar = workbench::report::Silent;
+    let bar = workbench::util::report::Silent;
     for (size, runs) in [(64, 3), (256, 1)] {
         let r = Renderer::new(size, size, Environment::Sky);
         let mut best = f64::INFINITY;

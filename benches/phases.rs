@@ -13,12 +13,12 @@ mod common;
 use common::median_seconds;
 use std::hint::black_box;
 use std::time::Instant;
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, PointsSoa, Sobolev};
-use workbench::kernel_mean::KernelMeanTable;
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, PointsSoa, Sobolev};
+use workbench::bq::kernel_mean::KernelMeanTable;
 use workbench::sampling::Design;
+use workbench::util::geometry::Vec3;
+use workbench::util::rng::stream;
 
 const SAMPLES: [usize; 8] = [4, 8, 16, 32, 64, 128, 256, 512];
 const TRIALS: u64 = 300;

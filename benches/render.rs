@@ -4,9 +4,10 @@
 //! Run: `cargo bench --bench render`. Prints the best of three wall-clock times.
 
 use std::time::Instant;
-use workbench::bmc::{BmcModel, DEFAULT_NOISE};
-use workbench::kernel::{Kernel, Sobolev};
-use workbench::kernel_mean::KernelMeanMode;
+use workbench::bq::kernel::{Kernel, Sobolev};
+use workbench::bq::kernel_mean::KernelMeanMode;
+use workbench::bq::model::BmcModel;
+use workbench::bq::weights::DEFAULT_NOISE;
 use workbench::render::{Environment, Integrator, IntegratorKind, Renderer};
 
 fn best_of_three(mut f: impl FnMut()) -> f64 {
@@ -29,7 +30,7 @@ fn main() {
     );
     println!("kernel-mean table: {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
     let r = Renderer::new(500, 500, Environment::Sky);
-    let bar = workbench::report::Silent;
+    let bar = workbench::util::report::Silent;
     let bmc = best_of_three(|| {
         let i = Integrator::build(IntegratorKind::BMC, 40, 4, true, Some(&model), 1).unwrap();
         r.render(&i, 1, &bar);

@@ -34,7 +34,7 @@ pub enum Error {
     Numerical {
         what: String,
         #[source]
-        source: crate::linalg::NotPositiveDefinite,
+        source: crate::bq::factor::NotPositiveDefinite,
     },
     /// Encoding an output (CSV, SVG, PNG, EXR) failed.
     #[error("{0}")]
@@ -62,8 +62,8 @@ impl Error {
     }
 }
 
-impl From<crate::linalg::NotPositiveDefinite> for Error {
-    fn from(source: crate::linalg::NotPositiveDefinite) -> Self {
+impl From<crate::bq::factor::NotPositiveDefinite> for Error {
+    fn from(source: crate::bq::factor::NotPositiveDefinite) -> Self {
         Error::Numerical {
             what: "computing BMC weights".into(),
             source,

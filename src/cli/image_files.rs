@@ -6,7 +6,7 @@ use super::model_args::ModelArgs;
 use super::output::status;
 use std::path::{Path, PathBuf};
 use workbench::error::InputError;
-use workbench::output_set::FileSet;
+use workbench::files::result_folder::FileSet;
 use workbench::render::image::{DEFAULT_ERROR_MAX, Image};
 
 /// The first option given that only integrators with weights use (`--gps`, `--no-rotate`, the
@@ -54,9 +54,9 @@ pub fn check_outputs_apart(
     if !matches!(env, "sky" | "white") {
         inputs.push(("--env", Path::new(env)));
     }
-    workbench::io::check_distinct(outputs, &inputs)?;
+    workbench::files::atomic::check_distinct(outputs, &inputs)?;
     for (flag, path) in outputs {
-        workbench::io::check_name_length(flag, path)?;
+        workbench::files::atomic::check_name_length(flag, path)?;
     }
     Ok(())
 }
@@ -67,7 +67,7 @@ pub fn check_out_dir_writable(out: &Path) -> anyhow::Result<()> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    workbench::io::check_writable_dir(&dir)?;
+    workbench::files::atomic::check_writable_dir(&dir)?;
     Ok(())
 }
 

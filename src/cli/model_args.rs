@@ -2,9 +2,9 @@
 //! defaults as the JSON files.
 
 use anyhow::bail;
-use workbench::bmc::BmcModel;
+use workbench::bq::model::BmcModel;
+use workbench::bq::model::{KernelMeanName, KernelSpec, ModelField, ModelSpec, ResolvedModel};
 use workbench::error::InputError;
-use workbench::model_spec::{KernelMeanName, KernelSpec, ModelField, ModelSpec, ResolvedModel};
 
 /// Kernel, noise and kernel-mean options of the commands that build BMC weights.
 ///

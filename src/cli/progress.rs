@@ -6,7 +6,7 @@ use super::output::status;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use workbench::report::Reporter;
+use workbench::util::report::Reporter;
 
 pub struct Bar {
     visible: bool,

@@ -7,9 +7,9 @@ use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
-use workbench::bmc::Scale;
+use workbench::bq::weights::Scale;
 use workbench::error::InputError;
-use workbench::output_set::FileSet;
+use workbench::files::result_folder::FileSet;
 use workbench::render::exact;
 use workbench::render::image::{ColourMap, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
@@ -18,7 +18,7 @@ use workbench::render::{Environment, Integrator, Renderer, check_size};
 
 /// `--spp` when none is given.
 const DEFAULT_SPP: usize = 40;
-use workbench::report::Reporter;
+use workbench::util::report::Reporter;
 
 /// Options of `workbench render`.
 #[derive(clap::Args, Debug)]
@@ -187,7 +187,7 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         .results_dir
         .clone()
         .unwrap_or_else(|| PathBuf::from("results"));
-    let pool = workbench::threads::pool(None)?;
+    let pool = workbench::util::threads::pool(None)?;
     let report = pool.install(|| workbench::render::table::run(&plan, &results, &Bar::new(args.quiet)))?;
     stdout(&report.table_md)?;
     stdout(&format!("\n{}", report.times_md))?;
@@ -378,7 +378,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             status!(
                 "warning: {} pixel-channel(s): {}",
                 sds.zero_amplitude,
-                workbench::bmc::NumericalWarning::ZeroAmplitude.message()
+                workbench::bq::weights::NumericalWarning::ZeroAmplitude.message()
             );
         }
         if let Some(r) = &reference {
@@ -509,10 +509,10 @@ fn render_image(
     spp: usize,
     gps: usize,
     seed: u64,
-    model: Option<&workbench::bmc::BmcModel>,
+    model: Option<&workbench::bq::model::BmcModel>,
     scale: Scale,
 ) -> anyhow::Result<(Image, Option<PixelSds>, String)> {
-    let pool = workbench::threads::pool(None)?;
+    let pool = workbench::util::threads::pool(None)?;
     let bar = Bar::new(args.quiet);
     let (image, sds, what) = match kind {
         Some(kind) => {

@@ -8,12 +8,12 @@ use super::progress::Bar;
 use std::path::PathBuf;
 use std::time::Instant;
 use workbench::error::InputError;
-use workbench::output_set::FileSet;
+use workbench::files::result_folder::FileSet;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
 use workbench::render::image::{ColourMap, ErrorScale};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::{Environment, Renderer, check_size};
-use workbench::report::Reporter;
+use workbench::util::report::Reporter;
 
 /// The first stage when `--spp` is not given.
 const DEFAULT_FIRST_SPP: usize = 16;
@@ -80,7 +80,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let first = args.spp.unwrap_or(DEFAULT_FIRST_SPP);
     check_spp(kind, first, "--spp")?;
     check_spp(kind, max_spp, "--max-spp")?;
-    if kind.method == workbench::estimator::Method::Mc && first < 2 {
+    if kind.method == workbench::bq::estimator::Method::Mc && first < 2 {
         return Err(InputError::new(format!(
             "--spp {first}: the first stage of adaptive MC needs at least 2 samples for a sample variance"
         ))
@@ -147,7 +147,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         }
         None => AdaptiveSampler::Mc(kind.design),
     };
-    let pool = workbench::threads::pool(None)?;
+    let pool = workbench::util::threads::pool(None)?;
     let bar = Bar::new(args.quiet);
     bar.start("rows", args.height as u64);
     let result = pool.install(|| adaptive::render(&renderer, &sampler, &settings, seed, &bar));

@@ -4,7 +4,7 @@ use super::model_args::ModelArgs;
 use super::output::{status, stdout};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use workbench::output_set::FileSet;
+use workbench::files::result_folder::FileSet;
 use workbench::sampling::SetDesign;
 
 #[derive(clap::Args, Debug)]
@@ -65,24 +65,23 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         .map(|p| ("--points", p))
         .into_iter()
         .collect();
-    workbench::io::check_distinct(&outputs, &inputs)?;
+    workbench::files::atomic::check_distinct(&outputs, &inputs)?;
     let n = args.n.unwrap_or(DEFAULT_N);
     let design = args
         .design
         .as_deref()
         .and_then(SetDesign::from_name)
         .unwrap_or(SetDesign::Iid(workbench::sampling::Design::Uniform));
-    let exact_kernel_means =
-        args.model.resolve()?.kernel_mean == workbench::model_spec::KernelMeanName::Exact;
+    let exact_kernel_means = args.model.resolve()?.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
     let points = match &args.points {
         Some(path) => {
-            let points = workbench::rule::read_points_csv(path)?;
-            workbench::rule::check_point_count(points.len(), "--points")?;
+            let points = workbench::bq::rule::read_points_csv(path)?;
+            workbench::bq::rule::check_point_count(points.len(), "--points")?;
             points
         }
         None => {
-            workbench::rule::check_generated_count(n, design, exact_kernel_means, "--n")?;
-            workbench::rule::generate_points(n, args.seed, design)
+            workbench::bq::rule::check_generated_count(n, design, exact_kernel_means, "--n")?;
+            workbench::bq::rule::generate_points(n, args.seed, design)
         }
     };
     let bsq = args.method == "bsq";
@@ -99,14 +98,14 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     // known to be good, so that bad input leaves no trace.
     let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
     let weights = match &args.points {
-        Some(_) => workbench::rule::compute_rule(&points, &model, args.seed)?,
-        None => workbench::rule::compute_rule_for_design(&points, design, &model, args.seed)?,
+        Some(_) => workbench::bq::rule::compute_rule(&points, &model, args.seed)?,
+        None => workbench::bq::rule::compute_rule_for_design(&points, design, &model, args.seed)?,
     };
     let weights = if bsq { weights.bayes_sard() } else { weights };
     for w in &weights.diagnostics.warnings {
         status!("warning: {}", w.message());
     }
-    let csv = workbench::rule::rule_csv(&points, &weights.weights);
+    let csv = workbench::bq::rule::rule_csv(&points, &weights.weights);
     if let Some(path) = &args.out {
         files.stage(path, &csv)?;
     }
@@ -119,7 +118,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
             }
         };
         let mut summary =
-            workbench::rule::rule_summary(&model, resolved.kernel_mean.name(), &points, &weights);
+            workbench::bq::rule::rule_summary(&model, resolved.kernel_mean.name(), &points, &weights);
         summary["source"] = source;
         summary["seed"] = serde_json::json!(args.seed);
         summary["method"] = serde_json::json!(args.method);

@@ -5,7 +5,7 @@ use super::progress::Bar;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use workbench::experiment as ex;
-use workbench::json::SpecKind;
+use workbench::files::spec_json::SpecKind;
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
@@ -122,8 +122,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
-    let text = workbench::json::read_spec(&args.file).unwrap_or_default();
-    match workbench::json::spec_kind(&text) {
+    let text = workbench::files::spec_json::read_spec(&args.file).unwrap_or_default();
+    match workbench::files::spec_json::spec_kind(&text) {
         Some(SpecKind::RenderTable) => {
             let plan = workbench::render::table::load(&args.file)?;
             stdout(&workbench::render::table::describe(&plan))?;

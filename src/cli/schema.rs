@@ -3,7 +3,7 @@
 use super::output::{status, stdout};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use workbench::output_set::FileSet;
+use workbench::files::result_folder::FileSet;
 use workbench::schema::SchemaKind;
 
 /// Options of `workbench schema`.

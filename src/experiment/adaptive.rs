@@ -1,4 +1,4 @@
-//! Tolerance estimators in experiments ([`crate::sequential`]; README, "Stopping at a tolerance").
+//! Tolerance estimators in experiments ([`crate::bq::stages`]; README, "Stopping at a tolerance").
 //!
 //! An estimator with `"tolerance": {"abs": A, "max_n": M}` runs once per (N, trial) unit like
 //! any other, with the unit's N as its **first stage**: its nested set is the unit's own set for
@@ -11,7 +11,7 @@
 use super::plan::Plan;
 use super::runner::Results;
 pub use super::tolerance::ToleranceCheck;
-use crate::sequential::{self, Outcome, Tolerance};
+use crate::bq::stages::{self, Outcome, Tolerance};
 use std::fmt::Write;
 
 /// One (integrand, tolerance estimator, first stage) cell of `stopping_summary.csv`.
@@ -54,11 +54,13 @@ pub fn summarize(plan: &Plan, results: &Results) -> Vec<Cell> {
                     first_n: n,
                     tolerance,
                     trials: plan.trials,
-                    mean_n_used: crate::stats::mean(&o.iter().map(|o| o.n_used as f64).collect::<Vec<_>>()),
+                    mean_n_used: crate::util::stats::mean(
+                        &o.iter().map(|o| o.n_used as f64).collect::<Vec<_>>(),
+                    ),
                     max_n_used: o.iter().map(|o| o.n_used).max().unwrap_or(0),
                     stopped: share(o.iter().filter(|o| o.met).count()),
                     within: share(errors.iter().filter(|&&e| e <= tolerance.abs).count()),
-                    mean_abs_error: crate::stats::mean(&errors),
+                    mean_abs_error: crate::util::stats::mean(&errors),
                 });
             }
         }
@@ -86,7 +88,7 @@ pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
                         tol.abs,
                         o.n_used,
                         o.uncertainty
-                            .map_or(String::new(), |u| format!("{:?}", sequential::half_width(&u))),
+                            .map_or(String::new(), |u| format!("{:?}", stages::half_width(&u))),
                         o.met,
                         error <= tol.abs
                     )

@@ -1,5 +1,5 @@
 //! One SVG per integrand, `<integrand>-tolerance.svg`, for experiments with tolerance
-//! estimators ([`crate::sequential`]): above, the mean number of points used against the tolerance; below,
+//! estimators ([`crate::bq::stages`]): above, the mean number of points used against the tolerance; below,
 //! the share of trials whose actual error is within the tolerance, with the binomial 99% band
 //! around 0.95. Estimators that differ only in their tolerance (a sweep over `tolerance.abs`) form
 //! one series per first stage N₀ (the experiment's sample counts). Same look as
@@ -8,7 +8,7 @@
 use super::adaptive::Cell;
 use super::plan::Plan;
 use super::summary::binomial_band;
-use crate::plot_style::{self as style, Axis, Labels, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, Labels, LegendEntry, Swatch};
 use plotters::prelude::*;
 
 const CHART_HEIGHT: u32 = 760;

@@ -1,12 +1,12 @@
-//! The tolerance estimators of one (N, trial) unit ([`crate::sequential`]): each extends the
+//! The tolerance estimators of one (N, trial) unit ([`crate::bq::stages`]): each extends the
 //! unit's set for its design to `max_n` and stops at its tolerance; called by
 //! [`super::runner`].
 
 use super::plan::{Plan, PlannedEstimator};
-use crate::bmc::Scale;
-use crate::geometry::Vec3;
+use crate::bq::stages::{self, Outcome};
+use crate::bq::weights::Scale;
 use crate::sampling::SetDesign;
-use crate::sequential::{self, Outcome};
+use crate::util::geometry::Vec3;
 
 /// What one tolerance estimator produced in one unit.
 #[derive(Debug, Clone)]
@@ -14,7 +14,7 @@ pub struct UnitRun {
     /// One outcome per integrand.
     pub outcomes: Vec<Outcome>,
     /// The diagnostics of the largest weight set built (None for MC).
-    pub diagnostics: Option<crate::bmc::Diagnostics>,
+    pub diagnostics: Option<crate::bq::weights::Diagnostics>,
     /// Whether the amplitude was fitted (`ml`, `loo`).
     pub fitted: bool,
 }
@@ -60,7 +60,7 @@ pub fn run_unit(
             out[ei] = Some(UnitRun {
                 outcomes: values
                     .iter()
-                    .map(|v| sequential::mc(e.design.density(), points, v, &stages_of(e), abs))
+                    .map(|v| stages::mc(e.design.density(), points, v, &stages_of(e), abs))
                     .collect(),
                 diagnostics: None,
                 fitted: false,
@@ -84,15 +84,15 @@ pub fn run_unit(
                 .iter()
                 .map(|&ei| plan.estimators[ei].scale.unwrap_or(Scale::Unit))
                 .collect();
-            let mut nested = sequential::NestedWeights::new(&plan.models[m], points, values, &scales);
+            let mut nested = stages::NestedWeights::new(&plan.models[m], points, values, &scales);
             // The estimators walk the stages together, so each stage is factored once.
-            let mut runs = sequential::weighted_together(
+            let mut runs = stages::weighted_together(
                 &users
                     .iter()
                     .map(|&ei| {
                         let e = &plan.estimators[ei];
-                        sequential::Walker {
-                            estimator: sequential::WeightedEstimator {
+                        stages::Walker {
+                            estimator: stages::WeightedEstimator {
                                 method: e.method,
                                 scale: e.scale.unwrap_or(Scale::Unit),
                             },

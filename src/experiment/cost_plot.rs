@@ -8,7 +8,7 @@
 
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 
 const CHART_HEIGHT: u32 = 560;
 

@@ -5,7 +5,7 @@
 
 use super::plan::Plan;
 use super::summary::{CellSummary, binomial_band};
-use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 
 const CHART_HEIGHT: u32 = 480;
 /// The level the plot is about.

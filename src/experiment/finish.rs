@@ -8,7 +8,7 @@ use super::summary::{self, Accumulator, CalibrationOutcome, CellSummary, CheckOu
 use super::unit_log::{LogSet, rows_per_unit};
 use super::{cost_plot, coverage_plot, export, plot};
 use crate::error::Error;
-use crate::output_set::ResultFolder;
+use crate::files::result_folder::ResultFolder;
 
 /// What the summary of a finished run found.
 pub struct Findings {

@@ -167,7 +167,8 @@ mod tests {
         let x: Vec<f64> = [1.0f64, 10.0, 100.0, 1000.0].iter().map(|v| v.ln()).collect();
         let y = [1.0, 0.5, 0.2, -0.4];
         assert!(
-            (fit.slope - crate::stats::log_log_slope(&[1.0, 10.0, 100.0, 1000.0], &pts.map(|p| p.1))).abs()
+            (fit.slope - crate::util::stats::log_log_slope(&[1.0, 10.0, 100.0, 1000.0], &pts.map(|p| p.1)))
+                .abs()
                 < 1e-12
         );
         let mx = x.iter().sum::<f64>() / 4.0;

@@ -29,8 +29,8 @@ pub mod unit_log;
 pub use text::{describe, format_report};
 
 use crate::error::InputError;
-use crate::output_set::ResultFolder;
-use crate::report::Reporter;
+use crate::files::result_folder::ResultFolder;
+use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -57,7 +57,7 @@ pub fn load_plan(path: &Path, overrides: &Overrides) -> Result<plan::Plan, Input
 /// [`load_plan`], also returning the spec with the overrides applied (what a shard records).
 pub fn load(path: &Path, overrides: &Overrides) -> Result<(spec::ExperimentSpec, plan::Plan), InputError> {
     let file = path.display().to_string();
-    let text = crate::json::read_spec(path)?;
+    let text = crate::files::spec_json::read_spec(path)?;
     let mut spec = plan::parse(&text).map_err(|m| InputError::new(format!("{file}: {m}")))?;
     if let Some(t) = overrides.trials {
         if t == 0 {
@@ -71,7 +71,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<(spec::ExperimentSpec,
         spec.trials = t;
     }
     if let Some(t) = overrides.threads {
-        crate::threads::check_threads(t)?;
+        crate::util::threads::check_threads(t)?;
     }
     let plan = plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))?;
     Ok((spec, plan))
@@ -153,7 +153,7 @@ pub fn run_plan(
         .collect();
     let mut folder = ResultFolder::prepare(&out_dir, &what, "use another --out", &inputs)?;
 
-    let pool = crate::threads::pool(overrides.threads)?;
+    let pool = crate::util::threads::pool(overrides.threads)?;
     let threads = pool.current_num_threads();
     let identity = unit_log::Identity::new(plan, shard);
     let mut summary = overrides.shard.is_none().then(|| summary::Accumulator::new(plan));

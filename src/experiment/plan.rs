@@ -2,14 +2,15 @@
 //! one-line error naming the file, the JSON path and the value.
 
 use super::spec::*;
-use crate::bmc::{BmcModel, Scale};
-use crate::estimator::Method;
+use crate::bq::estimator::Method;
+use crate::bq::model::BmcModel;
+use crate::bq::model::ResolvedModel;
+use crate::bq::rule::MAX_POINTS;
+use crate::bq::weights::Scale;
 use crate::integrand::family::{AxisIntegrand, Profile};
 use crate::integrand::pixel::PixelIntegrand;
 use crate::integrand::{CosPower, Integrand};
-use crate::model_spec::ResolvedModel;
 use crate::render::env::{EnvMap, Environment};
-use crate::rule::MAX_POINTS;
 use crate::sampling::{Design, SetDesign};
 use serde::Serialize;
 use std::sync::Arc;
@@ -82,8 +83,8 @@ pub struct PlannedEstimator {
     pub prior: Option<Prior>,
     /// The kernel amplitude (methods with weights; math.md §7).
     pub scale: Option<Scale>,
-    /// Stop at a target uncertainty ([`crate::sequential`], intervals of math.md §7); the sample counts are then first stages.
-    pub tolerance: Option<crate::sequential::Tolerance>,
+    /// Stop at a target uncertainty ([`crate::bq::stages`], intervals of math.md §7); the sample counts are then first stages.
+    pub tolerance: Option<crate::bq::stages::Tolerance>,
     /// The resolved settings, for the manifest and `validate`.
     pub settings: ResolvedSettings,
 }
@@ -106,7 +107,7 @@ pub struct ResolvedSettings {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scale: Option<Scale>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub tolerance: Option<crate::sequential::Tolerance>,
+    pub tolerance: Option<crate::bq::stages::Tolerance>,
 }
 
 /// A resolved check.
@@ -136,12 +137,12 @@ pub struct CalibrationCheck {
 
 /// Parses the JSON text; errors say where (`path: message`).
 pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
-    if crate::json::spec_kind(text) == Some(crate::json::SpecKind::RenderTable) {
+    if crate::files::spec_json::spec_kind(text) == Some(crate::files::spec_json::SpecKind::RenderTable) {
         return Err(
             "this is a render table spec (it has \"variants\"); run it with `workbench render FILE`".into(),
         );
     }
-    crate::json::parse(text, "the experiment")
+    crate::files::spec_json::parse(text, "the experiment")
 }
 
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
@@ -343,13 +344,13 @@ fn check_limits(
     // BMC on rings with exact kernel means solves J × J blocks (ring_solver), not Q itself.
     let on_rings = |e: &PlannedEstimator| {
         e.design == SetDesign::Rings
-            && e.settings.kernel_mean == Some(crate::model_spec::KernelMeanName::Exact)
+            && e.settings.kernel_mean == Some(crate::bq::model::KernelMeanName::Exact)
     };
     let needs_weights = estimators
         .iter()
         .any(|e| e.method.needs_weights() && !on_rings(e));
     let needs_ring_weights = estimators.iter().any(|e| e.method.needs_weights() && on_rings(e));
-    if needs_ring_weights && max_n > crate::ring_solver::MAX_RING_POINTS as u64 {
+    if needs_ring_weights && max_n > crate::bq::factor::rings::MAX_RING_POINTS as u64 {
         let i = spec
             .samples
             .iter()
@@ -359,7 +360,7 @@ fn check_limits(
             format!("samples[{i}]"),
             format!(
                 "N = {max_n}: BMC estimators on the rings design allow at most N = {}",
-                crate::ring_solver::MAX_RING_POINTS
+                crate::bq::factor::rings::MAX_RING_POINTS
             ),
         ));
     }
@@ -369,13 +370,13 @@ fn check_limits(
             .iter()
             .position(|&n| n == max_n)
             .expect("max is in the list");
-        let gib = crate::rule::matrix_gib(max_n as usize);
+        let gib = crate::bq::rule::matrix_gib(max_n as usize);
         return Err(err(
             format!("samples[{i}]"),
             format!(
                 "N = {max_n} would need {gib:.1} GiB per worker thread for Q (factored in place); \
                  BMC estimators allow at most N = {MAX_POINTS} ({:.0} GiB)",
-                crate::rule::matrix_gib(MAX_POINTS)
+                crate::bq::rule::matrix_gib(MAX_POINTS)
             ),
         ));
     }

@@ -6,8 +6,8 @@
 use super::fit::{SeriesFit, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::estimator::Method;
-use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
+use crate::bq::estimator::Method;
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 use crate::sampling::{Design, SetDesign};
 use plotters::prelude::*;
 

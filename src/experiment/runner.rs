@@ -6,10 +6,10 @@
 //! and BMCP with the same model cost one Cholesky between them.
 
 use super::plan::Plan;
-use crate::bmc::{BmcWeights, Scale};
-use crate::linalg::SpdWorkspace;
-use crate::rng::stream;
+use crate::bq::factor::SpdWorkspace;
+use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::SetDesign;
+use crate::util::rng::stream;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -24,9 +24,9 @@ pub struct UnitResult {
     pub estimates: Vec<Vec<f64>>,
     /// `uncertainty[integrand][estimator]`: the stated sd and its interval's law (None when
     /// the estimator has none, e.g. MC with N = 1).
-    pub uncertainty: Vec<Vec<Option<crate::estimator::Uncertainty>>>,
+    pub uncertainty: Vec<Vec<Option<crate::bq::estimator::Uncertainty>>>,
     /// The diagnostics of each estimator's weight set (None for MC).
-    pub diagnostics: Vec<Option<crate::bmc::Diagnostics>>,
+    pub diagnostics: Vec<Option<crate::bq::weights::Diagnostics>>,
     /// Numerical warnings of each estimator's weight set.
     pub warnings: Vec<u32>,
     /// The warnings' messages, once per weight set.
@@ -35,7 +35,7 @@ pub struct UnitResult {
     pub fitted: Vec<Vec<bool>>,
     /// `sequential[integrand][estimator]`: where a tolerance estimator stopped (None for the
     /// others; [`super::adaptive`]).
-    pub sequential: Vec<Vec<Option<crate::sequential::Outcome>>>,
+    pub sequential: Vec<Vec<Option<crate::bq::stages::Outcome>>>,
     /// What each estimator cost ([`Cost`]); wall-clock, so outside the byte-identical outputs.
     pub cost: Cost,
 }
@@ -117,7 +117,7 @@ pub fn run_unit(
 ) -> crate::Result<UnitResult> {
     let n = plan.samples[n_index];
     let mut sample_seconds = Vec::with_capacity(plan.designs.len());
-    let sets: Vec<Vec<crate::geometry::Vec3>> = plan
+    let sets: Vec<Vec<crate::util::geometry::Vec3>> = plan
         .designs
         .iter()
         .map(|&d| {
@@ -313,7 +313,7 @@ pub fn run_unit(
         uncertainty.push(sds);
         fitted.push(amplitudes[fi].iter().map(Option::is_some).collect::<Vec<bool>>());
     }
-    let diagnostics: Vec<Option<crate::bmc::Diagnostics>> = plan
+    let diagnostics: Vec<Option<crate::bq::weights::Diagnostics>> = plan
         .estimators
         .iter()
         .zip(&adaptive)
@@ -341,10 +341,13 @@ pub fn run_unit(
         .collect();
     // Bayes–Sard's own Var₁ can be negative where BMC's is not (MC kernel means).
     for (e, d) in plan.estimators.iter().zip(&diagnostics) {
-        if e.method == crate::estimator::Method::Bsq && e.tolerance.is_none() {
+        if e.method == crate::bq::estimator::Method::Bsq && e.tolerance.is_none() {
             let d = d.as_ref().expect("BSQ has weights");
             for w in &d.warnings {
-                if matches!(w, crate::bmc::NumericalWarning::NegativePosteriorVariance { .. }) {
+                if matches!(
+                    w,
+                    crate::bq::weights::NumericalWarning::NegativePosteriorVariance { .. }
+                ) {
                     messages.push(w.message());
                 }
             }
@@ -355,7 +358,7 @@ pub fn run_unit(
             if *a == Some(0.0) {
                 messages.push(format!(
                     "{} ({:?} on {})",
-                    crate::bmc::NumericalWarning::ZeroAmplitude.message(),
+                    crate::bq::weights::NumericalWarning::ZeroAmplitude.message(),
                     plan.estimators[ei].label,
                     plan.integrands[fi].name()
                 ));

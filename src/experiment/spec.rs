@@ -2,8 +2,8 @@
 //!
 //! Nothing here is validated beyond types; [`super::plan`] turns a spec into a plan.
 
-use crate::estimator::Method;
-pub use crate::model_spec::{KernelMeanName, KernelSpec, ModelSpec};
+use crate::bq::estimator::Method;
+pub use crate::bq::model::{KernelMeanName, KernelSpec, ModelSpec};
 use crate::sampling::SetDesign;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -76,10 +76,10 @@ pub struct EstimatorSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sweep: Option<std::collections::BTreeMap<String, Vec<serde_json::Value>>>,
     /// Methods with weights (BMC, BMCP, BSQ): the kernel amplitude, `unit`, `ml` or `loo`
-    /// (math.md §7); default [`crate::bmc::Scale::DEFAULT`].
+    /// (math.md §7); default [`crate::bq::weights::Scale::DEFAULT`].
     #[serde(default)]
-    pub scale: Option<crate::bmc::Scale>,
-    /// Stop at a target uncertainty ([`crate::sequential`]; intervals of math.md §7):
+    pub scale: Option<crate::bq::weights::Scale>,
+    /// Stop at a target uncertainty ([`crate::bq::stages`]; intervals of math.md §7):
     /// `{"abs": A, "max_n": M}`. The experiment's
     /// sample counts are then this estimator's first stages; see [`super::adaptive`].
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -1,7 +1,7 @@
 //! Per-cell summaries and the evaluation of checks.
 
 use super::plan::{CalibrationCheck, Check, Plan};
-use crate::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
+use crate::util::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
 
 /// The levels at which `summary.csv` reports coverage (math.md §7).
 pub const COVERAGE_LEVELS: [f64; 3] = [0.5, 0.8, 0.95];
@@ -143,7 +143,7 @@ impl Accumulator {
                     None => {
                         let q = levels
                             .iter()
-                            .map(|&l| crate::stats::interval_quantile(dof, l))
+                            .map(|&l| crate::util::stats::interval_quantile(dof, l))
                             .collect();
                         c.quantiles.push((dof, q));
                         c.quantiles.len() - 1
@@ -251,7 +251,8 @@ fn summarize_cell(
 /// level) / trials)` (normal approximation to the binomial count of covering trials), clipped to
 /// [0, 1]. A calibrated estimator's coverage falls outside it in about 1% of cells.
 pub fn binomial_band(level: f64, trials: usize) -> (f64, f64) {
-    let half = crate::stats::interval_quantile(None, 0.99) * (level * (1.0 - level) / trials as f64).sqrt();
+    let half =
+        crate::util::stats::interval_quantile(None, 0.99) * (level * (1.0 - level) / trials as f64).sqrt();
     ((level - half).max(0.0), (level + half).min(1.0))
 }
 

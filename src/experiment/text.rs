@@ -34,7 +34,7 @@ pub fn describe(plan: &plan::Plan) -> String {
         weight_sets,
         weight_sets * plan.samples.len() * plan.trials,
         if weight_sets > 0 {
-            crate::rule::matrix_gib(max_n) * 1024.0
+            crate::bq::rule::matrix_gib(max_n) * 1024.0
         } else {
             0.0
         }

@@ -1,10 +1,10 @@
-//! Validation of tolerance estimators and `within_tolerance` checks ([`crate::sequential`];
+//! Validation of tolerance estimators and `within_tolerance` checks ([`crate::bq::stages`];
 //! README, "Stopping at a tolerance"): what the plan asks before anything runs.
 
 use super::spec::{CheckSpec, EstimatorSpec, ExperimentSpec, KernelMeanName};
-use crate::estimator::Method;
+use crate::bq::estimator::Method;
+use crate::bq::stages::Tolerance;
 use crate::sampling::SetDesign;
-use crate::sequential::Tolerance;
 use serde::Serialize;
 
 /// Whether a design's first N points are the same whatever the final N, so that a stage can
@@ -52,7 +52,7 @@ pub fn resolve_tolerance(
         ));
     }
     let limit = if method.needs_weights() {
-        crate::rule::MAX_POINTS as u64
+        crate::bq::rule::MAX_POINTS as u64
     } else {
         unit_points
     };

@@ -23,8 +23,8 @@
 //! the disagreements of two levels add up to 1e-14 of the integral of `|integrand|`). Tested against closed forms to
 //! 1e-12 relative and against an independent 2-D quadrature in `(θ, φ)` about the normal.
 
-use crate::geometry::Vec3;
-use crate::quadrature::GaussLegendre;
+use crate::util::geometry::Vec3;
+use crate::util::quadrature::GaussLegendre;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::LazyLock;
 

@@ -6,11 +6,11 @@
 //! is the certified quadrature of [`crate::render::exact`] at [`exact::DEFAULT_TOLERANCE`]
 //! (1e-9 absolute), whose error estimate is kept beside it.
 
-use crate::geometry::Vec3;
 use crate::render::env::Environment;
 use crate::render::exact;
 use crate::render::integrator::ShadingPoint;
 use crate::render::{Renderer, check_size};
+use crate::util::geometry::Vec3;
 use std::sync::Arc;
 
 /// The colour channel names, in order.

@@ -8,7 +8,7 @@
 //! - `bmc`: nested sample sets — `gps` sets of `max_spp` uniform points, each stage the first
 //!   `spp` points of its set — with weights `w = Q⁻¹z` and `Var₁ = V̂ − zᵀQ⁻¹z` per stage,
 //!   precomputed once from one Cholesky factor per set grown by blocks
-//!   ([`crate::nested_cholesky`]); the sd is `sqrt(λ̂ Var₁)` with the `ml` amplitude
+//!   ([`crate::bq::factor::nested`]); the sd is `sqrt(λ̂ Var₁)` with the `ml` amplitude
 //!   `λ̂ = YᵀQ⁻¹Y / N = ‖L⁻¹Y‖² / N` (math.md §7), whose `L⁻¹Y` a pixel extends stage by stage.
 //!
 //! What is compared with `T` is the stated sd, not an interval half-width: a calibrated sd `T`
@@ -22,14 +22,14 @@ use super::image::Image;
 use super::integrator::ShadingPoint;
 use super::renderer::Renderer;
 use super::scene::{Rgb, Scene};
-use crate::bmc::BmcModel;
-use crate::geometry::Vec3;
-use crate::linalg::NotPositiveDefinite;
-use crate::nested_cholesky::NestedCholesky;
-use crate::report::Reporter;
-use crate::rng::{WorkbenchRng, stream};
+use crate::bq::factor::NotPositiveDefinite;
+use crate::bq::factor::nested::NestedCholesky;
+use crate::bq::model::BmcModel;
+use crate::bq::stages::Tolerance;
 use crate::sampling::Design;
-use crate::sequential::Tolerance;
+use crate::util::geometry::Vec3;
+use crate::util::report::Reporter;
+use crate::util::rng::{WorkbenchRng, stream};
 use rand::RngExt;
 use rayon::prelude::*;
 use std::f64::consts::TAU;
@@ -114,7 +114,7 @@ impl AdaptiveSampler {
     /// `gps` nested sets of `max_spp` uniform points, set `s` depending only on `(seed, s)`,
     /// each factored once by blocks through the stages; the weights and `Var₁` of every stage
     /// come from the final factor's leading blocks, so with jitter (see
-    /// [`crate::nested_cholesky`]) every stage uses the same `Q + jI`. Returns the sets and the
+    /// [`crate::bq::factor::nested`]) every stage uses the same `Q + jI`. Returns the sets and the
     /// jitter added (0 when none), for the caller's warning.
     pub fn bmc(
         settings: &AdaptiveSettings,
@@ -129,7 +129,7 @@ impl AdaptiveSampler {
         let mut sets = Vec::with_capacity(gps);
         for s in 0..gps as u64 {
             let points = Design::Uniform.sample_set(max, &mut stream(seed, &[NESTED_SET_POINTS, s]));
-            let soa = crate::kernel::PointsSoa::new(&points);
+            let soa = crate::bq::kernel::PointsSoa::new(&points);
             let mut factor = NestedCholesky::with_capacity(max);
             for &m in &settings.stages {
                 factor.extend_to(m, |j, start, col| {
@@ -200,7 +200,7 @@ impl AdaptiveImage {
             .filter(|(m, _)| m.is_some())
             .map(|(_, &s)| s as f64)
             .collect();
-        crate::stats::mean(&hit)
+        crate::util::stats::mean(&hit)
     }
 
     /// Share of hit pixels whose every channel met the target before `max_spp`.
@@ -370,7 +370,7 @@ fn bmc_pixel(
     let mut n = 0usize;
     for (k, &stage) in settings.stages.iter().enumerate() {
         for v in &set.points[n..stage] {
-            let f = p.integrand(scene, env, &crate::geometry::rotate_about_z_by(v, sin, cos));
+            let f = p.integrand(scene, env, &crate::util::geometry::rotate_about_z_by(v, sin, cos));
             for c in 0..3 {
                 values[c].push(f[c]);
             }
@@ -383,7 +383,7 @@ fn bmc_pixel(
         let value = [0, 1, 2].map(|c| w.iter().zip(&values[c]).map(|(a, b)| a * b).sum::<f64>());
         // ml amplitude λ̂ = YᵀQ⁻¹Y / N (math.md §7; BMC: residuals r = Y).
         let sd = [0, 1, 2].map(|c| {
-            // As crate::bmc::fit_amplitude with `ml`, with YᵀQ⁻¹Y = ‖L⁻¹Y‖².
+            // As crate::bq::weights::fit_amplitude with `ml`, with YᵀQ⁻¹Y = ‖L⁻¹Y‖².
             let lambda = if values[c].iter().all(|&y| y == 0.0) {
                 0.0
             } else {

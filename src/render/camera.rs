@@ -1,6 +1,6 @@
 //! The pinhole camera of render-scene.md, "Camera".
 
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 
 /// A pinhole camera with one primary ray per pixel through the pixel centre.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -3,7 +3,7 @@
 
 use super::scene::Rgb;
 use crate::error::InputError;
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
@@ -114,8 +114,8 @@ impl EnvMap {
         let hash = texels
             .iter()
             .flatten()
-            .fold(crate::rng::label_id(&format!("{w}x{h}")), |h, v| {
-                crate::rng::splitmix64(h ^ v.to_bits() as u64)
+            .fold(crate::util::rng::label_id(&format!("{w}x{h}")), |h, v| {
+                crate::util::rng::splitmix64(h ^ v.to_bits() as u64)
             });
         Ok(EnvMap {
             width: w,

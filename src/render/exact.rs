@@ -39,8 +39,8 @@
 use super::env::Environment;
 use super::integrator::ShadingPoint;
 use super::scene::{Rgb, Scene};
-use crate::geometry::Vec3;
-use crate::quadrature::KRONROD21;
+use crate::util::geometry::Vec3;
+use crate::util::quadrature::KRONROD21;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Version of the quadrature, part of the exact reference's cache key: change it whenever a

@@ -1,6 +1,6 @@
 //! Linear images, the RMSE (math.md §6) and the files written for them: OpenEXR (linear float
 //! RGB), tone-mapped PNG and error images (thesis Fig. 3.14). Encoders are pure (`-> Vec<u8>`);
-//! the caller writes with [`crate::io::write_atomic`].
+//! the caller writes with [`crate::files::atomic::write_atomic`].
 
 use super::scene::Rgb;
 use crate::error::InputError;

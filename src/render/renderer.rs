@@ -12,10 +12,10 @@ use super::integrator::neighbours::{
 use super::integrator::{Integrator, ShadingPoint};
 use super::scene::{Rgb, Scene};
 use super::uncertainty::PixelSds;
+use crate::bq::estimator::Uncertainty;
 use crate::error::InputError;
-use crate::estimator::Uncertainty;
-use crate::report::Reporter;
-use crate::rng::stream;
+use crate::util::report::Reporter;
+use crate::util::rng::stream;
 use rayon::prelude::*;
 
 /// A pixel's estimate and, when asked for, its uncertainty per channel.

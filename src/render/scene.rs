@@ -1,6 +1,6 @@
 //! The default scene (render-scene.md, "World"): a Lambertian sphere on a finite ground square.
 
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 
 /// Linear RGB triple.
 pub type Rgb = [f64; 3];

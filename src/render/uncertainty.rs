@@ -7,7 +7,7 @@
 //! coverage95 per render and cell.
 
 use super::image::{Image, legend_png};
-use crate::estimator::Uncertainty;
+use crate::bq::estimator::Uncertainty;
 
 /// The sd each pixel's estimator states per channel, and the law of its intervals.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,7 +59,7 @@ impl PixelSds {
 
     /// The two-sided quantile `q` of the intervals `Î ± q·sd` at `level`.
     pub fn quantile(&self, level: f64) -> f64 {
-        crate::stats::interval_quantile(self.dof, level)
+        crate::util::stats::interval_quantile(self.dof, level)
     }
 
     /// `‖sd‖₂` over the three channels per pixel: the root of the expected squared error norm
@@ -128,7 +128,7 @@ pub fn coverage(image: &Image, reference: &Image, sds: &PixelSds, mask: Option<&
         median_error_over_sd: if n == 0 {
             f64::NAN
         } else {
-            crate::stats::quantile_sorted(&ratios, 0.5)
+            crate::util::stats::quantile_sorted(&ratios, 0.5)
         },
     }
 }

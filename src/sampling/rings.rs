@@ -7,7 +7,7 @@
 //! uniform within its stratum and uniform in azimuth, so MC on the set is unbiased (as on the
 //! stratified grid), while rotating the set by `2π/M` about the pole maps it onto itself: the
 //! Gram matrix is block-circulant and BMC's weights are constant on each ring (see
-//! [`crate::ring_solver`]). Points are stored ring by ring: point `(a, m)` is index `a·M + m`.
+//! [`crate::bq::factor::rings`]). Points are stored ring by ring: point `(a, m)` is index `a·M + m`.
 //!
 //! **Layout from N.** `J` is the largest divisor of `N` not above `√N` and `M = N/J` (the
 //! grid of the stratified design, [`super::stratified::grid`]): as many rings as azimuths when
@@ -17,7 +17,7 @@
 //! two is); otherwise the rings would be too few and too crowded, and [`check`] names the
 //! nearest counts that work.
 
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 use rand::{Rng, RngExt};
 
 /// `J` rings of `M` points each.
@@ -85,7 +85,7 @@ pub fn sample_set<R: Rng + ?Sized>(n: usize, rng: &mut R) -> Vec<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::stream;
+    use crate::util::rng::stream;
 
     #[test]
     fn layouts_split_n_into_rings() {

@@ -33,7 +33,7 @@ pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
 }
 
 use std::f64::consts::{PI, TAU};
-use workbench::kernel::Kernel;
+use workbench::bq::kernel::Kernel;
 
 /// The Funk–Hecke eigenvalues `λ_l = 2π ∫_{−1}^{1} κ(t) P_l(t) dt` of degrees 0 and 1, in closed
 /// form: `k(x, y) = Σ_l λ_l Σ_m Y_lm(x) Y_lm(y)`, so the RKHS norms are

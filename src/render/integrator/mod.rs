@@ -3,7 +3,7 @@
 //! `L_o = ∫_{H(n)} f(ω) dω`, `f(ω) = L_i(ω) · (albedo/π) · (ω·n)` per colour channel,
 //! with `L_i(ω) = env(ω)` when the ray from `x + 1e-4 n` towards `ω` escapes and 0 otherwise.
 //!
-//! The estimators are the experiments' own ([`crate::estimator::Method`]), applied once per
+//! The estimators are the experiments' own ([`crate::bq::estimator::Method`]), applied once per
 //! channel to the integrand's values at the pixel's sample directions: a new estimator is a
 //! render integrator as soon as it is a [`Method`]. What the renderer adds is where the samples
 //! come from — fresh per pixel for MC ([`Design::Uniform`] or [`Design::Cosine`]), re-used
@@ -15,12 +15,13 @@ pub mod sets;
 
 use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
-use crate::bmc::{BmcModel, BmcWeights, Scale};
+use crate::bq::estimator::{Method, Uncertainty};
+use crate::bq::model::BmcModel;
+use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
-use crate::estimator::{Method, Uncertainty};
-use crate::geometry::{Frame, Vec3};
-use crate::rng::WorkbenchRng;
 use crate::sampling::{Design, SetDesign};
+use crate::util::geometry::{Frame, Vec3};
+use crate::util::rng::WorkbenchRng;
 pub use neighbours::NeighbourPrior;
 pub use sets::{BmcSets, SampleSet};
 use std::f64::consts::PI;
@@ -33,7 +34,7 @@ pub struct IntegratorKind {
     pub design: Design,
     /// How the weighted sample sets are drawn: independent uniform points
     /// ([`SetDesign::Iid`]`(Uniform)`, the default and the only one for MC) or rings
-    /// ([`SetDesign::Rings`], weights by the `J × J` ring solver, [`crate::ring_solver`]).
+    /// ([`SetDesign::Rings`], weights by the `J × J` ring solver, [`crate::bq::factor::rings`]).
     pub set_design: SetDesign,
     /// How an estimator with a prior mean (`bmcp`) gets its constant from the neighbours
     /// ([`NeighbourPrior`]); [`NeighbourPrior::Mean`] for every other estimator.
@@ -173,7 +174,7 @@ pub const MAX_GPS: usize = 1024;
 /// need `spp = J·M` with `J` near `√spp` ([`crate::sampling::rings::check`]).
 pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), InputError> {
     if kind.uses_sets() {
-        crate::rule::check_point_count(spp, what)?;
+        crate::bq::rule::check_point_count(spp, what)?;
         kind.set_design
             .check_count(spp)
             .map_err(|m| InputError::new(format!("{what}: got {spp} for {kind}; {m}")))

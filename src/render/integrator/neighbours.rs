@@ -12,8 +12,8 @@
 //! are weighted by the similarity of their normals and rejected across depth discontinuities
 //! ([`edge_aware_prior`]).
 
-use crate::geometry::Vec3;
 use crate::render::scene::Rgb;
+use crate::util::geometry::Vec3;
 use std::f64::consts::TAU;
 
 /// Where BMCP's constant comes from.

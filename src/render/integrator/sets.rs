@@ -6,12 +6,13 @@
 //! points away from the locations the weights were computed for), and carried to the normal by
 //! the frame. Because the kernel depends on `x·y` only, rotated points keep their weights.
 
-use crate::bmc::{BmcModel, BmcWeights, Scale};
-use crate::geometry::Vec3;
-use crate::linalg::{CholeskyFactor, NotPositiveDefinite, SpdWorkspace, StructuredFactor};
-use crate::ring_solver::RingFactor;
-use crate::rng::{WorkbenchRng, stream};
+use crate::bq::factor::rings::RingFactor;
+use crate::bq::factor::{CholeskyFactor, NotPositiveDefinite, SpdWorkspace, StructuredFactor};
+use crate::bq::model::BmcModel;
+use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::{Design, SetDesign, rings};
+use crate::util::geometry::Vec3;
+use crate::util::rng::{WorkbenchRng, stream};
 use rand::RngExt;
 use std::f64::consts::TAU;
 
@@ -148,7 +149,7 @@ impl BmcSets {
                 )?),
                 SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
                     let no_means = vec![0.0; set.points.len()];
-                    crate::bmc::bmc_weights(
+                    crate::bq::weights::bmc_weights(
                         &set.points,
                         &no_means,
                         model.prior_variance(),
@@ -194,7 +195,7 @@ impl BmcSets {
         let points = set
             .points
             .iter()
-            .map(|v| crate::geometry::rotate_about_z_by(v, sin, cos))
+            .map(|v| crate::util::geometry::rotate_about_z_by(v, sin, cos))
             .collect();
         (set, points)
     }
@@ -203,9 +204,9 @@ impl BmcSets {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bmc::DEFAULT_NOISE;
-    use crate::kernel::{Kernel, Sobolev};
-    use crate::kernel_mean::KernelMeanMode;
+    use crate::bq::kernel::{Kernel, Sobolev};
+    use crate::bq::kernel_mean::KernelMeanMode;
+    use crate::bq::weights::DEFAULT_NOISE;
 
     fn model() -> BmcModel {
         BmcModel::new(

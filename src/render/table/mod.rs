@@ -37,10 +37,10 @@ pub use reference::{SCENE_VERSION, reference_key};
 pub use runner::{Row, render_seed};
 pub use summary::Cell;
 
-use crate::output_set::ResultFolder;
+use crate::files::result_folder::ResultFolder;
 use crate::render::image::Image;
 use crate::render::renderer::Renderer;
-use crate::report::Reporter;
+use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 
 /// What a finished table produced, for the caller to show.
@@ -81,7 +81,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     )?;
     if !cache.exists() {
         // The reference is written there after it is rendered: fail now, not then.
-        crate::io::check_writable_dir(cache.parent().unwrap_or(results))?;
+        crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
     }
     let renderer = Renderer::new(plan.width, plan.height, plan.env.clone());
 

@@ -4,7 +4,8 @@
 
 use super::adaptive::plan::AdaptivePlan;
 use super::spec::{ReferenceMethod, Repetitions, TableSpec, VariantSpec};
-use crate::bmc::{BmcModel, Scale};
+use crate::bq::model::BmcModel;
+use crate::bq::weights::Scale;
 use crate::error::InputError;
 use crate::render::env::Environment;
 use crate::render::integrator::{DEFAULT_GPS, IntegratorKind, MAX_MC_SPP, check_gps, check_spp};
@@ -100,7 +101,7 @@ const REFERENCE_SEED: u64 = 0x2ef;
 
 /// Reads and validates `path`.
 pub fn load(path: &Path) -> Result<TablePlan, InputError> {
-    let text = crate::json::read_spec(path)?;
+    let text = crate::files::spec_json::read_spec(path)?;
     parse(&text, path)
 }
 
@@ -108,12 +109,12 @@ pub fn load(path: &Path) -> Result<TablePlan, InputError> {
 pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
     let file = path.display().to_string();
     let in_file = |m: String| InputError::new(format!("{file}: {m}"));
-    if crate::json::spec_kind(text) == Some(crate::json::SpecKind::Experiment) {
+    if crate::files::spec_json::spec_kind(text) == Some(crate::files::spec_json::SpecKind::Experiment) {
         return Err(in_file(
             "this is an experiment file (it has no \"variants\"); run it with `workbench run FILE`".into(),
         ));
     }
-    let spec: TableSpec = crate::json::parse(text, "the render table").map_err(in_file)?;
+    let spec: TableSpec = crate::files::spec_json::parse(text, "the render table").map_err(in_file)?;
     resolve(&spec, path).map_err(in_file)
 }
 
@@ -327,7 +328,9 @@ fn resolve_reference(spec: &TableSpec, seed: u64) -> Result<ReferencePlan, Strin
     }
     Ok(ReferencePlan::Mc {
         spp: spp as usize,
-        seed: r.seed.unwrap_or_else(|| crate::rng::mix(seed, &[REFERENCE_SEED])),
+        seed: r
+            .seed
+            .unwrap_or_else(|| crate::util::rng::mix(seed, &[REFERENCE_SEED])),
     })
 }
 

@@ -4,8 +4,8 @@
 
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
-use crate::estimator::Method;
-use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
+use crate::bq::estimator::Method;
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 use crate::render::integrator::IntegratorKind;
 use plotters::prelude::*;
 

@@ -2,12 +2,12 @@
 //! describing it), `key` a hash of everything that determines it, so tables share it.
 
 use super::plan::{ReferencePlan, TablePlan};
-use crate::io::write_atomic;
+use crate::files::atomic::write_atomic;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
 use crate::render::renderer::Renderer;
-use crate::report::Reporter;
 use crate::sampling::Design;
+use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -30,7 +30,7 @@ pub fn reference_key(plan: &TablePlan) -> (String, String) {
     }
     let description = serde_json::to_string_pretty(&json).expect("serialisable");
     (
-        format!("{:016x}", crate::rng::label_id(&description)),
+        format!("{:016x}", crate::util::rng::label_id(&description)),
         description,
     )
 }

@@ -5,7 +5,7 @@ use crate::render::image::Image;
 use crate::render::integrator::Integrator;
 use crate::render::renderer::Renderer;
 use crate::render::uncertainty::coverage;
-use crate::report::{Reporter, Silent};
+use crate::util::report::{Reporter, Silent};
 use std::time::Instant;
 
 /// One render of the table.
@@ -29,7 +29,7 @@ pub struct Row {
 
 /// The seed of repetition `rep` at `spp`: the same for every variant (paired renders).
 pub fn render_seed(seed: u64, spp: usize, rep: usize) -> u64 {
-    crate::rng::mix(seed, &[spp as u64, rep as u64])
+    crate::util::rng::mix(seed, &[spp as u64, rep as u64])
 }
 
 /// What the runner hands its caller as it goes: the first repetition's image of each cell (to

@@ -10,7 +10,7 @@
 //!                 { "label": "BMC 4 GP", "integrator": "bmc", "gps": 4, "rotate": true } ] }
 //! ```
 
-use crate::model_spec::ModelSpec;
+use crate::bq::model::ModelSpec;
 use crate::render::integrator::IntegratorKind;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -74,7 +74,7 @@ pub struct VariantSpec {
     /// Amplitude of the per-pixel posterior sd behind the coverage columns (integrators with
     /// weights only): `unit`, `ml` or `loo` (math.md §7); default `ml`.
     #[serde(default)]
-    pub scale: Option<crate::bmc::Scale>,
+    pub scale: Option<crate::bq::weights::Scale>,
 }
 
 /// `{"target_sd": [0.08, 0.04, 0.02], "max_spp": 512, "first_spp": 16}`: each pixel doubles its

@@ -28,7 +28,7 @@ pub struct Cell {
 /// Mean, standard deviation and 95% Student-t half-width of the RMSE per (variant, spp), in
 /// the order of the spec; a plain loop in row order.
 pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
-    use crate::stats::{mean, mean_ci95, sample_sd};
+    use crate::util::stats::{mean, mean_ci95, sample_sd};
     let mut cells = Vec::new();
     for v in 0..plan.variants.len() {
         for &spp in &plan.spp {

@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use std::f64::consts::TAU;
-use workbench::bmc::{BmcWeights, Scale, bmc_weights, fit_amplitude};
+use workbench::bq::weights::{BmcWeights, Scale, bmc_weights, fit_amplitude};
 
 /// `Q⁻¹ v` with the workspace's factor.
 fn solve(ws: &SpdWorkspace, v: &[f64]) -> Vec<f64> {
@@ -13,13 +13,13 @@ fn solve(ws: &SpdWorkspace, v: &[f64]) -> Vec<f64> {
     ws.solve_in_place(&mut a);
     a
 }
-use workbench::estimator::Method;
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
-use workbench::kernel_mean::KernelMeanTable;
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
+use workbench::bq::estimator::Method;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
+use workbench::bq::kernel_mean::KernelMeanTable;
 use workbench::sampling::Design;
+use workbench::util::geometry::Vec3;
+use workbench::util::rng::stream;
 
 fn kernels() -> Vec<Kernel> {
     vec![

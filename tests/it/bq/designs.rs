@@ -4,11 +4,11 @@
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::f64::consts::TAU;
 use std::sync::LazyLock;
-use workbench::estimator::mc;
+use workbench::bq::estimator::mc;
 use workbench::integrand::family::{AxisIntegrand, Profile};
-use workbench::quadrature::GaussLegendre;
-use workbench::rng::stream;
 use workbench::sampling::{Design, SetDesign, stratified};
+use workbench::util::quadrature::GaussLegendre;
+use workbench::util::rng::stream;
 
 const TRIALS: usize = 400;
 

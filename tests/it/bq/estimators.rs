@@ -5,15 +5,16 @@
 use crate::common::{funk_hecke_0_1, rkhs_norms_of_one_and_cos};
 
 use std::f64::consts::{PI, TAU};
-use workbench::bmc::{BmcModel, bmc_weights, worst_case_error};
-use workbench::estimator::{Method, bmc, bmcp, mc};
-use workbench::geometry::{Vec3, rotate_about_z};
+use workbench::bq::estimator::{Method, bmc, bmcp, mc};
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
+use workbench::bq::kernel_mean::{KernelMeanMode, KernelMeanTable};
+use workbench::bq::model::BmcModel;
+use workbench::bq::weights::{bmc_weights, worst_case_error};
 use workbench::integrand::CosPower;
-use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
-use workbench::kernel_mean::{KernelMeanMode, KernelMeanTable};
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
 use workbench::sampling::{Design, SetDesign};
+use workbench::util::geometry::{Vec3, rotate_about_z};
+use workbench::util::rng::stream;
 
 fn sobolev() -> Kernel {
     Kernel::Sobolev(Sobolev::new(1.4).unwrap())
@@ -73,7 +74,7 @@ fn cosine_weighted_mc_on_cos_has_zero_variance() {
     }
 }
 
-fn weights(kernel: Kernel, noise: f64, pts: &[Vec3]) -> workbench::bmc::BmcWeights {
+fn weights(kernel: Kernel, noise: f64, pts: &[Vec3]) -> workbench::bq::weights::BmcWeights {
     let model = BmcModel::new(kernel, noise, KernelMeanMode::Exact);
     model
         .weights(pts, &mut stream(0, &[]), &mut SpdWorkspace::new())
@@ -222,7 +223,7 @@ fn singular_q_gets_counted_jitter() {
         w.diagnostics
             .warnings
             .iter()
-            .any(|x| matches!(x, workbench::bmc::NumericalWarning::Jitter { .. }))
+            .any(|x| matches!(x, workbench::bq::weights::NumericalWarning::Jitter { .. }))
     );
     assert!(w.weights.iter().all(|x| x.is_finite()));
 }
@@ -279,7 +280,7 @@ fn every_method_conforms() {
                     &pts,
                     &vals,
                     m.needs_weights().then_some(&w),
-                    workbench::bmc::Scale::Unit,
+                    workbench::bq::weights::Scale::Unit,
                     1.0,
                 )
                 .unwrap_or_else(|| panic!("{m} has no uncertainty"));
@@ -320,7 +321,7 @@ fn mc_kernel_mean_mode_converges_to_exact() {
         .iter()
         .map(|w| pts.iter().zip(&u).map(|(p, ui)| ui * kernel.eval(p, w)).sum())
         .collect();
-    let sd = workbench::stats::sample_sd(&g);
+    let sd = workbench::util::stats::sample_sd(&g);
     for m in [100, 10_000, 1_000_000] {
         // Shared directions: the standard error above is for δz_i from one direction set (the
         // per-point mode's version is in tests/it/bq/mc_kernel_means.rs).
@@ -356,14 +357,14 @@ fn fibonacci_design_is_unbiased_and_beats_iid_mc() {
             qmc.push(q);
             diffs.push((q - f.integral()).abs() - (m - f.integral()).abs());
         }
-        let se = |x: &[f64]| workbench::stats::sample_sd(x) / (x.len() as f64).sqrt();
-        let bias = workbench::stats::mean(&qmc) - f.integral();
+        let se = |x: &[f64]| workbench::util::stats::sample_sd(x) / (x.len() as f64).sqrt();
+        let bias = workbench::util::stats::mean(&qmc) - f.integral();
         assert!(
             bias.abs() < 4.0 * se(&qmc),
             "k={k}: bias {bias} (se {})",
             se(&qmc)
         );
-        let gain = workbench::stats::mean(&diffs);
+        let gain = workbench::util::stats::mean(&diffs);
         assert!(
             gain < -5.0 * se(&diffs),
             "k={k}: mean |e_qmc| − |e_mc| = {gain} (se {})",

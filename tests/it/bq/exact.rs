@@ -4,14 +4,14 @@
 
 use rand::RngExt;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use workbench::geometry::Vec3;
 use workbench::integrand::family::{AxisIntegrand, Profile};
-use workbench::quadrature::GaussLegendre;
 use workbench::render::exact::{self, DEFAULT_TOLERANCE};
 use workbench::render::integrator::ShadingPoint;
 use workbench::render::scene::{Ground, Scene};
 use workbench::render::{Environment, Renderer};
-use workbench::rng::stream;
+use workbench::util::geometry::Vec3;
+use workbench::util::quadrature::GaussLegendre;
+use workbench::util::rng::stream;
 
 const SIZE: usize = 64;
 

@@ -5,9 +5,9 @@
 //! with the arc function `Φ`) but the profile `g`.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use workbench::geometry::Vec3;
 use workbench::integrand::family::{AxisIntegrand, Profile};
-use workbench::quadrature::GaussLegendre;
+use workbench::util::geometry::Vec3;
+use workbench::util::quadrature::GaussLegendre;
 
 /// `∫_0^{2π} g(ω·a) dφ` at polar angle `θ` about `+z`, split where `ω·a` crosses `edge`.
 fn azimuthal(f: &AxisIntegrand, theta: f64, edge: Option<f64>, rule: &GaussLegendre) -> f64 {

@@ -8,11 +8,11 @@
 
 use std::collections::BinaryHeap;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
-use workbench::kernel_mean::{KernelMeanTable, kernel_mean_exact, kernel_mean_mc, prior_variance_exact};
-use workbench::rng::stream;
+use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
+use workbench::bq::kernel_mean::{KernelMeanTable, kernel_mean_exact, kernel_mean_mc, prior_variance_exact};
 use workbench::sampling::Design;
+use workbench::util::geometry::Vec3;
+use workbench::util::rng::stream;
 
 fn sobolev(s: f64) -> Kernel {
     Kernel::Sobolev(Sobolev::new(s).expect("valid s"))

@@ -10,13 +10,16 @@
 //! is used; every seed is fixed.
 
 use std::f64::consts::TAU;
-use workbench::bmc::{BmcModel, NumericalWarning, bmc_weights};
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
-use workbench::kernel_mean::{KernelMeanMode, kernel_mean_exact, kernel_means_mc, kernel_means_mc_per_point};
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
+use workbench::bq::kernel_mean::{
+    KernelMeanMode, kernel_mean_exact, kernel_means_mc, kernel_means_mc_per_point,
+};
+use workbench::bq::model::BmcModel;
+use workbench::bq::weights::{NumericalWarning, bmc_weights};
 use workbench::sampling::Design;
+use workbench::util::geometry::Vec3;
+use workbench::util::rng::stream;
 
 fn sobolev() -> Kernel {
     Kernel::Sobolev(Sobolev::new(1.4).unwrap())
@@ -42,7 +45,7 @@ fn shared(m: usize) -> KernelMeanMode {
 fn mc_sd(kernel: &Kernel, x: &Vec3) -> f64 {
     let dirs = Design::Uniform.sample_set(200_000, &mut stream(9_001, &[]));
     let v: Vec<f64> = dirs.iter().map(|w| TAU * kernel.eval(x, w)).collect();
-    workbench::stats::sample_sd(&v)
+    workbench::util::stats::sample_sd(&v)
 }
 
 fn point_at(mu: f64, phi: f64) -> Vec3 {
@@ -51,7 +54,7 @@ fn point_at(mu: f64, phi: f64) -> Vec3 {
 }
 
 fn sample_variance(x: &[f64]) -> f64 {
-    workbench::stats::sample_sd(x).powi(2)
+    workbench::util::stats::sample_sd(x).powi(2)
 }
 
 /// (1) Per-point estimates are unbiased with the standard error of M directions: the
@@ -72,7 +75,7 @@ fn per_point_estimates_are_unbiased_within_their_standard_error() {
             .map(|(p, zi)| (zi - kernel_mean_exact(&kernel, p.z)) / (mc_sd(&kernel, p) / (m as f64).sqrt()))
             .collect();
         let worst = t.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        let mean = workbench::stats::mean(&t);
+        let mean = workbench::util::stats::mean(&t);
         let var = sample_variance(&t);
         assert!(worst < 4.5, "{kernel}: max |t| = {worst}");
         assert!(mean.abs() < 4.0 / 8.0, "{kernel}: mean t = {mean}");
@@ -115,7 +118,7 @@ fn errors_of_different_points_are_uncorrelated() {
             a.push(z[0] - exact[0]);
             b.push(z[1] - exact[1]);
         }
-        let (ma, mb) = (workbench::stats::mean(&a), workbench::stats::mean(&b));
+        let (ma, mb) = (workbench::util::stats::mean(&a), workbench::util::stats::mean(&b));
         let cov: f64 = a.iter().zip(&b).map(|(x, y)| (x - ma) * (y - mb)).sum();
         let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
         let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
@@ -228,7 +231,7 @@ fn mc_constructors_validate_m() {
 // ---------------------------------------------------------------------------------------------
 // Negative posterior variance (math.md §7).
 
-fn negative_variance_warnings(w: &workbench::bmc::BmcWeights) -> Vec<f64> {
+fn negative_variance_warnings(w: &workbench::bq::weights::BmcWeights) -> Vec<f64> {
     w.diagnostics
         .warnings
         .iter()

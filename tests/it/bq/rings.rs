@@ -3,13 +3,13 @@
 //! Cholesky to 1e-10, and the commands take the design (and reject counts that are not rings).
 
 use crate::common::{stderr, workbench};
-use workbench::bmc::BmcModel;
-use workbench::estimator::mc;
-use workbench::kernel::{Kernel, Sobolev, SquaredExponential};
-use workbench::kernel_mean::KernelMeanMode;
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
+use workbench::bq::estimator::mc;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
+use workbench::bq::kernel_mean::KernelMeanMode;
+use workbench::bq::model::BmcModel;
 use workbench::sampling::SetDesign;
+use workbench::util::rng::stream;
 
 fn max_rel(a: &[f64], b: &[f64]) -> f64 {
     let scale = b.iter().map(|v| v.abs()).fold(0.0, f64::max);
@@ -19,7 +19,7 @@ fn max_rel(a: &[f64], b: &[f64]) -> f64 {
 /// MC over 400 ring sets of 512 points: the mean error is within five standard errors of 0.
 #[test]
 fn mc_on_rings_is_unbiased() {
-    let f = |p: &workbench::geometry::Vec3| p.z.powi(3) + 0.5 * p.x + 0.2 * p.x * p.y;
+    let f = |p: &workbench::util::geometry::Vec3| p.z.powi(3) + 0.5 * p.x + 0.2 * p.x * p.y;
     // ∫_H cos³θ dω = 2π/4; the odd terms in x integrate to 0 over the azimuth.
     let truth = std::f64::consts::TAU / 4.0;
     let trials = 400;

@@ -1,17 +1,18 @@
-//! Stopping at a tolerance ([`workbench::sequential`]): the stages, nested designs, the stopping rule, the
+//! Stopping at a tolerance ([`workbench::bq::stages`]): the stages, nested designs, the stopping rule, the
 //! weight sets of extended factors against fresh ones, and experiments with tolerance
 //! estimators end to end (outputs, the `within_tolerance` check, bad input).
 
 use crate::common::*;
-use workbench::bmc::{BmcModel, Scale};
-use workbench::estimator::Method;
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, Sobolev};
-use workbench::kernel_mean::KernelMeanMode;
-use workbench::linalg::SpdWorkspace;
-use workbench::rng::stream;
+use workbench::bq::estimator::Method;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, Sobolev};
+use workbench::bq::kernel_mean::KernelMeanMode;
+use workbench::bq::model::BmcModel;
+use workbench::bq::stages::{self, NestedWeights, Tolerance, Walker, WeightedEstimator};
+use workbench::bq::weights::Scale;
 use workbench::sampling::{Design, SetDesign};
-use workbench::sequential::{self, NestedWeights, Tolerance, Walker, WeightedEstimator};
+use workbench::util::geometry::Vec3;
+use workbench::util::rng::stream;
 
 fn model() -> BmcModel {
     BmcModel::new(
@@ -61,7 +62,7 @@ fn a_constant_integrand_stops_at_the_first_stage() {
         abs: 1e-9,
         max_n: 256,
     };
-    let o = sequential::mc(Design::Uniform, &pts, &ones, &t.stages(8), t.abs);
+    let o = stages::mc(Design::Uniform, &pts, &ones, &t.stages(8), t.abs);
     assert_eq!((o.n_used, o.met), (8, true));
     assert!((o.estimate - std::f64::consts::TAU).abs() < 1e-12);
 
@@ -77,7 +78,7 @@ fn a_constant_integrand_stops_at_the_first_stage() {
         stages: t.stages(8),
         abs: t.abs,
     };
-    let run = &sequential::weighted_together(&[walker], &mut nested).unwrap()[0];
+    let run = &stages::weighted_together(&[walker], &mut nested).unwrap()[0];
     assert_eq!((run.outcomes[0].n_used, run.outcomes[0].met), (8, true));
     assert!((run.outcomes[0].estimate - std::f64::consts::TAU).abs() < 1e-9);
     assert_eq!(run.diagnostics.n, 8, "only the first stage was factored");
@@ -90,9 +91,9 @@ fn the_rule_stops_where_the_interval_is_narrow_enough() {
     let pts = Design::Uniform.sample_set(512, &mut stream(2, &[]));
     let v: Vec<f64> = pts.iter().map(cos3).collect();
     let stages = Tolerance { abs: 1.0, max_n: 512 }.stages(4);
-    let tight = sequential::mc(Design::Uniform, &pts, &v, &stages, 1e-9);
+    let tight = stages::mc(Design::Uniform, &pts, &v, &stages, 1e-9);
     assert_eq!((tight.n_used, tight.met), (512, false));
-    let loose = sequential::mc(Design::Uniform, &pts, &v, &stages, 0.3);
+    let loose = stages::mc(Design::Uniform, &pts, &v, &stages, 0.3);
     assert!(loose.met && loose.n_used < 512, "{loose:?}");
     let n = loose.n_used;
     let u = Method::Mc
@@ -103,7 +104,7 @@ fn the_rule_stops_where_the_interval_is_narrow_enough() {
         Method::Mc.estimate(Design::Uniform, &pts[..n], &v[..n], None, 0.0)
     );
     assert_eq!(loose.uncertainty, Some(u));
-    assert!(sequential::half_width(&u) <= 0.3);
+    assert!(stages::half_width(&u) <= 0.3);
     // The stage before did not meet it (that is why it went on).
     let before = Method::Mc
         .uncertainty(
@@ -115,7 +116,7 @@ fn the_rule_stops_where_the_interval_is_narrow_enough() {
             1.0,
         )
         .unwrap();
-    assert!(sequential::half_width(&before) > 0.3);
+    assert!(stages::half_width(&before) > 0.3);
 }
 
 /// Sequential BMC, BMCP and Bayes–Sard (ml and loo) stopping at every stage in turn equal the
@@ -138,7 +139,7 @@ fn extended_weight_sets_match_fresh_ones() {
                     stages: stages[..=k].to_vec(),
                     abs: 0.0,
                 };
-                let o = sequential::weighted_together(&[walker], &mut nested).unwrap()[0].outcomes[0];
+                let o = stages::weighted_together(&[walker], &mut nested).unwrap()[0].outcomes[0];
                 assert_eq!(o.n_used, n);
                 let mut ws = SpdWorkspace::new();
                 let w = m.weights(&pts[..n], &mut stream(0, &[]), &mut ws).unwrap();

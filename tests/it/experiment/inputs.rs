@@ -358,7 +358,7 @@ mod hostile_json {
         assert!(err.starts_with("Error: x.json: "), "{err}");
         // What the spec reader says (the commands read spec files through it once wired).
         assert_eq!(
-            workbench::json::read_spec(&dir.path().join("x.json"))
+            workbench::files::spec_json::read_spec(&dir.path().join("x.json"))
                 .unwrap_err()
                 .to_string(),
             format!("{}: is a folder, not a file", dir.path().join("x.json").display())
@@ -373,19 +373,22 @@ mod hostile_json {
         let file = std::fs::File::create(&path).unwrap();
         file.set_len(1 << 30).unwrap();
         assert_eq!(
-            workbench::json::read_spec(&path).unwrap_err().to_string(),
+            workbench::files::spec_json::read_spec(&path)
+                .unwrap_err()
+                .to_string(),
             format!(
                 "{}: the file is 1.0 GiB; spec files are limited to 16.0 MiB",
                 path.display()
             )
         );
         // Just over the limit is refused too, just under is read.
-        file.set_len(workbench::json::MAX_SPEC_BYTES + 1).unwrap();
-        assert!(workbench::json::read_spec(&path).is_err());
-        file.set_len(workbench::json::MAX_SPEC_BYTES).unwrap();
+        file.set_len(workbench::files::spec_json::MAX_SPEC_BYTES + 1)
+            .unwrap();
+        assert!(workbench::files::spec_json::read_spec(&path).is_err());
+        file.set_len(workbench::files::spec_json::MAX_SPEC_BYTES).unwrap();
         assert_eq!(
-            workbench::json::read_spec(&path).unwrap().len() as u64,
-            workbench::json::MAX_SPEC_BYTES
+            workbench::files::spec_json::read_spec(&path).unwrap().len() as u64,
+            workbench::files::spec_json::MAX_SPEC_BYTES
         );
     }
 
@@ -396,7 +399,9 @@ mod hostile_json {
         let path = dir.path().join("x.json");
         std::fs::write(&path, b"{\n  \"name\": \"caf\xe9\"\n}").unwrap();
         assert_eq!(
-            workbench::json::read_spec(&path).unwrap_err().to_string(),
+            workbench::files::spec_json::read_spec(&path)
+                .unwrap_err()
+                .to_string(),
             format!(
                 "{}: line 2, column 15: byte 0xE9 is not UTF-8 text; save the file as UTF-8",
                 path.display()

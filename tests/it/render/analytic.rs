@@ -4,14 +4,15 @@
 // Channels are indexed in step across pixels, albedos and sky values.
 #![allow(clippy::needless_range_loop)]
 
-use workbench::bmc::{BmcModel, DEFAULT_NOISE};
-use workbench::geometry::Vec3;
-use workbench::kernel::{Kernel, Sobolev};
-use workbench::kernel_mean::KernelMeanMode;
+use workbench::bq::kernel::{Kernel, Sobolev};
+use workbench::bq::kernel_mean::KernelMeanMode;
+use workbench::bq::model::BmcModel;
+use workbench::bq::weights::DEFAULT_NOISE;
 use workbench::render::integrator::BmcSets;
 use workbench::render::{Environment, Image, Integrator, IntegratorKind, Renderer, Scene};
-use workbench::report::Silent;
 use workbench::sampling::Design;
+use workbench::util::geometry::Vec3;
+use workbench::util::report::Silent;
 
 fn model() -> BmcModel {
     BmcModel::new(
@@ -113,10 +114,10 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
             .fold(0.0, f64::max);
         // The error on cos θ is within the RKHS worst-case bound ‖cos θ‖_H e(w) of each set.
         let (_, norm_cos) = crate::common::rkhs_norms_of_one_and_cos(&m.kernel);
-        let table = workbench::kernel_mean::KernelMeanTable::new(&m.kernel);
+        let table = workbench::bq::kernel_mean::KernelMeanTable::new(&m.kernel);
         for set in &s.sets {
             let z: Vec<f64> = set.points.iter().map(|p| table.z(p.z)).collect();
-            let e = workbench::bmc::worst_case_error(
+            let e = workbench::bq::weights::worst_case_error(
                 &set.points,
                 &set.weights.weights,
                 &z,
@@ -288,9 +289,9 @@ fn rmse_falls_with_spp_and_bmc_beats_mc() {
 /// Bayes–Sard, every amplitude scale, every channel; the estimate is the one without sds.
 #[test]
 fn pixel_sd_matches_a_dense_computation() {
-    use workbench::bmc::Scale;
+    use workbench::bq::weights::Scale;
     use workbench::render::integrator::ShadingPoint;
-    use workbench::rng::stream;
+    use workbench::util::rng::stream;
     let r = Renderer::new(32, 32, Environment::Sky);
     let m = model();
     let spp = 12;
@@ -366,7 +367,7 @@ fn pixel_sd_matches_a_dense_computation() {
 /// pixels (positive there, 0 on the background), for the plain and the edge-aware BMCP.
 #[test]
 fn render_with_sd_keeps_the_image() {
-    use workbench::bmc::Scale;
+    use workbench::bq::weights::Scale;
     let r = Renderer::new(24, 24, Environment::Sky);
     let m = model();
     for kind in [
@@ -461,9 +462,9 @@ fn edge_weights_separate_the_scene_surfaces() {
 /// the same points are weighted densely and picked, rotated, with the same pixel stream.
 #[test]
 fn ring_sets_match_the_dense_solve_on_the_same_points() {
-    use workbench::bmc::Scale;
+    use workbench::bq::weights::Scale;
     use workbench::render::integrator::ShadingPoint;
-    use workbench::rng::stream;
+    use workbench::util::rng::stream;
     let r = Renderer::new(32, 32, Environment::Sky);
     let m = model();
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);

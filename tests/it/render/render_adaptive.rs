@@ -2,15 +2,15 @@
 //! image, the nested sets' stage weights against fresh ones, and bad input.
 
 use crate::common::*;
-use workbench::bmc::BmcModel;
-use workbench::kernel::{Kernel, Sobolev};
-use workbench::kernel_mean::KernelMeanMode;
-use workbench::linalg::SpdWorkspace;
+use workbench::bq::factor::SpdWorkspace;
+use workbench::bq::kernel::{Kernel, Sobolev};
+use workbench::bq::kernel_mean::KernelMeanMode;
+use workbench::bq::model::BmcModel;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
 use workbench::render::{Environment, Renderer};
-use workbench::report::Silent;
-use workbench::rng::stream;
 use workbench::sampling::Design;
+use workbench::util::report::Silent;
+use workbench::util::rng::stream;
 
 fn model() -> BmcModel {
     BmcModel::new(

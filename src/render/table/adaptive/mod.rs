@@ -13,12 +13,12 @@ pub mod plot;
 pub mod runner;
 pub mod summary;
 
-use crate::output_set::ResultFolder;
+use crate::files::result_folder::ResultFolder;
 use crate::render::adaptive::AdaptiveImage;
 use crate::render::image::{ColourMap, ErrorScale, Image};
 use crate::render::renderer::Renderer;
 use crate::render::table::plan::{TablePlan, png_name};
-use crate::report::Reporter;
+use crate::util::report::Reporter;
 use plan::AdaptivePlan;
 use runner::AdaptiveRow;
 use summary::AdaptiveCell;

@@ -1,7 +1,7 @@
 //! Validation of a table's `"adaptive"` object and of the variants it runs (README, "Adaptive
 //! sampling"): targets, stages, and which integrators can stop at a target.
 
-use crate::bmc::Scale;
+use crate::bq::weights::Scale;
 use crate::render::integrator::{IntegratorKind, check_spp};
 use crate::render::table::spec::AdaptiveSpec;
 
@@ -121,7 +121,7 @@ pub fn check_variant(
             ),
         ));
     }
-    if kind.method == crate::estimator::Method::Mc && plan.first_spp < 2 {
+    if kind.method == crate::bq::estimator::Method::Mc && plan.first_spp < 2 {
         return Err(err(
             "adaptive.first_spp",
             format!(

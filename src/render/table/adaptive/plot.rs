@@ -4,7 +4,7 @@
 //! are not drawn (they are machine-dependent, see `timings.md`).
 
 use super::summary::AdaptiveCell;
-use crate::plot_style::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 use crate::render::table::plan::TablePlan;
 use crate::render::table::plot::{RMSE_AXIS, reference_caption, variant_entries};
 

@@ -6,7 +6,7 @@ use crate::render::adaptive::{self, AdaptiveImage, AdaptiveSampler};
 use crate::render::image::Image;
 use crate::render::renderer::Renderer;
 use crate::render::table::plan::TablePlan;
-use crate::report::{Reporter, Silent};
+use crate::util::report::{Reporter, Silent};
 use std::time::Instant;
 
 /// Stream family of the adaptive tables' render seeds (apart from the fixed-spp ones).
@@ -36,7 +36,7 @@ pub struct AdaptiveRow {
 /// The seed of repetition `rep` at target `target`: the same for every variant (paired
 /// renders), and independent of the other targets listed.
 pub fn adaptive_render_seed(seed: u64, target: f64, rep: usize) -> u64 {
-    crate::rng::mix(seed, &[ADAPTIVE_TABLE, target.to_bits(), rep as u64])
+    crate::util::rng::mix(seed, &[ADAPTIVE_TABLE, target.to_bits(), rep as u64])
 }
 
 /// What the runner hands its caller as it goes: the first repetition of each cell, and the

@@ -25,7 +25,7 @@ pub struct AdaptiveCell {
 
 /// The cells in the order of the spec: variant, then target.
 pub fn summarise(plan: &TablePlan, targets: &[f64], rows: &[AdaptiveRow]) -> Vec<AdaptiveCell> {
-    use crate::stats::{mean, mean_ci95, sample_sd};
+    use crate::util::stats::{mean, mean_ci95, sample_sd};
     let mut cells = Vec::new();
     for v in 0..plan.variants.len() {
         for (column, &target) in targets.iter().enumerate() {

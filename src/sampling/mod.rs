@@ -4,7 +4,7 @@ pub mod rings;
 pub mod sobol;
 pub mod stratified;
 
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 use rand::{Rng, RngExt};
 use std::f64::consts::{PI, TAU};
 
@@ -71,7 +71,7 @@ impl std::fmt::Display for Design {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::stream;
+    use crate::util::rng::stream;
 
     #[test]
     fn samples_are_unit_vectors_in_the_upper_hemisphere() {
@@ -123,7 +123,7 @@ pub enum SetDesign {
     /// `J` rings of `M` equally spaced azimuths (`N = J·M`), ring heights jittered within
     /// equal-area strata and the whole set randomly rotated (see [`rings`]): a fully symmetric
     /// design, on which BMC solves a `J × J` system per azimuthal frequency instead of the
-    /// `N × N` one ([`crate::ring_solver`]).
+    /// `N × N` one ([`crate::bq::factor::rings`]).
     Rings,
 }
 
@@ -262,7 +262,7 @@ impl std::fmt::Display for SetDesign {
 #[cfg(test)]
 mod set_design_tests {
     use super::*;
-    use crate::rng::stream;
+    use crate::util::rng::stream;
 
     /// A shifted Fibonacci set has exactly one point in each band `cos θ ∈ [i/n, (i+1)/n)`
     /// and all points are unit vectors on the upper hemisphere.

@@ -1,6 +1,6 @@
 //! Bayesian Monte Carlo with zero prior mean (math.md §4, thesis §2.3).
 
-use crate::bmc::BmcWeights;
+use crate::bq::weights::BmcWeights;
 
 /// `Î = wᵀ Y`, with `w = Q⁻¹ z` the BMC weights of the sample set and `Y` the integrand's
 /// values on it (O'Hagan 1991; Rasmussen & Ghahramani 2003).

@@ -14,9 +14,9 @@ pub mod bmcp;
 pub mod bsq;
 pub mod mc;
 
-use crate::bmc::{BmcWeights, Diagnostics, Scale};
-use crate::geometry::Vec3;
+use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Design;
+use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// An estimator of `∫_H f dω` from values on a sample set.
@@ -127,7 +127,7 @@ impl Method {
         Some(values.iter().map(|y| y - o).collect())
     }
 
-    /// The fitted amplitude `λ̂` ([`crate::bmc::fit_amplitude`]) of this estimator's residuals,
+    /// The fitted amplitude `λ̂` ([`crate::bq::weights::fit_amplitude`]) of this estimator's residuals,
     /// from `values_solve = Q⁻¹Y`: `Q⁻¹r = Q⁻¹Y − o·u` with `u = Q⁻¹1`, so one solve per
     /// integrand and weight set serves BMC, BMCP and Bayes–Sard alike (O(N) each after it).
     /// None for MC.
@@ -152,7 +152,7 @@ impl Method {
                 .map(|(a, u)| a - o * u)
                 .collect()
         };
-        Some(crate::bmc::fit_amplitude(
+        Some(crate::bq::weights::fit_amplitude(
             scale,
             &r,
             &solved,
@@ -196,7 +196,7 @@ impl Method {
     /// - MC: the standard error `s/√N` of the mean of the `N` terms `f/p` (`s` the sample
     ///   standard deviation), Student-t with `N − 1` degrees of freedom; None for `N < 2`.
     /// - BMC, BMCP, BSQ: the posterior sd `sqrt(λ Var₁)` with `λ = amplitude` (1 for `unit`,
-    ///   `λ̂` from [`crate::bmc::fit_amplitude`] otherwise); Student-t with [`Method::ml_dof`]
+    ///   `λ̂` from [`crate::bq::weights::fit_amplitude`] otherwise); Student-t with [`Method::ml_dof`]
     ///   degrees of freedom for `ml`, normal otherwise (math.md §7).
     #[allow(clippy::too_many_arguments)]
     pub fn uncertainty(
@@ -220,7 +220,7 @@ impl Method {
                     .map(|(w, f)| f / density.pdf(w))
                     .collect();
                 Some(Uncertainty {
-                    sd: crate::stats::sample_sd(&terms) / (n as f64).sqrt(),
+                    sd: crate::util::stats::sample_sd(&terms) / (n as f64).sqrt(),
                     dof: Some(n - 1),
                     amplitude: None,
                 })
@@ -252,7 +252,7 @@ pub struct Uncertainty {
 impl Uncertainty {
     /// The two-sided quantile `q` of the interval `Î ± q · sd` at `level` (e.g. 0.95).
     pub fn quantile(&self, level: f64) -> f64 {
-        crate::stats::interval_quantile(self.dof, level)
+        crate::util::stats::interval_quantile(self.dof, level)
     }
 }
 

@@ -5,17 +5,124 @@
 //! JSON: `"kernel": {"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`,
 //! `"noise": 0.01`, `"kernel_mean": "exact" | "mc" | "mc-shared"`, `"kernel_mean_samples": 10000`.
 
-use crate::bmc::BmcModel;
-use crate::kernel::{Kernel, Sobolev, SquaredExponential};
-use crate::kernel_mean::KernelMeanMode;
+use crate::bq::factor::{NotPositiveDefinite, SpdWorkspace};
+use crate::bq::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
+use crate::bq::kernel_mean::{KernelMeanMode, KernelMeanTable, kernel_means_mc, kernel_means_mc_per_point};
+use crate::bq::weights::{BmcWeights, bmc_weights, bmc_weights_on_rings};
+use crate::sampling::{Design, SetDesign};
+use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// The thesis's observation noise σ_n², the default.
-pub const DEFAULT_NOISE: f64 = crate::bmc::DEFAULT_NOISE;
+pub const DEFAULT_NOISE: f64 = crate::bq::weights::DEFAULT_NOISE;
 /// Default σ_f of the squared-exponential kernel.
 pub const DEFAULT_SE_SIGMA: f64 = 1.0;
 /// Default length scale of the squared-exponential kernel.
 pub const DEFAULT_SE_LENGTH: f64 = 0.5;
+
+/// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.
+#[derive(Clone, Debug)]
+pub struct BmcModel {
+    pub kernel: Kernel,
+    pub noise: f64,
+    pub mode: KernelMeanMode,
+    /// The exact `z(μ)` and `V̂`, tabulated once and shared between threads; used for the
+    /// `z_i` in the exact mode, and for `V̂` in both (the MC mode estimates only the `z_i`, as
+    /// the thesis did).
+    table: Arc<KernelMeanTable>,
+}
+
+impl BmcModel {
+    /// Builds the model, tabulating `z` once.
+    pub fn new(kernel: Kernel, noise: f64, mode: KernelMeanMode) -> Self {
+        let table = Arc::new(KernelMeanTable::new(&kernel));
+        BmcModel {
+            kernel,
+            noise,
+            mode,
+            table,
+        }
+    }
+
+    /// The exact kernel-mean table of the model's kernel.
+    pub fn table(&self) -> &KernelMeanTable {
+        &self.table
+    }
+
+    /// `V̂ = ∫_H ∫_H k dω dω'` (exact).
+    pub fn prior_variance(&self) -> f64 {
+        self.table.prior_variance()
+    }
+
+    /// A warning if the kernel-mean table is less accurate than its target (see
+    /// [`KernelMeanTable::accuracy_warning`]); callers report it.
+    pub fn accuracy_warning(&self) -> Option<String> {
+        self.table.accuracy_warning()
+    }
+
+    /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
+    /// `rng` is drawn from only in the MC modes: one `u64` for fresh directions per point
+    /// ([`kernel_means_mc_per_point`]), `2M` numbers for shared ones.
+    pub fn kernel_means<R: rand::Rng + ?Sized>(&self, points: &[Vec3], rng: &mut R) -> Vec<f64> {
+        match self.mode {
+            KernelMeanMode::Exact => points.iter().map(|p| self.table.z(p.z)).collect(),
+            KernelMeanMode::MonteCarlo { samples } => {
+                kernel_means_mc_per_point(&self.kernel, points, samples, rng)
+            }
+            KernelMeanMode::MonteCarloShared { samples } => {
+                let dirs = Design::Uniform.sample_set(samples, rng);
+                kernel_means_mc(&self.kernel, points, &PointsSoa::new(&dirs))
+            }
+        }
+    }
+
+    /// The weights for `points` drawn with `design`: on a ring set with exact kernel means by
+    /// the ring solver ([`bmc_weights_on_rings`]), otherwise dense ([`BmcModel::weights`]).
+    pub fn weights_for_design<R: rand::Rng + ?Sized>(
+        &self,
+        points: &[Vec3],
+        design: SetDesign,
+        rng: &mut R,
+        workspace: &mut SpdWorkspace,
+    ) -> Result<BmcWeights, NotPositiveDefinite> {
+        match design {
+            SetDesign::Rings => {
+                let z = self.kernel_means(points, rng);
+                bmc_weights_on_rings(
+                    points,
+                    crate::sampling::rings::layout(points.len()),
+                    &z,
+                    self.prior_variance(),
+                    &self.kernel,
+                    self.noise,
+                    workspace,
+                )
+            }
+            SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
+                self.weights(points, rng, workspace)
+            }
+        }
+    }
+
+    /// The weights for `points`.
+    pub fn weights<R: rand::Rng + ?Sized>(
+        &self,
+        points: &[Vec3],
+        rng: &mut R,
+        workspace: &mut SpdWorkspace,
+    ) -> Result<BmcWeights, NotPositiveDefinite> {
+        let z = self.kernel_means(points, rng);
+        bmc_weights(
+            points,
+            &z,
+            self.prior_variance(),
+            &self.kernel,
+            self.noise,
+            workspace,
+        )
+    }
+}
 
 /// `{"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
@@ -146,7 +253,7 @@ impl ModelSpec {
             .map(Kernel::SquaredExponential),
         }
         .map_err(|e| fail(ModelField::Kernel, e.to_string()))?;
-        let noise = crate::bmc::validate_noise(self.noise.unwrap_or(DEFAULT_NOISE))
+        let noise = crate::bq::weights::validate_noise(self.noise.unwrap_or(DEFAULT_NOISE))
             .map_err(|m| fail(ModelField::Noise, m))?;
         let kernel_mean = self.kernel_mean.unwrap_or(KernelMeanName::Exact);
         let mode = match kernel_mean {

@@ -11,8 +11,8 @@
 //! floating-point exponent of `μ` and the sub-panel by one multiplication.
 
 use super::exact::kernel_mean_exact;
-use crate::kernel::Kernel;
-use crate::quadrature::{chebyshev_coefficients, chebyshev_eval, chebyshev_integral, chebyshev_points};
+use crate::bq::kernel::Kernel;
+use crate::util::quadrature::{chebyshev_coefficients, chebyshev_eval, chebyshev_integral, chebyshev_points};
 use std::f64::consts::TAU;
 
 /// Octaves `[2^−(k+1), 2^−k]` before the last panel `[0, 2^−OCTAVES]`.
@@ -168,7 +168,7 @@ fn converged(c: &[f64]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::{Sobolev, SquaredExponential};
+    use crate::bq::kernel::{Sobolev, SquaredExponential};
 
     #[test]
     fn table_is_clone_debug_send_sync() {

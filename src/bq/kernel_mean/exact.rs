@@ -27,8 +27,8 @@
 //! first panel uses `u = w₀ v²`, which turns the `√u` kink into a polynomial factor. Gauss–Legendre
 //! then converges geometrically on every panel, uniformly in `μ`.
 
-use crate::kernel::Kernel;
-use crate::quadrature::GaussLegendre;
+use crate::bq::kernel::Kernel;
+use crate::util::quadrature::GaussLegendre;
 use std::f64::consts::TAU;
 use std::sync::LazyLock;
 

@@ -10,7 +10,7 @@ mod squared_exponential;
 pub use sobolev::Sobolev;
 pub use squared_exponential::SquaredExponential;
 
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 
 /// A kernel parameter out of its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -97,8 +97,8 @@ impl std::fmt::Display for Kernel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::stream;
     use crate::sampling::Design;
+    use crate::util::rng::stream;
 
     fn kernels() -> Vec<Kernel> {
         vec![

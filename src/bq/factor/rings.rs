@@ -38,12 +38,12 @@
 //! `⌊M/2⌋ + 1` Cholesky factorisations of `J × J` blocks: `O(N J²)` flops and `O(N J)`
 //! memory, against `O(N³)` and `8 N²` bytes dense.
 
-use crate::geometry::Vec3;
-use crate::kernel::{Kernel, PointsSoa};
-use crate::linalg::{
+use crate::bq::factor::{
     FactorInfo, JITTER_START, JITTER_STEPS, NUMERICALLY_SINGULAR, NotPositiveDefinite, StructuredFactor,
 };
+use crate::bq::kernel::{Kernel, PointsSoa};
 use crate::sampling::rings::RingLayout;
+use crate::util::geometry::Vec3;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::{Mat, Par};
@@ -146,7 +146,7 @@ pub struct RingFactor {
 impl RingFactor {
     /// Builds and factors the blocks of `Q = K + σ_n² I` for `points` laid out as `layout`
     /// (ring by ring, as [`crate::sampling::rings::sample_set`] draws them), climbing the same
-    /// jitter ladder as [`crate::linalg::SpdWorkspace::factor_with`]: jitter `·I` on `Q` is
+    /// jitter ladder as [`crate::bq::factor::SpdWorkspace::factor_with`]: jitter `·I` on `Q` is
     /// jitter on every block.
     pub fn new(
         points: &[Vec3],
@@ -408,10 +408,10 @@ impl StructuredFactor for RingFactor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::{Sobolev, SquaredExponential};
-    use crate::linalg::SpdWorkspace;
-    use crate::rng::stream;
+    use crate::bq::factor::SpdWorkspace;
+    use crate::bq::kernel::{Sobolev, SquaredExponential};
     use crate::sampling::rings;
+    use crate::util::rng::stream;
 
     /// The direct DFT and the FFT agree, and inverse ∘ forward = M · identity.
     #[test]

@@ -8,8 +8,8 @@ mod table;
 pub use exact::{kernel_mean_exact, prior_variance_exact};
 pub use table::KernelMeanTable;
 
-use crate::geometry::Vec3;
-use crate::kernel::Kernel;
+use crate::bq::kernel::Kernel;
+use crate::util::geometry::Vec3;
 
 /// How the kernel means `z_i` of a sample set are obtained.
 ///
@@ -89,14 +89,18 @@ pub fn kernel_mean_mc(kernel: &Kernel, x: &Vec3, uniform_directions: &[Vec3]) ->
     kernel_means_mc(
         kernel,
         std::slice::from_ref(x),
-        &crate::kernel::PointsSoa::new(uniform_directions),
+        &crate::bq::kernel::PointsSoa::new(uniform_directions),
     )[0]
 }
 
 /// [`kernel_mean_mc`] for every point, sharing one set of directions (stored as arrays so the
 /// kernel sums vectorise); the sums run in direction order, so results are reproducible.
 /// This is [`KernelMeanMode::MonteCarloShared`].
-pub fn kernel_means_mc(kernel: &Kernel, points: &[Vec3], directions: &crate::kernel::PointsSoa) -> Vec<f64> {
+pub fn kernel_means_mc(
+    kernel: &Kernel,
+    points: &[Vec3],
+    directions: &crate::bq::kernel::PointsSoa,
+) -> Vec<f64> {
     let m = directions.len();
     assert!(m > 0, "an MC kernel mean needs at least one direction");
     let mut row = vec![0.0; m];
@@ -114,7 +118,7 @@ pub fn kernel_means_mc(kernel: &Kernel, points: &[Vec3], directions: &crate::ker
 /// `z_i`).
 ///
 /// Exactly one `u64` is drawn from `rng` (a base seed `b`); point `i`'s directions come from
-/// [`crate::rng::stream`]`(b, [i])`. So the result depends only on `rng`'s state and the points:
+/// [`crate::util::rng::stream`]`(b, [i])`. So the result depends only on `rng`'s state and the points:
 /// reproducible, and it would not change if the points were split between threads. One
 /// direction buffer (as arrays, so the kernel sums vectorise) is reused for every point; the
 /// cost is N·M direction draws and N·M kernel evaluations.
@@ -130,7 +134,7 @@ pub fn kernel_means_mc_per_point<R: rand::Rng + ?Sized>(
     use rand::RngExt;
     assert!(samples > 0, "an MC kernel mean needs at least one direction");
     let base: u64 = rng.random();
-    let mut directions = crate::kernel::PointsSoa {
+    let mut directions = crate::bq::kernel::PointsSoa {
         x: vec![0.0; samples],
         y: vec![0.0; samples],
         z: vec![0.0; samples],
@@ -140,7 +144,7 @@ pub fn kernel_means_mc_per_point<R: rand::Rng + ?Sized>(
         .iter()
         .enumerate()
         .map(|(i, x)| {
-            fill_uniform_directions(&mut crate::rng::stream(base, &[i as u64]), &mut directions);
+            fill_uniform_directions(&mut crate::util::rng::stream(base, &[i as u64]), &mut directions);
             kernel.fill_against(&directions, 0, x, &mut row);
             std::f64::consts::TAU * row.iter().sum::<f64>() / samples as f64
         })
@@ -155,9 +159,12 @@ pub fn kernel_means_mc_per_point<R: rand::Rng + ?Sized>(
 /// Why not call `Design::Uniform.sample`: `f64::sin_cos` is a library call that costs ~20 ns,
 /// ten times the random numbers, and the per-point mode draws N·M directions. Here the numbers
 /// are drawn first and the map runs as a separate loop with [`cos_sin_turn`], which vectorises.
-fn fill_uniform_directions<R: rand::Rng + ?Sized>(rng: &mut R, directions: &mut crate::kernel::PointsSoa) {
+fn fill_uniform_directions<R: rand::Rng + ?Sized>(
+    rng: &mut R,
+    directions: &mut crate::bq::kernel::PointsSoa,
+) {
     use rand::RngExt;
-    let crate::kernel::PointsSoa { x, y, z } = directions;
+    let crate::bq::kernel::PointsSoa { x, y, z } = directions;
     // u1 in z (it is cos θ), u2 in x until the second loop replaces it.
     for (u1, u2) in z.iter_mut().zip(x.iter_mut()) {
         *u1 = rng.random();
@@ -280,9 +287,9 @@ mod tests {
     #[test]
     fn fill_uniform_directions_is_the_uniform_design() {
         let m = 10_000;
-        let want = crate::sampling::Design::Uniform.sample_set(m, &mut crate::rng::stream(5, &[]));
-        let mut got = crate::kernel::PointsSoa::new(&vec![Vec3::new(0.0, 0.0, 0.0); m]);
-        fill_uniform_directions(&mut crate::rng::stream(5, &[]), &mut got);
+        let want = crate::sampling::Design::Uniform.sample_set(m, &mut crate::util::rng::stream(5, &[]));
+        let mut got = crate::bq::kernel::PointsSoa::new(&vec![Vec3::new(0.0, 0.0, 0.0); m]);
+        fill_uniform_directions(&mut crate::util::rng::stream(5, &[]), &mut got);
         for (j, w) in want.iter().enumerate() {
             let d = (got.x[j] - w.x).abs().max((got.y[j] - w.y).abs());
             assert!(d < 1e-15 && got.z[j] == w.z, "direction {j}: {d:e}");

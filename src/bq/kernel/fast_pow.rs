@@ -164,7 +164,7 @@ pub fn pow_block<const B: usize>(x: &[f64; B], p: f64, out: &mut [f64; B], lanes
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::stream;
+    use crate::util::rng::stream;
     use rand::RngExt;
 
     /// The staged block gives [`pow_inline`]'s bits in every lane, whatever the lane count,

@@ -5,7 +5,7 @@
 pub mod family;
 pub mod pixel;
 
-use crate::geometry::Vec3;
+use crate::util::geometry::Vec3;
 use family::AxisIntegrand;
 use pixel::PixelIntegrand;
 use std::f64::consts::TAU;

@@ -11,10 +11,12 @@
 //!   place, so a failed write (a full disk) changes none of them.
 //!
 //! Both hold a [`Lock`] on what they write, so two commands writing the same outputs cannot
-//! interleave, and clear what killed commands left behind ([`crate::io::sweep_stale`]).
+//! interleave, and clear what killed commands left behind ([`crate::files::atomic::sweep_stale`]).
 
 use crate::error::{Error, InputError, Result};
-use crate::io::{HIDDEN_PREFIX, LOCK_PREFIX, MAX_NAME_BYTES, Staged, hidden_name_pid, remove_any, resolve};
+use crate::files::atomic::{
+    HIDDEN_PREFIX, LOCK_PREFIX, MAX_NAME_BYTES, Staged, hidden_name_pid, remove_any, resolve,
+};
 use std::collections::{BTreeMap, BTreeSet};
 use std::ffi::{OsStr, OsString};
 use std::fs::{File, OpenOptions, TryLockError};
@@ -60,7 +62,7 @@ impl Lock {
                 .open(&path)
                 .map_err(|e| Error::io(format!("creating the lock file {}", path.display()), e))?;
             match file.try_lock() {
-                Ok(()) if !crate::io::same_inode(&file, &path) => continue,
+                Ok(()) if !crate::files::atomic::same_inode(&file, &path) => continue,
                 Ok(()) => {
                     // Only for the message a second command prints; the lock is the flock.
                     let _ = file.set_len(0);
@@ -214,7 +216,7 @@ impl ResultFolder {
         };
         // From here on, dropping `folder` undoes what was done.
         folder.lock = Some(Lock::acquire(&target, what, fix)?);
-        crate::io::sweep_stale(&parent);
+        crate::files::atomic::sweep_stale(&parent);
         if folder.lock.as_ref().is_some_and(|l| l.exclusive) {
             // We hold the lock, so staging folders for this name are abandoned whoever made them.
             for entry in std::fs::read_dir(&parent).into_iter().flatten().flatten() {
@@ -226,7 +228,7 @@ impl ResultFolder {
                 }
             }
         }
-        crate::io::sweep_stale(&target);
+        crate::files::atomic::sweep_stale(&target);
         if let Some(foreign) = unexplained(&target) {
             return Err(refuse_or(
                 format!(
@@ -247,7 +249,7 @@ impl ResultFolder {
         assert!(is_plain_name(name), "{name:?} is not a plain file name");
         let path = self.staging.join(name);
         let written = File::create(&path).and_then(|mut f| {
-            crate::io::write_all_checked(&mut f, &path, bytes)?;
+            crate::files::atomic::write_all_checked(&mut f, &path, bytes)?;
             f.sync_all()
         });
         written.map_err(|e| {
@@ -287,7 +289,7 @@ impl ResultFolder {
         let file = File::create(&path).map_err(failed)?;
         let mut writer = std::io::BufWriter::with_capacity(1 << 16, file);
         fill(&mut writer)?;
-        crate::io::injected_failure(&path).map_err(failed)?;
+        crate::files::atomic::injected_failure(&path).map_err(failed)?;
         let file = writer.into_inner().map_err(|e| failed(e.into_error()))?;
         file.sync_all().map_err(failed)?;
         self.files.insert(name.into(), description.into());
@@ -308,7 +310,7 @@ impl ResultFolder {
     /// survives the command being interrupted.
     pub fn write_partial(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
         assert!(PARTIAL_FILES.contains(&name), "{name} is not a partial file");
-        crate::io::write_atomic(&self.target.join(name), bytes)
+        crate::files::atomic::write_atomic(&self.target.join(name), bytes)
     }
 
     /// Writes the manifest, its `files` listing every file of the set (itself included), and
@@ -533,7 +535,7 @@ impl FileSet {
         let mut locks = Vec::new();
         let mut seen: Vec<PathBuf> = Vec::new();
         for (flag, path) in outputs {
-            crate::io::check_name_length(flag, path)?;
+            crate::files::atomic::check_name_length(flag, path)?;
             let target = resolve(path).map_err(|e| Error::io(format!("resolving {}", path.display()), e))?;
             if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) || seen.contains(&target) {
                 continue;
@@ -543,7 +545,7 @@ impl FileSet {
                 &format!("{flag} {}", path.display()),
                 fix,
             )?);
-            crate::io::sweep_stale(parent_or_dot(&target));
+            crate::files::atomic::sweep_stale(parent_or_dot(&target));
             seen.push(target);
         }
         Ok(FileSet {
@@ -556,7 +558,7 @@ impl FileSet {
     /// Writes one output completely under a temporary name beside it; nothing visible changes
     /// until [`FileSet::commit`].
     pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
-        self.staged.push(crate::io::stage(path, bytes)?);
+        self.staged.push(crate::files::atomic::stage(path, bytes)?);
         Ok(())
     }
 
@@ -631,7 +633,7 @@ mod tests {
             )
         );
         // A sweep leaves a held lock alone.
-        crate::io::sweep_stale(dir.path());
+        crate::files::atomic::sweep_stale(dir.path());
         assert!(dir.path().join(".workbench-lock-x").exists());
         drop(lock);
         assert_eq!(listing(dir.path()), Vec::<String>::new());

@@ -52,7 +52,7 @@ impl CholeskyFactor {
     /// `diag(Q⁻¹)`, `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` (see [`SpdWorkspace::inverse_diagonal`]): O(n³),
     /// for the leave-one-out amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
-        crate::linalg::lower_inverse_diagonal(&self.l, self.n())
+        crate::bq::factor::lower_inverse_diagonal(&self.l, self.n())
     }
 }
 

@@ -1,6 +1,6 @@
 //! Bayes–Sard quadrature: BMC with an unknown constant prior mean (math.md §8).
 
-use crate::bmc::BmcWeights;
+use crate::bq::weights::BmcWeights;
 
 /// `Î = w_BSᵀ Y` with `w_BS = w + u (2π − 1ᵀw) / (1ᵀu)`, `u = Q⁻¹1`: the GP prior
 /// `f ~ GP(β, k)` with a flat prior on `β` integrated out (Karvonen, Oates & Särkkä, "A

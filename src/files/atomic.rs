@@ -2,7 +2,7 @@
 //! the permissions the user's umask asks for, and never over one of the command's inputs.
 //!
 //! Sets of files that belong together (a run's folder, an image and its PNGs) are in
-//! [`crate::output_set`]; this module holds the pieces: staging one file, resolving where a
+//! [`crate::files::result_folder`]; this module holds the pieces: staging one file, resolving where a
 //! path really points, and cleaning what killed writers left behind.
 
 use crate::error::{Error, InputError, Result};

@@ -8,19 +8,20 @@
 //! never at the truth. For MC this is the classical sequential CLT rule (stop when
 //! `t_{0.975, N−1} s/√N ≤ abs`; cf. QMCPy's `CubMCCLT`, which fixes the sample count after a
 //! pilot instead of doubling). For BMC, BMCP and Bayes–Sard the point set is nested, so each
-//! stage's factor extends the previous one by blocks ([`crate::nested_cholesky`]) and the
+//! stage's factor extends the previous one by blocks ([`crate::bq::factor::nested`]) and the
 //! weights, `Var₁` and the fitted amplitude `λ̂ = rᵀQ⁻¹r/N` are recomputed from it.
 //!
 //! Caveat, as for every interval built from the samples (math.md §7): when the samples miss a
 //! small feature the interval is too narrow, and the rule stops too early; a fitted amplitude
 //! of 0 (every residual 0) stops at the first stage.
 
-use crate::bmc::{BmcModel, BmcWeights, Diagnostics, Scale};
-use crate::estimator::{Method, Uncertainty};
-use crate::geometry::Vec3;
-use crate::linalg::NotPositiveDefinite;
-use crate::nested_cholesky::NestedCholesky;
+use crate::bq::estimator::{Method, Uncertainty};
+use crate::bq::factor::NotPositiveDefinite;
+use crate::bq::factor::nested::NestedCholesky;
+use crate::bq::model::BmcModel;
+use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Design;
+use crate::util::geometry::Vec3;
 
 /// The interval level whose half-width is compared with the tolerance.
 pub const LEVEL: f64 = 0.95;
@@ -133,7 +134,7 @@ pub struct NestedWeights<'a> {
     model: &'a BmcModel,
     points: &'a [Vec3],
     values: &'a [Vec<f64>],
-    soa: crate::kernel::PointsSoa,
+    soa: crate::bq::kernel::PointsSoa,
     z: Vec<f64>,
     factor: NestedCholesky,
     stages: Vec<(usize, Stage)>,
@@ -151,7 +152,7 @@ impl<'a> NestedWeights<'a> {
             model,
             points,
             values,
-            soa: crate::kernel::PointsSoa::new(points),
+            soa: crate::bq::kernel::PointsSoa::new(points),
             z: points.iter().map(|p| model.table().z(p.z)).collect(),
             factor: NestedCholesky::with_capacity(points.len()),
             stages: Vec::new(),
@@ -298,11 +299,11 @@ pub fn weighted_together(
 }
 
 /// `w = Q⁻¹z`, `u = Q⁻¹1` and the diagnostics of the factored stage (as
-/// [`crate::bmc::bmc_weights`] computes them from a full factorisation).
+/// [`crate::bq::weights::bmc_weights`] computes them from a full factorisation).
 fn stage_weights(factor: &NestedCholesky, z: &[f64], prior_variance: f64) -> BmcWeights {
     let mut weights = z.to_vec();
     factor.solve_in_place(&mut weights);
     let mut ones_solve = vec![1.0; z.len()];
     factor.solve_in_place(&mut ones_solve);
-    crate::bmc::with_diagnostics(weights, ones_solve, factor.info(), z, prior_variance)
+    crate::bq::weights::with_diagnostics(weights, ones_solve, factor.info(), z, prior_variance)
 }

@@ -8,8 +8,10 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::{Mat, Par};
 
-mod factor;
-pub use factor::CholeskyFactor;
+mod dense;
+pub use dense::CholeskyFactor;
+pub mod nested;
+pub mod rings;
 
 /// The jitter ladder: after a failed factorisation, `JITTER_START · mean(diag Q)` is added to the
 /// diagonal, growing tenfold per step, at most `JITTER_STEPS` times (so up to `1e-4 · mean(diag)`).
@@ -35,7 +37,7 @@ pub struct NotPositiveDefinite {
     pub jitter: f64,
 }
 
-/// A factorisation of `Q` that exploits its structure (e.g. [`crate::ring_solver::RingFactor`]
+/// A factorisation of `Q` that exploits its structure (e.g. [`crate::bq::factor::rings::RingFactor`]
 /// for ring designs), held by a [`SpdWorkspace`] in place of the dense factor.
 pub trait StructuredFactor: Send {
     /// `N`, the order of `Q`.

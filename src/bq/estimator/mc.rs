@@ -1,7 +1,7 @@
 //! Classical Monte Carlo (math.md §3).
 
-use crate::geometry::Vec3;
 use crate::sampling::Design;
+use crate::util::geometry::Vec3;
 
 /// `Î = (1/N) Σ f(ω_i) / p(ω_i)` for directions drawn with `design`.
 ///

@@ -1,11 +1,12 @@
 //! `workbench rule`: a BMC quadrature rule (points and weights) as a file a renderer can load.
 
-use crate::bmc::{BmcModel, BmcWeights};
+use crate::bq::factor::SpdWorkspace;
+use crate::bq::model::BmcModel;
+use crate::bq::weights::BmcWeights;
 use crate::error::InputError;
-use crate::geometry::Vec3;
-use crate::linalg::SpdWorkspace;
-use crate::rng::stream;
 use crate::sampling::SetDesign;
+use crate::util::geometry::Vec3;
+use crate::util::rng::stream;
 use std::path::Path;
 
 /// Largest number of points a weight set may have: `Q` is assembled straight into its Cholesky
@@ -64,7 +65,7 @@ pub fn compute_rule_for_design(
 
 /// [`check_point_count`] for a set generated with `design`: a ring set needs a count that
 /// splits into rings ([`crate::sampling::rings::check`]) and, with exact kernel means, may be
-/// as large as [`crate::ring_solver::MAX_RING_POINTS`] (no `N × N` matrix is formed).
+/// as large as [`crate::bq::factor::rings::MAX_RING_POINTS`] (no `N × N` matrix is formed).
 pub fn check_generated_count(
     n: usize,
     design: SetDesign,
@@ -78,7 +79,7 @@ pub fn check_generated_count(
         .check_count(n)
         .map_err(|m| InputError::new(format!("{what}: {n} with --design {design}: {m}")))?;
     if design == SetDesign::Rings && exact_kernel_means {
-        let max = crate::ring_solver::MAX_RING_POINTS;
+        let max = crate::bq::factor::rings::MAX_RING_POINTS;
         if n > max {
             return Err(InputError::new(format!(
                 "{what}: {n} points; the rings design allows at most {max}"
@@ -99,7 +100,8 @@ pub const MAX_POINTS_FILE_BYTES: u64 = 16 << 20;
 pub fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, InputError> {
     let name = path.display();
     let in_file = |m: String| InputError::new(format!("{name}: {m}"));
-    let text = crate::json::read_text(path, MAX_POINTS_FILE_BYTES, "points files").map_err(in_file)?;
+    let text =
+        crate::files::spec_json::read_text(path, MAX_POINTS_FILE_BYTES, "points files").map_err(in_file)?;
     parse_points_csv(&text).map_err(in_file)
 }
 
@@ -175,7 +177,13 @@ pub fn rule_summary(
     // Against the exact kernel means whatever the mode, so it measures the rule itself.
     let table = model.table();
     let z: Vec<f64> = points.iter().map(|p| table.z(p.z)).collect();
-    let wce = crate::bmc::worst_case_error(points, &rule.weights, &z, table.prior_variance(), &model.kernel);
+    let wce = crate::bq::weights::worst_case_error(
+        points,
+        &rule.weights,
+        &z,
+        table.prior_variance(),
+        &model.kernel,
+    );
     serde_json::json!({
         "n": d.n,
         "kernel": model.kernel.to_json(),

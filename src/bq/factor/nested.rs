@@ -1,4 +1,4 @@
-//! A Cholesky factor grown by blocks, for nested point sets (sequential BMC: math.md §4, §7; [`crate::sequential`]).
+//! A Cholesky factor grown by blocks, for nested point sets (sequential BMC: math.md §4, §7; [`crate::bq::stages`]).
 //!
 //! When a sample set grows from `n` to `m` points and keeps its first `n`, `Q` grows by a block
 //! border:
@@ -12,7 +12,7 @@
 //! `m³/3` (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2.6, the bordered/block
 //! Cholesky). With doubling stages the total work is `≈ 8/7` of factoring the last stage once.
 //!
-//! **Jitter.** The same ladder as [`crate::linalg`]: when a factorisation fails or its condition
+//! **Jitter.** The same ladder as [`crate::bq::factor`]: when a factorisation fails or its condition
 //! estimate exceeds [`NUMERICALLY_SINGULAR`], `j` is added to the diagonal. A block extension
 //! cannot add jitter to the new block alone (that would factor a different matrix from the one
 //! the earlier stages used), so when the Schur complement `Q₂₂ − L₂₁L₂₁ᵀ` fails, the whole
@@ -21,7 +21,7 @@
 //! smaller than that of the stage before). [`NestedCholesky::jitter`] reports it for the
 //! warning.
 
-use crate::linalg::{FactorInfo, JITTER_START, JITTER_STEPS, NUMERICALLY_SINGULAR, NotPositiveDefinite};
+use crate::bq::factor::{FactorInfo, JITTER_START, JITTER_STEPS, NUMERICALLY_SINGULAR, NotPositiveDefinite};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::prelude::{Reborrow, ReborrowMut};
@@ -81,7 +81,7 @@ impl NestedCholesky {
         (hi / lo).powi(2)
     }
 
-    /// What the factor needed, for [`crate::bmc::Diagnostics`].
+    /// What the factor needed, for [`crate::bq::weights::Diagnostics`].
     pub fn info(&self) -> FactorInfo {
         FactorInfo {
             jitter: self.jitter,
@@ -164,7 +164,7 @@ impl NestedCholesky {
     }
 
     /// The leading `m × m` block factored from scratch with the jitter ladder of
-    /// [`crate::linalg`], starting from the jitter already in use.
+    /// [`crate::bq::factor`], starting from the jitter already in use.
     fn factor_from_scratch(
         &mut self,
         m: usize,
@@ -247,9 +247,9 @@ impl NestedCholesky {
     }
 
     /// `diag(Q⁻¹)` of the factored block, `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` (as
-    /// [`crate::linalg::SpdWorkspace::inverse_diagonal`]); O(n³), for the `loo` amplitude.
+    /// [`crate::bq::factor::SpdWorkspace::inverse_diagonal`]); O(n³), for the `loo` amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
-        crate::linalg::lower_inverse_diagonal(&self.factor, self.n)
+        crate::bq::factor::lower_inverse_diagonal(&self.factor, self.n)
     }
 
     /// `L[i, j]` of the factored block (`j ≤ i < n`), for tests.
@@ -284,12 +284,13 @@ fn cholesky(a: faer::MatMut<'_, f64>) -> Result<(), ()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::linalg::SpdWorkspace;
+    use crate::bq::factor::SpdWorkspace;
 
     /// A Sobolev-kernel Gram matrix plus noise on pseudo-random hemisphere points.
     fn gram(n: usize, noise: f64) -> impl Fn(usize, usize) -> f64 {
-        let pts = crate::sampling::Design::Uniform.sample_set(n, &mut crate::rng::stream(5, &[n as u64]));
-        let k = crate::kernel::Kernel::Sobolev(crate::kernel::Sobolev::new(1.4).unwrap());
+        let pts =
+            crate::sampling::Design::Uniform.sample_set(n, &mut crate::util::rng::stream(5, &[n as u64]));
+        let k = crate::bq::kernel::Kernel::Sobolev(crate::bq::kernel::Sobolev::new(1.4).unwrap());
         move |i, j| k.eval(&pts[i], &pts[j]) + if i == j { noise } else { 0.0 }
     }
 

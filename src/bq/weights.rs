@@ -4,9 +4,9 @@
 //! BMC is `Î = wᵀ Y`; BMCP with constant prior `c` is `Î = 2πc + wᵀ (Y − c·1)`; both use the
 //! same weights.
 
-use crate::geometry::Vec3;
-use crate::kernel::Kernel;
-use crate::linalg::{FactorInfo, ILL_CONDITIONED, NotPositiveDefinite, SpdWorkspace};
+use crate::bq::factor::{FactorInfo, ILL_CONDITIONED, NotPositiveDefinite, SpdWorkspace};
+use crate::bq::kernel::Kernel;
+use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// The thesis's observation noise σ_n².
@@ -259,7 +259,7 @@ pub fn worst_case_error(
     prior_variance: f64,
     kernel: &Kernel,
 ) -> f64 {
-    let soa = crate::kernel::PointsSoa::new(points);
+    let soa = crate::bq::kernel::PointsSoa::new(points);
     let mut column = vec![0.0; points.len()];
     let mut wkw = 0.0;
     for (j, wj) in weights.iter().enumerate() {
@@ -320,7 +320,7 @@ pub fn bmc_weights(
     assert_eq!(z.len(), n, "one kernel mean per point");
     let diag = kernel.diagonal() + noise;
     // Column by column over structure-of-arrays points, so the kernel loop vectorises.
-    let soa = crate::kernel::PointsSoa::new(points);
+    let soa = crate::bq::kernel::PointsSoa::new(points);
     // Assembled straight into the factor's buffer (no copy of Q is kept).
     let info = workspace.factor_with(n, |j, col| {
         kernel.fill_column(&soa, j, j, col);
@@ -335,7 +335,7 @@ pub fn bmc_weights(
 }
 
 /// The weights on a ring set ([`crate::sampling::rings`]) by the `J × J` solve of
-/// [`crate::ring_solver`]: the same numbers as [`bmc_weights`] to rounding, in `O(N J²)`
+/// [`crate::bq::factor::rings`]: the same numbers as [`bmc_weights`] to rounding, in `O(N J²)`
 /// instead of `O(N³)`. `z` must be constant on each ring (exact kernel means are, since they
 /// depend on the height only); otherwise this falls back to [`bmc_weights`]. The ring factor
 /// stays in `workspace` for later solves (`Q⁻¹Y`, `diag(Q⁻¹)`).
@@ -354,7 +354,7 @@ pub fn bmc_weights_on_rings(
     if !ring_constant {
         return bmc_weights(points, z, prior_variance, kernel, noise, workspace);
     }
-    let factor = crate::ring_solver::RingFactor::new(points, layout, kernel, noise)?;
+    let factor = crate::bq::factor::rings::RingFactor::new(points, layout, kernel, noise)?;
     let z_ring: Vec<f64> = z.iter().step_by(per_ring).copied().collect();
     let weights = factor.solve_ring_constant(&z_ring);
     let ones_solve = factor.solve_ring_constant(&vec![1.0; layout.rings]);
@@ -364,7 +364,7 @@ pub fn bmc_weights_on_rings(
 }
 
 /// Weights and `u = Q⁻¹1` with their diagnostics and warnings (for every factorisation: dense,
-/// ring, and the nested one of [`crate::sequential`]).
+/// ring, and the nested one of [`crate::bq::stages`]).
 pub(crate) fn with_diagnostics(
     weights: Vec<f64>,
     ones_solve: Vec<f64>,
@@ -405,113 +405,5 @@ pub(crate) fn with_diagnostics(
         weights,
         ones_solve,
         diagnostics,
-    }
-}
-
-/// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.
-#[derive(Clone, Debug)]
-pub struct BmcModel {
-    pub kernel: Kernel,
-    pub noise: f64,
-    pub mode: crate::kernel_mean::KernelMeanMode,
-    /// The exact `z(μ)` and `V̂`, tabulated once and shared between threads; used for the
-    /// `z_i` in the exact mode, and for `V̂` in both (the MC mode estimates only the `z_i`, as
-    /// the thesis did).
-    table: std::sync::Arc<crate::kernel_mean::KernelMeanTable>,
-}
-
-impl BmcModel {
-    /// Builds the model, tabulating `z` once.
-    pub fn new(kernel: Kernel, noise: f64, mode: crate::kernel_mean::KernelMeanMode) -> Self {
-        let table = std::sync::Arc::new(crate::kernel_mean::KernelMeanTable::new(&kernel));
-        BmcModel {
-            kernel,
-            noise,
-            mode,
-            table,
-        }
-    }
-
-    /// The exact kernel-mean table of the model's kernel.
-    pub fn table(&self) -> &crate::kernel_mean::KernelMeanTable {
-        &self.table
-    }
-
-    /// `V̂ = ∫_H ∫_H k dω dω'` (exact).
-    pub fn prior_variance(&self) -> f64 {
-        self.table.prior_variance()
-    }
-
-    /// A warning if the kernel-mean table is less accurate than its target (see
-    /// [`crate::kernel_mean::KernelMeanTable::accuracy_warning`]); callers report it.
-    pub fn accuracy_warning(&self) -> Option<String> {
-        self.table.accuracy_warning()
-    }
-
-    /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
-    /// `rng` is drawn from only in the MC modes: one `u64` for fresh directions per point
-    /// ([`crate::kernel_mean::kernel_means_mc_per_point`]), `2M` numbers for shared ones.
-    pub fn kernel_means<R: rand::Rng + ?Sized>(&self, points: &[Vec3], rng: &mut R) -> Vec<f64> {
-        match self.mode {
-            crate::kernel_mean::KernelMeanMode::Exact => points.iter().map(|p| self.table.z(p.z)).collect(),
-            crate::kernel_mean::KernelMeanMode::MonteCarlo { samples } => {
-                crate::kernel_mean::kernel_means_mc_per_point(&self.kernel, points, samples, rng)
-            }
-            crate::kernel_mean::KernelMeanMode::MonteCarloShared { samples } => {
-                let dirs = crate::sampling::Design::Uniform.sample_set(samples, rng);
-                crate::kernel_mean::kernel_means_mc(
-                    &self.kernel,
-                    points,
-                    &crate::kernel::PointsSoa::new(&dirs),
-                )
-            }
-        }
-    }
-
-    /// The weights for `points` drawn with `design`: on a ring set with exact kernel means by
-    /// the ring solver ([`bmc_weights_on_rings`]), otherwise dense ([`BmcModel::weights`]).
-    pub fn weights_for_design<R: rand::Rng + ?Sized>(
-        &self,
-        points: &[Vec3],
-        design: crate::sampling::SetDesign,
-        rng: &mut R,
-        workspace: &mut SpdWorkspace,
-    ) -> Result<BmcWeights, NotPositiveDefinite> {
-        match design {
-            crate::sampling::SetDesign::Rings => {
-                let z = self.kernel_means(points, rng);
-                bmc_weights_on_rings(
-                    points,
-                    crate::sampling::rings::layout(points.len()),
-                    &z,
-                    self.prior_variance(),
-                    &self.kernel,
-                    self.noise,
-                    workspace,
-                )
-            }
-            crate::sampling::SetDesign::Iid(_)
-            | crate::sampling::SetDesign::Fibonacci
-            | crate::sampling::SetDesign::Stratified
-            | crate::sampling::SetDesign::Sobol => self.weights(points, rng, workspace),
-        }
-    }
-
-    /// The weights for `points`.
-    pub fn weights<R: rand::Rng + ?Sized>(
-        &self,
-        points: &[Vec3],
-        rng: &mut R,
-        workspace: &mut SpdWorkspace,
-    ) -> Result<BmcWeights, NotPositiveDefinite> {
-        let z = self.kernel_means(points, rng);
-        bmc_weights(
-            points,
-            &z,
-            self.prior_variance(),
-            &self.kernel,
-            self.noise,
-            workspace,
-        )
     }
 }

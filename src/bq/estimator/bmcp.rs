@@ -1,6 +1,6 @@
 //! BMC with a constant prior mean `c` (math.md §4, thesis §3.2.5).
 
-use crate::bmc::BmcWeights;
+use crate::bq::weights::BmcWeights;
 
 /// `Î = 2πc + wᵀ (Y − c·1)`: the integral of the prior mean plus BMC on the residuals. The
 /// weights are BMC's (the prior mean does not change `Q` or `z`), so BMC and BMCP on the same
