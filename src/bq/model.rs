@@ -9,7 +9,7 @@ use crate::bq::factor::{NotPositiveDefinite, SpdWorkspace};
 use crate::bq::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
 use crate::bq::kernel_mean::{KernelMeanMode, KernelMeanTable, kernel_means_mc, kernel_means_mc_per_point};
 use crate::bq::weights::{BmcWeights, bmc_weights, bmc_weights_on_rings};
-use crate::sampling::{Design, SetDesign};
+use crate::sampling::{Design, SetDesign, Structure};
 use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -86,8 +86,8 @@ impl BmcModel {
         rng: &mut R,
         workspace: &mut SpdWorkspace,
     ) -> Result<BmcWeights, NotPositiveDefinite> {
-        match design {
-            SetDesign::Rings => {
+        match design.structure() {
+            Structure::Rings => {
                 let z = self.kernel_means(points, rng);
                 bmc_weights_on_rings(
                     points,
@@ -99,9 +99,7 @@ impl BmcModel {
                     workspace,
                 )
             }
-            SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
-                self.weights(points, rng, workspace)
-            }
+            Structure::Plain => self.weights(points, rng, workspace),
         }
     }
 

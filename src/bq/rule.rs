@@ -4,7 +4,7 @@ use crate::bq::factor::SpdWorkspace;
 use crate::bq::model::BmcModel;
 use crate::bq::weights::BmcWeights;
 use crate::error::InputError;
-use crate::sampling::SetDesign;
+use crate::sampling::{SetDesign, Structure};
 use crate::util::geometry::Vec3;
 use crate::util::rng::stream;
 use std::path::Path;
@@ -78,7 +78,7 @@ pub fn check_generated_count(
     design
         .check_count(n)
         .map_err(|m| InputError::new(format!("{what}: {n} with --design {design}: {m}")))?;
-    if design == SetDesign::Rings && exact_kernel_means {
+    if design.structure() == Structure::Rings && exact_kernel_means {
         let max = crate::bq::factor::rings::MAX_RING_POINTS;
         if n > max {
             return Err(InputError::new(format!(

@@ -318,14 +318,7 @@ pub fn bmc_weights(
 ) -> Result<BmcWeights, NotPositiveDefinite> {
     let n = points.len();
     assert_eq!(z.len(), n, "one kernel mean per point");
-    let diag = kernel.diagonal() + noise;
-    // Column by column over structure-of-arrays points, so the kernel loop vectorises.
-    let soa = crate::bq::kernel::PointsSoa::new(points);
-    // Assembled straight into the factor's buffer (no copy of Q is kept).
-    let info = workspace.factor_with(n, |j, col| {
-        kernel.fill_column(&soa, j, j, col);
-        col[0] = diag;
-    })?;
+    let info = workspace.factor_gram(points, kernel, noise)?;
     let mut weights = z.to_vec();
     workspace.solve_in_place(&mut weights);
     // One more O(N²) solve, for Bayes–Sard and its residuals.
@@ -359,7 +352,7 @@ pub fn bmc_weights_on_rings(
     let weights = factor.solve_ring_constant(&z_ring);
     let ones_solve = factor.solve_ring_constant(&vec![1.0; layout.rings]);
     let info = factor.info();
-    workspace.hold_structured(Box::new(factor));
+    workspace.hold_rings(factor);
     Ok(with_diagnostics(weights, ones_solve, info, z, prior_variance))
 }
 

@@ -11,7 +11,7 @@ use crate::integrand::family::{AxisIntegrand, Profile};
 use crate::integrand::pixel::PixelIntegrand;
 use crate::integrand::{CosPower, Integrand};
 use crate::render::env::{EnvMap, Environment};
-use crate::sampling::{Design, SetDesign};
+use crate::sampling::{Design, SetDesign, Structure};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -330,20 +330,24 @@ fn check_limits(
     designs: &[SetDesign],
 ) -> Result<(), String> {
     let max_n = *spec.samples.iter().max().expect("samples is not empty");
-    // The rings design needs N = J·M (sampling::rings).
-    if let Some(e) = estimators.iter().find(|e| e.design == SetDesign::Rings) {
+    // Some designs take only some counts (the rings need N = J·M, sampling::rings).
+    for e in estimators {
         for (i, &n) in spec.samples.iter().enumerate() {
-            if let Err(m) = SetDesign::Rings.check_count(n as usize) {
+            if let Err(m) = e.design.check_count(n as usize) {
                 return Err(err(
                     format!("samples[{i}]"),
-                    format!("N = {n} for estimator {:?} (design \"rings\"): {m}", e.label),
+                    format!(
+                        "N = {n} for estimator {:?} (design {:?}): {m}",
+                        e.label,
+                        e.design.name()
+                    ),
                 ));
             }
         }
     }
     // BMC on rings with exact kernel means solves J × J blocks (ring_solver), not Q itself.
     let on_rings = |e: &PlannedEstimator| {
-        e.design == SetDesign::Rings
+        e.design.structure() == Structure::Rings
             && e.settings.kernel_mean == Some(crate::bq::model::KernelMeanName::Exact)
     };
     let needs_weights = estimators

@@ -7,16 +7,6 @@ use crate::bq::stages::Tolerance;
 use crate::sampling::SetDesign;
 use serde::Serialize;
 
-/// Whether a design's first N points are the same whatever the final N, so that a stage can
-/// extend the one before it: i.i.d. points and the Sobol sequence are; the Fibonacci lattice
-/// the jittered grid and the rings depend on N.
-pub fn is_nested(design: SetDesign) -> bool {
-    match design {
-        SetDesign::Iid(_) | SetDesign::Sobol => true,
-        SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Rings => false,
-    }
-}
-
 /// The estimator's tolerance, validated against its method, design, model and the sample counts
 /// (its first stages); `unit_points` is the most points a unit may draw without weights. None
 /// without one.
@@ -64,7 +54,7 @@ pub fn resolve_tolerance(
             method
         ));
     }
-    if !is_nested(design) {
+    if !design.is_nested() {
         return Err(format!(
             "{}: {:?} is not nested (its first N points change with N), so a tolerance cannot extend it; \
              use uniform, cosine or sobol",

@@ -127,6 +127,16 @@ pub enum SetDesign {
     Rings,
 }
 
+/// The structure of a design's point sets that a factor of `Q` can exploit (math.md §5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Structure {
+    /// No structure: a dense Cholesky factor.
+    Plain,
+    /// `J` rings of `M` equally spaced points ([`rings`]): `Q` is block-circulant, so it
+    /// factors as `⌊M/2⌋ + 1` blocks of `J × J` ([`crate::bq::factor::rings`]).
+    Rings,
+}
+
 impl SetDesign {
     /// Every design, in the order of the docs: the list that the conformance tests walk and
     /// that names are parsed from. A new design is added here and in the matches below (all
@@ -222,6 +232,27 @@ impl SetDesign {
                     .collect()
             }
             SetDesign::Rings => rings::sample_set(n, rng),
+        }
+    }
+
+    /// What a factor of `Q` on a set of this design can exploit ([`crate::bq::factor`] asks
+    /// this instead of matching on designs): nothing, or the ring layout.
+    pub fn structure(self) -> Structure {
+        match self {
+            SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
+                Structure::Plain
+            }
+            SetDesign::Rings => Structure::Rings,
+        }
+    }
+
+    /// Whether the first N points are the same whatever the final N, so that a stage can extend
+    /// the one before it: i.i.d. points and the Sobol sequence are; the Fibonacci lattice, the
+    /// jittered grid and the rings depend on N.
+    pub fn is_nested(self) -> bool {
+        match self {
+            SetDesign::Iid(_) | SetDesign::Sobol => true,
+            SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Rings => false,
         }
     }
 

@@ -21,14 +21,17 @@
 //! smaller than that of the stage before). [`NestedCholesky::jitter`] reports it for the
 //! warning.
 
-use crate::bq::factor::{FactorInfo, JITTER_START, JITTER_STEPS, NUMERICALLY_SINGULAR, NotPositiveDefinite};
+use super::{
+    FactorInfo, NUMERICALLY_SINGULAR, NotPositiveDefinite, condition_estimate, jitter_ladder,
+    lower_inverse_diagonal,
+};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::prelude::{Reborrow, ReborrowMut};
 use faer::{Accum, Mat, Par};
 
 /// The lower Cholesky factor of the leading `n × n` block of a growing SPD matrix.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct NestedCholesky {
     /// The most rows it may grow to.
     capacity: usize,
@@ -67,18 +70,9 @@ impl NestedCholesky {
         self.refactorisations
     }
 
-    /// `(max L_ii / min L_ii)²`, as in [`FactorInfo::condition_estimate`].
+    /// `(max L_ii / min L_ii)²` of the factored block ([`condition_estimate`]).
     pub fn condition_estimate(&self) -> f64 {
-        if self.n == 0 {
-            return 1.0;
-        }
-        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-        for i in 0..self.n {
-            let d = self.factor[(i, i)];
-            lo = lo.min(d);
-            hi = hi.max(d);
-        }
-        (hi / lo).powi(2)
+        condition_estimate((0..self.n).map(|i| self.factor[(i, i)]))
     }
 
     /// What the factor needed, for [`crate::bq::weights::Diagnostics`].
@@ -182,26 +176,29 @@ impl NestedCholesky {
         assemble(self, 0.0);
         let mean_diag = (0..m).map(|i| self.factor[(i, i)]).sum::<f64>() / m as f64;
         let first = self.jitter;
-        let mut jitter = first;
         if first > 0.0 {
             for j in 0..m {
                 self.factor[(j, j)] += first;
             }
         }
-        for step in 0..=JITTER_STEPS {
+        let outcome = jitter_ladder(mean_diag, first, |step, jitter| {
             if step > 0 {
-                jitter = (JITTER_START * 10f64.powi(step as i32 - 1) * mean_diag).max(first);
                 assemble(self, jitter);
             }
             let ok = cholesky(self.factor.as_mut().submatrix_mut(0, 0, m, m)).is_ok();
             self.n = m;
-            if ok && (self.condition_estimate() <= NUMERICALLY_SINGULAR || step == JITTER_STEPS) {
-                self.jitter = jitter;
-                return Ok(());
+            ok.then(|| self.condition_estimate())
+        });
+        match outcome {
+            Ok(info) => {
+                self.jitter = info.jitter;
+                Ok(())
+            }
+            Err(jitter) => {
+                self.n = 0;
+                Err(NotPositiveDefinite { n: m, jitter })
             }
         }
-        self.n = 0;
-        Err(NotPositiveDefinite { n: m, jitter })
     }
 
     fn column_mut(&mut self, j: usize) -> &mut [f64] {
@@ -218,6 +215,20 @@ impl NestedCholesky {
         assert_eq!(b.len(), n, "right-hand side length");
         let rhs = faer::MatMut::from_column_major_slice_mut(b, n, 1);
         let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq));
+        let factor = self.factor.as_ref().submatrix(0, 0, n, n);
+        llt::solve::solve_in_place(factor, rhs, Par::Seq, MemStack::new(&mut mem));
+    }
+
+    /// Solves `Q X = B` for the factored block, `columns` right-hand sides column-major.
+    pub fn solve_columns_in_place(&self, b: &mut [f64], columns: usize) {
+        let n = self.n;
+        assert_eq!(
+            b.len(),
+            n * columns,
+            "right-hand sides: n × columns, column-major"
+        );
+        let rhs = faer::MatMut::from_column_major_slice_mut(b, n, columns);
+        let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, columns, Par::Seq));
         let factor = self.factor.as_ref().submatrix(0, 0, n, n);
         llt::solve::solve_in_place(factor, rhs, Par::Seq, MemStack::new(&mut mem));
     }
@@ -249,7 +260,7 @@ impl NestedCholesky {
     /// `diag(Q⁻¹)` of the factored block, `(Q⁻¹)_ii = ‖L⁻¹ e_i‖²` (as
     /// [`crate::bq::factor::SpdWorkspace::inverse_diagonal`]); O(n³), for the `loo` amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
-        crate::bq::factor::lower_inverse_diagonal(&self.factor, self.n)
+        lower_inverse_diagonal(&self.factor, self.n)
     }
 
     /// `L[i, j]` of the factored block (`j ≤ i < n`), for tests.

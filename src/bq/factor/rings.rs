@@ -38,9 +38,7 @@
 //! `⌊M/2⌋ + 1` Cholesky factorisations of `J × J` blocks: `O(N J²)` flops and `O(N J)`
 //! memory, against `O(N³)` and `8 N²` bytes dense.
 
-use crate::bq::factor::{
-    FactorInfo, JITTER_START, JITTER_STEPS, NUMERICALLY_SINGULAR, NotPositiveDefinite, StructuredFactor,
-};
+use super::{FactorInfo, NotPositiveDefinite, condition_estimate, jitter_ladder};
 use crate::bq::kernel::{Kernel, PointsSoa};
 use crate::sampling::rings::RingLayout;
 use crate::util::geometry::Vec3;
@@ -219,54 +217,33 @@ impl RingFactor {
             Par::Seq,
             Default::default(),
         ));
-        let mut jitter = 0.0;
-        for step in 0..=JITTER_STEPS {
+        let info = jitter_ladder(mean_diag, 0.0, |_, jitter| {
             // Each attempt assembles the blocks again: a failed factorisation overwrote them.
             assemble(&mut factors);
-            if step > 0 {
-                jitter = JITTER_START * 10f64.powi(step as i32 - 1) * mean_diag;
-            }
-            let mut ok = true;
             for l in factors.iter_mut() {
                 for b in 0..rings {
                     l[(b, b)] += jitter;
                 }
-                ok = llt::factor::cholesky_in_place(
+                llt::factor::cholesky_in_place(
                     l.as_mut(),
                     Default::default(),
                     Par::Seq,
                     MemStack::new(&mut mem),
                     Default::default(),
                 )
-                .is_ok();
-                if !ok {
-                    break;
-                }
+                .ok()?;
             }
-            if !ok {
-                continue;
-            }
-            let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-            for l in &factors {
-                for i in 0..rings {
-                    lo = lo.min(l[(i, i)]);
-                    hi = hi.max(l[(i, i)]);
-                }
-            }
-            let condition_estimate = (hi / lo).powi(2);
-            if condition_estimate <= NUMERICALLY_SINGULAR || step == JITTER_STEPS {
-                return Ok(RingFactor {
-                    layout,
-                    factors,
-                    dft,
-                    info: FactorInfo {
-                        jitter,
-                        condition_estimate,
-                    },
-                });
-            }
-        }
-        Err(NotPositiveDefinite { n, jitter })
+            Some(condition_estimate(
+                factors.iter().flat_map(|l| (0..rings).map(move |i| l[(i, i)])),
+            ))
+        })
+        .map_err(|jitter| NotPositiveDefinite { n, jitter })?;
+        Ok(RingFactor {
+            layout,
+            factors,
+            dft,
+            info,
+        })
     }
 
     /// What the factorisation needed; the condition estimate is `(max L_ii / min L_ii)²` over
@@ -367,16 +344,15 @@ impl RingFactor {
     }
 }
 
-impl StructuredFactor for RingFactor {
-    fn len(&self) -> usize {
+impl RingFactor {
+    /// `N = J M`, the order of `Q`.
+    pub fn n(&self) -> usize {
         self.layout.rings * self.layout.per_ring
     }
 
-    fn solve_in_place(&self, b: &mut [f64]) {
-        self.solve_columns_in_place(b, 1);
-    }
-
-    fn inverse_diagonal(&self) -> Vec<f64> {
+    /// `diag(Q⁻¹)`: per block, `(B_f⁻¹)_aa` by forward substitution, summed over the
+    /// frequencies with their multiplicities; the same on every point of a ring.
+    pub fn inverse_diagonal(&self) -> Vec<f64> {
         let RingLayout { rings, per_ring } = self.layout;
         let half = per_ring / 2;
         let mut diag = vec![0.0; rings];
@@ -480,7 +456,7 @@ mod tests {
                     .unwrap();
                 let b: Vec<f64> = (0..n).map(|_| rng.random::<f64>() - 0.3).collect();
                 let (mut x_ring, mut x_dense) = (b.clone(), b.clone());
-                ring.solve_in_place(&mut x_ring);
+                ring.solve_columns_in_place(&mut x_ring, 1);
                 dense.solve_in_place(&mut x_dense);
                 assert!(
                     rel(&x_ring, &x_dense) < 1e-10,

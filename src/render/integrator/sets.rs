@@ -7,10 +7,10 @@
 //! the frame. Because the kernel depends on `x·y` only, rotated points keep their weights.
 
 use crate::bq::factor::rings::RingFactor;
-use crate::bq::factor::{CholeskyFactor, NotPositiveDefinite, SpdWorkspace, StructuredFactor};
+use crate::bq::factor::{Factor, NotPositiveDefinite, SpdWorkspace};
 use crate::bq::model::BmcModel;
 use crate::bq::weights::{BmcWeights, Scale};
-use crate::sampling::{Design, SetDesign, rings};
+use crate::sampling::{Design, SetDesign, Structure, rings};
 use crate::util::geometry::Vec3;
 use crate::util::rng::{WorkbenchRng, stream};
 use rand::RngExt;
@@ -37,34 +37,8 @@ pub struct SampleSet {
 /// `x·y` only), so one factor serves every pixel that uses the set.
 #[derive(Clone, Debug)]
 pub struct SetSolver {
-    pub factor: SetFactor,
+    pub factor: Factor,
     pub inverse_diagonal: Option<Vec<f64>>,
-}
-
-/// A kept factorisation of `Q`: dense Cholesky, or the per-frequency `J × J` Cholesky factors
-/// of a ring set ([`RingFactor`]).
-#[derive(Clone, Debug)]
-pub enum SetFactor {
-    Dense(CholeskyFactor),
-    Rings(RingFactor),
-}
-
-impl SetFactor {
-    /// Solves `Q X = B` in place for `columns` right-hand sides, column-major.
-    pub fn solve_columns_in_place(&self, b: &mut [f64], columns: usize) {
-        match self {
-            SetFactor::Dense(f) => f.solve_columns_in_place(b, columns),
-            SetFactor::Rings(f) => f.solve_columns_in_place(b, columns),
-        }
-    }
-
-    /// `diag(Q⁻¹)`.
-    pub fn inverse_diagonal(&self) -> Vec<f64> {
-        match self {
-            SetFactor::Dense(f) => f.inverse_diagonal(),
-            SetFactor::Rings(f) => f.inverse_diagonal(),
-        }
-    }
 }
 
 /// The sets ("GPs") of a BMC integrator.
@@ -140,24 +114,16 @@ impl BmcSets {
     pub fn keep_solvers(&mut self, model: &BmcModel, scale: Scale) -> Result<(), NotPositiveDefinite> {
         let mut ws = SpdWorkspace::new();
         for set in &mut self.sets {
-            let factor = match self.design {
-                SetDesign::Rings => SetFactor::Rings(RingFactor::new(
+            let factor = match self.design.structure() {
+                Structure::Rings => Factor::Rings(RingFactor::new(
                     &set.points,
                     rings::layout(set.points.len()),
                     &model.kernel,
                     model.noise,
                 )?),
-                SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
-                    let no_means = vec![0.0; set.points.len()];
-                    crate::bq::weights::bmc_weights(
-                        &set.points,
-                        &no_means,
-                        model.prior_variance(),
-                        &model.kernel,
-                        model.noise,
-                        &mut ws,
-                    )?;
-                    SetFactor::Dense(ws.keep_factor())
+                Structure::Plain => {
+                    ws.factor_gram(&set.points, &model.kernel, model.noise)?;
+                    ws.keep_factor()
                 }
             };
             let inverse_diagonal = (scale == Scale::Loo).then(|| factor.inverse_diagonal());

@@ -45,7 +45,7 @@ fn nested_designs_keep_their_first_points() {
         let nested = small[..] == large[..16];
         assert_eq!(
             nested,
-            workbench::experiment::tolerance::is_nested(d),
+            d.is_nested(),
             "{}: first 16 points identical = {nested}",
             d.name()
         );
