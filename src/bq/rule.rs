@@ -1,13 +1,85 @@
-//! `workbench rule`: a BMC quadrature rule (points and weights) as a file a renderer can load.
+//! A quadrature rule: points, the density they were drawn from and, for the estimators with
+//! weights, BMC weights. [`Rule::estimate`] is the one sequence every caller runs — fitted
+//! amplitude (math.md §7) → stated uncertainty → estimate — for the experiment runner, the render
+//! integrators and the stage walker alike. Also what `workbench rule` writes: the limits on `N`,
+//! the generated points and their weights as a file a renderer can load.
 
+use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::SpdWorkspace;
 use crate::bq::model::BmcModel;
-use crate::bq::weights::BmcWeights;
+use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
-use crate::sampling::{SetDesign, Structure};
+use crate::sampling::{Design, SetDesign, Structure};
 use crate::util::geometry::Vec3;
 use crate::util::rng::stream;
 use std::path::Path;
+
+/// A rule on one point set: the points in the local frame, the density each was drawn from (what
+/// MC divides by), and for the estimators with weights the weights of the set and, for the `loo`
+/// amplitude, `diag(Q⁻¹)` of its factor.
+#[derive(Clone, Copy, Debug)]
+pub struct Rule<'a> {
+    pub density: Design,
+    pub points: &'a [Vec3],
+    pub weights: Option<&'a BmcWeights>,
+    pub inverse_diagonal: Option<&'a [f64]>,
+}
+
+/// An integrand's values `Y` on a rule's points and, when an amplitude is fitted, `Q⁻¹Y`: one
+/// solve per weight set and integrand (or colour channel), shared by every estimator of the set,
+/// made by whoever holds the factor (a workspace, a kept factor, a nested stage).
+#[derive(Clone, Copy, Debug)]
+pub struct Values<'a> {
+    pub y: &'a [f64],
+    pub solved: Option<&'a [f64]>,
+}
+
+/// What an estimator states: `Î`, its uncertainty (None where it states none, e.g. MC at
+/// `N = 1`), and the amplitude `λ̂` when one was fitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    pub value: f64,
+    pub uncertainty: Option<Uncertainty>,
+    pub fitted_amplitude: Option<f64>,
+}
+
+impl Rule<'_> {
+    /// The estimate alone, `Î` of `method` ([`Method::estimate`]) with prior constant `prior`
+    /// (BMCP).
+    pub fn value(&self, method: Method, y: &[f64], prior: f64) -> f64 {
+        method.estimate(self.density, self.points, y, self.weights, prior)
+    }
+
+    /// The estimate with its uncertainty at `scale`: a fitted amplitude `λ̂`
+    /// ([`Method::amplitude`]) when the scale is not `unit` and `Q⁻¹Y` is given, else `λ = 1`;
+    /// then the stated sd `sqrt(λ Var₁)` or MC's standard error ([`Method::uncertainty`]) and
+    /// `Î` ([`Method::estimate`]).
+    pub fn estimate(&self, method: Method, values: Values<'_>, prior: f64, scale: Scale) -> Estimate {
+        let fitted_amplitude = match values.solved {
+            Some(solved) if scale != Scale::Unit => method.amplitude(
+                scale,
+                values.y,
+                solved,
+                self.weights,
+                prior,
+                self.inverse_diagonal,
+            ),
+            _ => None,
+        };
+        Estimate {
+            value: self.value(method, values.y, prior),
+            uncertainty: method.uncertainty(
+                self.density,
+                self.points,
+                values.y,
+                self.weights,
+                scale,
+                fitted_amplitude.unwrap_or(1.0),
+            ),
+            fitted_amplitude,
+        }
+    }
+}
 
 /// Largest number of points a weight set may have: `Q` is assembled straight into its Cholesky
 /// factor's buffer, one `N × N` matrix of `f64` per worker thread ([`matrix_gib`]), and this

@@ -19,6 +19,7 @@ use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::NotPositiveDefinite;
 use crate::bq::factor::nested::NestedCholesky;
 use crate::bq::model::BmcModel;
+use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Design;
 use crate::util::geometry::Vec3;
@@ -252,31 +253,29 @@ pub fn weighted_together(
                 if slot.is_some() {
                     continue;
                 }
-                let (p, v) = (&nested.points[..m], &nested.values[fi][..m]);
-                let amplitude = if scale == Scale::Unit {
-                    1.0
-                } else {
-                    let solved = &stage
+                let rule = Rule {
+                    density: Design::Uniform,
+                    points: &nested.points[..m],
+                    weights: Some(w),
+                    inverse_diagonal: stage.inverse_diagonal.as_deref(),
+                };
+                let solved = (scale != Scale::Unit).then(|| {
+                    stage
                         .values_solve
                         .as_ref()
-                        .expect("NestedWeights::new was told the scale")[fi];
-                    method
-                        .amplitude(
-                            scale,
-                            v,
-                            solved,
-                            Some(w),
-                            walker.priors[fi],
-                            stage.inverse_diagonal.as_deref(),
-                        )
-                        .expect("weighted methods fit amplitudes")
+                        .expect("NestedWeights::new was told the scale")[fi]
+                        .as_slice()
+                });
+                let values = Values {
+                    y: &nested.values[fi][..m],
+                    solved,
                 };
-                let u = method.uncertainty(Design::Uniform, p, v, Some(w), scale, amplitude);
-                let met = meets(u.as_ref(), walker.abs);
+                let e = rule.estimate(method, values, walker.priors[fi], scale);
+                let met = meets(e.uncertainty.as_ref(), walker.abs);
                 if met || final_stage {
                     *slot = Some(Outcome {
-                        estimate: method.estimate(Design::Uniform, p, v, Some(w), walker.priors[fi]),
-                        uncertainty: u,
+                        estimate: e.value,
+                        uncertainty: e.uncertainty,
                         n_used: m,
                         met,
                     });

@@ -7,6 +7,7 @@
 
 use super::plan::Plan;
 use crate::bq::factor::SpdWorkspace;
+use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::SetDesign;
 use crate::util::rng::stream;
@@ -160,10 +161,10 @@ pub fn run_unit(
         .collect();
 
     // Weights per (model, design) pair in use, computed once. While the workspace still holds
-    // a weight set's Cholesky factor, the fitted amplitudes of the estimators that use it are
-    // computed: one O(N²) solve `Q⁻¹Y` per (weight set, integrand), shared by every estimator
-    // of the set (O(N) each after it), plus diag(Q⁻¹) once per weight set (O(N³)) when an
-    // estimator uses `loo`.
+    // a weight set's Cholesky factor, what the fitted amplitudes of the estimators that use it
+    // need is solved: one O(N²) `Q⁻¹Y` per (weight set, integrand), shared by every estimator
+    // of the set (each fits its amplitude from it in O(N), in `Rule::estimate`), plus diag(Q⁻¹)
+    // once per weight set (O(N³)) when an estimator uses `loo`.
     // Tolerance estimators extend the unit's set of their design (same stream, nested).
     let adaptive_clock = Instant::now();
     let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
@@ -179,13 +180,13 @@ pub fn run_unit(
     let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
-    let mut weights: Vec<((usize, SetDesign), BmcWeights)> = Vec::new();
+    let mut weights: Vec<((usize, SetDesign), BmcWeights, SetSolves)> = Vec::new();
     let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {
             continue;
         };
-        if weights.iter().any(|(k, _)| *k == (m, e.design)) {
+        if weights.iter().any(|(k, _, _)| *k == (m, e.design)) {
             continue;
         }
         let clock = Instant::now();
@@ -211,45 +212,34 @@ pub fn run_unit(
             x.model == Some(m) && x.design == e.design && x.tolerance.is_none()
         };
         let fitted = |x: &super::plan::PlannedEstimator| x.scale.is_some_and(|s| s != Scale::Unit);
+        let mut solves = SetSolves::default();
         if plan.estimators.iter().filter(sharing).any(fitted) {
-            let inverse_diagonal = plan
+            solves.inverse_diagonal = plan
                 .estimators
                 .iter()
                 .filter(sharing)
                 .any(|x| x.scale == Some(Scale::Loo))
                 .then(|| workspace.inverse_diagonal());
-            for (fi, f) in plan.integrands.iter().enumerate() {
-                let values = &values[fi][d];
-                let mut values_solve = values.clone();
-                workspace.solve_in_place(&mut values_solve);
-                for (ei, x) in plan.estimators.iter().enumerate() {
-                    if !(sharing(&x) && fitted(x)) {
-                        continue;
-                    }
-                    let prior = x.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
-                    amplitudes[fi][ei] = x.method.amplitude(
-                        x.scale.expect("fitted"),
-                        values,
-                        &values_solve,
-                        Some(&w),
-                        prior,
-                        inverse_diagonal.as_deref(),
-                    );
-                }
-            }
+            solves.values = (0..plan.integrands.len())
+                .map(|fi| {
+                    let mut values_solve = values[fi][d].clone();
+                    workspace.solve_in_place(&mut values_solve);
+                    values_solve
+                })
+                .collect();
         }
-        weights.push(((m, e.design), w));
+        weights.push(((m, e.design), w, solves));
         weight_seconds.push(clock.elapsed().as_secs_f64());
     }
-    let weights_of = |e: &super::plan::PlannedEstimator| {
+    let weight_set_of = |e: &super::plan::PlannedEstimator| {
         e.model.filter(|_| e.tolerance.is_none()).map(|m| {
-            &weights
+            weights
                 .iter()
-                .find(|(k, _)| *k == (m, e.design))
+                .find(|(k, _, _)| *k == (m, e.design))
                 .expect("computed above")
-                .1
         })
     };
+    let weights_of = |e: &super::plan::PlannedEstimator| weight_set_of(e).map(|(_, w, _)| w);
 
     let weight_set_seconds: Vec<f64> = plan
         .estimators
@@ -261,7 +251,7 @@ pub fn run_unit(
             e.model.map_or(0.0, |m| {
                 weight_seconds[weights
                     .iter()
-                    .position(|(k, _)| *k == (m, e.design))
+                    .position(|(k, _, _)| *k == (m, e.design))
                     .expect("computed above")]
             })
         })
@@ -289,18 +279,21 @@ pub fn run_unit(
             let clock = Instant::now();
             let d = design_index(e.design);
             let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
-            row.push(
-                e.method
-                    .estimate(e.design.density(), &sets[d], &values[d], weights_of(e), prior),
-            );
-            sds.push(e.method.uncertainty(
-                e.design.density(),
-                &sets[d],
-                &values[d],
-                weights_of(e),
-                e.scale.unwrap_or(Scale::Unit),
-                amplitudes[fi][ei].unwrap_or(1.0),
-            ));
+            let solves = weight_set_of(e).map(|(_, _, s)| s);
+            let rule = Rule {
+                density: e.design.density(),
+                points: &sets[d],
+                weights: weights_of(e),
+                inverse_diagonal: solves.and_then(|s| s.inverse_diagonal.as_deref()),
+            };
+            let values = Values {
+                y: &values[d],
+                solved: solves.and_then(|s| s.values.get(fi)).map(Vec::as_slice),
+            };
+            let estimate = rule.estimate(e.method, values, prior, e.scale.unwrap_or(Scale::Unit));
+            amplitudes[fi][ei] = estimate.fitted_amplitude;
+            row.push(estimate.value);
+            sds.push(estimate.uncertainty);
             costs.push(
                 sample_seconds[d]
                     + weight_set_seconds[ei]
@@ -330,7 +323,7 @@ pub fn run_unit(
         .collect();
     let mut messages: Vec<String> = weights
         .iter()
-        .flat_map(|(_, w)| w.diagnostics.warnings.iter().map(|m| m.message()))
+        .flat_map(|(_, w, _)| w.diagnostics.warnings.iter().map(|m| m.message()))
         .chain(
             adaptive
                 .iter()
@@ -407,4 +400,13 @@ pub fn run_unit(
             evaluations,
         },
     })
+}
+
+/// What a weight set's factor solved for the fitted amplitudes of the estimators that use it,
+/// while the workspace held it: `Q⁻¹Y` per integrand (empty when no estimator of the set fits
+/// an amplitude) and `diag(Q⁻¹)` when one uses `loo`.
+#[derive(Default)]
+struct SetSolves {
+    values: Vec<Vec<f64>>,
+    inverse_diagonal: Option<Vec<f64>>,
 }

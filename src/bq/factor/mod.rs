@@ -64,13 +64,13 @@ pub fn jitter_ladder(
             let rung = JITTER_START * 10f64.powi(step as i32 - 1) * mean_diag;
             jitter = if floor > 0.0 { rung.max(floor) } else { rung };
         }
-        if let Some(condition_estimate) = attempt(step, jitter) {
-            if condition_estimate <= NUMERICALLY_SINGULAR || step == JITTER_STEPS {
-                return Ok(FactorInfo {
-                    jitter,
-                    condition_estimate,
-                });
-            }
+        if let Some(condition_estimate) = attempt(step, jitter)
+            && (condition_estimate <= NUMERICALLY_SINGULAR || step == JITTER_STEPS)
+        {
+            return Ok(FactorInfo {
+                jitter,
+                condition_estimate,
+            });
         }
     }
     Err(jitter)

@@ -17,6 +17,7 @@ use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
 use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::model::BmcModel;
+use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
 use crate::sampling::{Design, SetDesign};
@@ -370,10 +371,14 @@ impl Integrator {
             }
         }
         let method = self.kind.method;
-        let estimate =
-            [0, 1, 2].map(|c| method.estimate(self.kind.design, &points, &values[c], weights, prior[c]));
+        let rule = Rule {
+            density: self.kind.design,
+            points: &points,
+            weights,
+            inverse_diagonal: None,
+        };
         let Some(scale) = self.uncertainty else {
-            return (estimate, None);
+            return ([0, 1, 2].map(|c| rule.value(method, &values[c], prior[c])), None);
         };
         let n = points.len();
         // Q⁻¹Y for the three channels in one solve (column-major n × 3); not needed for `unit`.
@@ -390,24 +395,19 @@ impl Integrator {
             }
             _ => None,
         };
-        let inverse_diagonal = solver.and_then(|s| s.inverse_diagonal.as_deref());
-        let mut out = [None; 3];
-        for c in 0..3 {
-            let amplitude = match &solved {
-                Some(solved) => method
-                    .amplitude(
-                        scale,
-                        &values[c],
-                        &solved[c * n..(c + 1) * n],
-                        weights,
-                        prior[c],
-                        inverse_diagonal,
-                    )
-                    .unwrap_or(1.0),
-                None => 1.0,
+        let rule = Rule {
+            inverse_diagonal: solver.and_then(|s| s.inverse_diagonal.as_deref()),
+            ..rule
+        };
+        let estimates = [0, 1, 2].map(|c| {
+            let values = Values {
+                y: &values[c],
+                solved: solved.as_deref().map(|s| &s[c * n..(c + 1) * n]),
             };
-            out[c] = method.uncertainty(self.kind.design, &points, &values[c], weights, scale, amplitude);
-        }
+            rule.estimate(method, values, prior[c], scale)
+        });
+        let estimate = estimates.map(|e| e.value);
+        let out = estimates.map(|e| e.uncertainty);
         match out {
             [Some(r), Some(g), Some(b)] => (estimate, Some([r, g, b])),
             _ => (estimate, None),
