@@ -1,5 +1,9 @@
-//! Sequential estimation: grow a nested sample set by doubling until the estimator's own 95%
-//! interval (math.md §7) is narrow enough; README, "Stopping at a tolerance".
+//! Sequential estimation: grow a nested sample set by doubling until the estimator's own
+//! uncertainty (math.md §7) meets a [`Target`]; README, "Stopping at a tolerance" and "Adaptive
+//! sampling". One walker ([`walk`]) serves the experiments' tolerance estimators (a 95%
+//! half-width per integrand) and the renderer's adaptive pixels (an sd per colour channel); the
+//! weights of every stage come from one nested factor ([`NestedStages`]), and every stage's
+//! estimate from [`Rule::estimate`], so any estimator with an interval can be staged.
 //!
 //! Stages `N₀, 2N₀, 4N₀, …` up to `max_n` (the last stage is the largest of these not above
 //! `max_n`). After each stage the estimator states its interval `Î ± q·sd` (the same law as a
@@ -19,7 +23,7 @@ use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::NotPositiveDefinite;
 use crate::bq::factor::nested::NestedCholesky;
 use crate::bq::model::BmcModel;
-use crate::bq::rule::{Rule, Values};
+use crate::bq::rule::{Estimate, Rule, Values};
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Design;
 use crate::util::geometry::Vec3;
@@ -60,6 +64,54 @@ pub fn half_width(u: &Uncertainty) -> f64 {
     u.quantile(LEVEL) * u.sd
 }
 
+/// What a stage's stated uncertainty must meet for the walk to stop there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// The half-width of the 95% interval ([`half_width`]) at most this (a tolerance estimator).
+    HalfWidth(f64),
+    /// The stated sd at most this (an adaptive pixel's `--target-sd`, per channel).
+    Sd(f64),
+}
+
+impl Target {
+    /// Whether `u` meets the target; an estimator that states no uncertainty never does.
+    pub fn met(&self, u: Option<&Uncertainty>) -> bool {
+        u.is_some_and(|u| match *self {
+            Target::HalfWidth(abs) => half_width(u) <= abs,
+            Target::Sd(t) => u.sd <= t,
+        })
+    }
+}
+
+/// Where a walk stopped: what the last stage used gave, its size, and whether the target was met
+/// there (rather than the stages running out).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stop<T> {
+    pub at: T,
+    pub n_used: usize,
+    pub met: bool,
+}
+
+/// The one stopping rule: through `stages` (increasing sizes), `stage(m)` gives the stage's
+/// result and whether it meets the target; the walk stops at the first stage that does, or at
+/// the last. The rule looks at the stated uncertainty only, never at the truth.
+///
+/// # Panics
+/// If `stages` is empty.
+pub fn walk<T, E>(
+    stages: &[usize],
+    mut stage: impl FnMut(usize) -> Result<(T, bool), E>,
+) -> Result<Stop<T>, E> {
+    let (&last, _) = stages.split_last().expect("at least one stage");
+    for &m in stages {
+        let (at, met) = stage(m)?;
+        if met || m == last {
+            return Ok(Stop { at, n_used: m, met });
+        }
+    }
+    unreachable!("the last stage returns")
+}
+
 /// Where one integrand's sequential estimate stopped.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Outcome {
@@ -73,32 +125,39 @@ pub struct Outcome {
     pub met: bool,
 }
 
-/// Whether `u`'s half-width meets `abs`.
-fn meets(u: Option<&Uncertainty>, abs: f64) -> bool {
-    u.is_some_and(|u| half_width(u) <= abs)
-}
-
 /// Sequential MC on the nested set `points` (the largest stage; each point drawn from
 /// `density`) with integrand values `values` (same length): the estimate and standard error of
 /// each stage are [`Method::Mc`]'s on the stage's first points, so a trial that stops at `N` is
 /// the fixed-N estimate at `N` exactly.
 pub fn mc(density: Design, points: &[Vec3], values: &[f64], stages: &[usize], abs: f64) -> Outcome {
-    let mut last = None;
-    for &m in stages {
-        let (p, v) = (&points[..m], &values[..m]);
-        let u = Method::Mc.uncertainty(density, p, v, None, Scale::Unit, 1.0);
-        let outcome = Outcome {
-            estimate: Method::Mc.estimate(density, p, v, None, 0.0),
-            uncertainty: u,
-            n_used: m,
-            met: meets(u.as_ref(), abs),
+    let target = Target::HalfWidth(abs);
+    let stop = walk(stages, |m| {
+        let rule = Rule {
+            density,
+            points: &points[..m],
+            weights: None,
+            inverse_diagonal: None,
         };
-        if outcome.met {
-            return outcome;
+        let values = Values {
+            y: &values[..m],
+            solved: None,
+        };
+        let e = rule.estimate(Method::Mc, values, 0.0, Scale::Unit);
+        Ok::<_, std::convert::Infallible>((e, target.met(e.uncertainty.as_ref())))
+    });
+    let Ok(stop) = stop;
+    Outcome::from(stop)
+}
+
+impl From<Stop<Estimate>> for Outcome {
+    fn from(stop: Stop<Estimate>) -> Self {
+        Outcome {
+            estimate: stop.at.value,
+            uncertainty: stop.at.uncertainty,
+            n_used: stop.n_used,
+            met: stop.met,
         }
-        last = Some(outcome);
     }
-    last.expect("at least one stage")
 }
 
 /// One weighted estimator (`bmc`, `bmcp`, `bsq`) with its amplitude.
@@ -189,7 +248,7 @@ impl<'a> NestedWeights<'a> {
                 col[0] = diag;
             }
         })?;
-        let weights = stage_weights(&self.factor, &self.z[..m], self.model.prior_variance());
+        let weights = stage_weights(&self.factor, m, &self.z[..m], self.model.prior_variance());
         let values_solve = self.needs.0.then(|| {
             self.values
                 .iter()
@@ -224,39 +283,26 @@ pub struct Walker {
 }
 
 /// Sequential BMC / BMCP / Bayes–Sard on the weight sets of `nested`, one run per walker and one
-/// outcome per integrand. The walkers move through the stages together, so each stage is
-/// factored once and the factor grows only as far as the slowest (walker, integrand) needs.
+/// outcome per integrand, each (walker, integrand) walked on its own ([`walk`]). The stages are
+/// built on demand and kept, so each is factored once, shared by every walker, and the factor
+/// grows only as far as the slowest (walker, integrand) needs.
 pub fn weighted_together(
     walkers: &[Walker],
     nested: &mut NestedWeights<'_>,
 ) -> Result<Vec<WeightedRun>, NotPositiveDefinite> {
-    let count = nested.values.len();
-    let mut all: Vec<usize> = walkers.iter().flat_map(|w| w.stages.iter().copied()).collect();
-    all.sort_unstable();
-    all.dedup();
-    let mut outcomes: Vec<Vec<Option<Outcome>>> = vec![vec![None; count]; walkers.len()];
-    let mut diagnostics: Vec<Option<Diagnostics>> = vec![None; walkers.len()];
-    for m in all {
-        if outcomes.iter().flatten().all(Option::is_some) {
-            break;
-        }
-        let i = nested.stage(m)?;
-        let stage = &nested.stages[i].1;
-        for (wi, walker) in walkers.iter().enumerate() {
-            if !walker.stages.contains(&m) || outcomes[wi].iter().all(Option::is_some) {
-                continue;
-            }
-            let WeightedEstimator { method, scale } = walker.estimator;
-            let final_stage = walker.stages.last() == Some(&m);
-            let w = &stage.weights;
-            for (fi, slot) in outcomes[wi].iter_mut().enumerate() {
-                if slot.is_some() {
-                    continue;
-                }
+    let mut runs = Vec::with_capacity(walkers.len());
+    for walker in walkers {
+        let WeightedEstimator { method, scale } = walker.estimator;
+        let target = Target::HalfWidth(walker.abs);
+        let mut outcomes = Vec::with_capacity(nested.values.len());
+        for fi in 0..nested.values.len() {
+            let stop = walk(&walker.stages, |m| {
+                let i = nested.stage(m)?;
+                let stage = &nested.stages[i].1;
                 let rule = Rule {
                     density: Design::Uniform,
                     points: &nested.points[..m],
-                    weights: Some(w),
+                    weights: Some(&stage.weights),
                     inverse_diagonal: stage.inverse_diagonal.as_deref(),
                 };
                 let solved = (scale != Scale::Unit).then(|| {
@@ -271,38 +317,36 @@ pub fn weighted_together(
                     solved,
                 };
                 let e = rule.estimate(method, values, walker.priors[fi], scale);
-                let met = meets(e.uncertainty.as_ref(), walker.abs);
-                if met || final_stage {
-                    *slot = Some(Outcome {
-                        estimate: e.value,
-                        uncertainty: e.uncertainty,
-                        n_used: m,
-                        met,
-                    });
-                }
-            }
-            diagnostics[wi] = method.diagnostics(Some(w));
+                Ok((e, target.met(e.uncertainty.as_ref())))
+            })?;
+            outcomes.push(Outcome::from(stop));
         }
+        // The diagnostics of the largest stage the walker used.
+        let top = outcomes
+            .iter()
+            .map(|o| o.n_used)
+            .max()
+            .expect("at least one integrand");
+        let i = nested.stage(top)?;
+        let diagnostics = method
+            .diagnostics(Some(&nested.stages[i].1.weights))
+            .expect("a weighted method has diagnostics");
+        runs.push(WeightedRun {
+            outcomes,
+            diagnostics,
+        });
     }
-    Ok(outcomes
-        .into_iter()
-        .zip(diagnostics)
-        .map(|(o, d)| WeightedRun {
-            outcomes: o
-                .into_iter()
-                .map(|o| o.expect("the last stage decides"))
-                .collect(),
-            diagnostics: d.expect("at least one stage"),
-        })
-        .collect())
+    Ok(runs)
 }
 
-/// `w = Q⁻¹z`, `u = Q⁻¹1` and the diagnostics of the factored stage (as
-/// [`crate::bq::weights::bmc_weights`] computes them from a full factorisation).
-fn stage_weights(factor: &NestedCholesky, z: &[f64], prior_variance: f64) -> BmcWeights {
+/// `w = Q⁻¹z`, `u = Q⁻¹1` and the diagnostics of stage `m` from the leading `m × m` block of a
+/// nested factor (as [`crate::bq::weights::bmc_weights`] computes them from a full
+/// factorisation); `z` holds the stage's `m` kernel means. The one stage-weights builder of the
+/// experiments' tolerance estimators and the renderer's adaptive pixels.
+pub fn stage_weights(factor: &NestedCholesky, m: usize, z: &[f64], prior_variance: f64) -> BmcWeights {
     let mut weights = z.to_vec();
-    factor.solve_in_place(&mut weights);
-    let mut ones_solve = vec![1.0; z.len()];
-    factor.solve_in_place(&mut ones_solve);
+    factor.solve_leading_in_place(m, &mut weights);
+    let mut ones_solve = vec![1.0; m];
+    factor.solve_leading_in_place(m, &mut ones_solve);
     crate::bq::weights::with_diagnostics(weights, ones_solve, factor.info(), z, prior_variance)
 }
