@@ -25,13 +25,24 @@ pub struct Rule<'a> {
     pub inverse_diagonal: Option<&'a [f64]>,
 }
 
-/// An integrand's values `Y` on a rule's points and, when an amplitude is fitted, `Q⁻¹Y`: one
-/// solve per weight set and integrand (or colour channel), shared by every estimator of the set,
-/// made by whoever holds the factor (a workspace, a kept factor, a nested stage).
+/// An integrand's values `Y` on a rule's points and, when an amplitude is fitted, `Y` solved
+/// with the factor: one solve per weight set and integrand (or colour channel), shared by every
+/// estimator of the set, made by whoever holds the factor (a workspace, a kept factor, a nested
+/// stage).
 #[derive(Clone, Copy, Debug)]
 pub struct Values<'a> {
     pub y: &'a [f64],
-    pub solved: Option<&'a [f64]>,
+    pub solved: Option<Solved<'a>>,
+}
+
+/// `Y` solved with a factor `Q = L Lᵀ`.
+#[derive(Clone, Copy, Debug)]
+pub enum Solved<'a> {
+    /// `Q⁻¹Y`: every amplitude (`ml`, `loo`).
+    Full(&'a [f64]),
+    /// `L⁻¹Y` and `L⁻¹1`: what a pixel extends stage by stage on a nested factor (the leading
+    /// rows of `L⁻¹Y` are the earlier stages' own), enough for `ml`, whose `rᵀQ⁻¹r = ‖L⁻¹r‖²`.
+    Half { y: &'a [f64], ones: &'a [f64] },
 }
 
 /// What an estimator states: `Î`, its uncertainty (None where it states none, e.g. MC at

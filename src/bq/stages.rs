@@ -23,7 +23,7 @@ use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::NotPositiveDefinite;
 use crate::bq::factor::nested::NestedCholesky;
 use crate::bq::model::BmcModel;
-use crate::bq::rule::{Estimate, Rule, Values};
+use crate::bq::rule::{Estimate, Rule, Solved, Values};
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Design;
 use crate::util::geometry::Vec3;
@@ -314,7 +314,7 @@ pub fn weighted_together(
                 });
                 let values = Values {
                     y: &nested.values[fi][..m],
-                    solved,
+                    solved: solved.map(Solved::Full),
                 };
                 let e = rule.estimate(method, values, walker.priors[fi], scale);
                 Ok((e, target.met(e.uncertainty.as_ref())))

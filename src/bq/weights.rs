@@ -86,6 +86,25 @@ pub fn fit_amplitude(
     }
 }
 
+/// [`fit_amplitude`] from `half = L⁻¹r` (`Q = L Lᵀ`) instead of `Q⁻¹r`: `ml` is
+/// `‖L⁻¹r‖² / dof` (`rᵀQ⁻¹r = ‖L⁻¹r‖²`); `unit` is 1; all residuals exactly 0 give exactly 0.
+///
+/// # Panics
+/// With `loo`, which needs `Q⁻¹r` itself.
+pub fn fit_amplitude_half(scale: Scale, residuals: &[f64], half: &[f64], dof: usize) -> f64 {
+    if scale == Scale::Unit {
+        return 1.0;
+    }
+    if residuals.iter().all(|&r| r == 0.0) {
+        return 0.0;
+    }
+    match scale {
+        Scale::Unit => unreachable!("returned above"),
+        Scale::Ml => (half.iter().map(|y| y * y).sum::<f64>() / dof as f64).max(0.0),
+        Scale::Loo => panic!("the loo amplitude needs Q⁻¹r, not L⁻¹r"),
+    }
+}
+
 /// A numerical event worth telling the user about; counted per weight set.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

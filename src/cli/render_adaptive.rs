@@ -61,18 +61,16 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         return Err(InputError::new(format!("--target-sd: must be finite and > 0, got {target_sd}")).into());
     }
     let kind = match &args.integrator {
-        Ok(k) if [IntegratorKind::MC, IntegratorKind::MC_COS, IntegratorKind::BMC].contains(k) => *k,
-        Ok(other) => {
+        Ok(k) if k.adaptive() => *k,
+        other => {
+            let name = match other {
+                Ok(k) => k.name(),
+                Err(name) => name.to_string(),
+            };
             return Err(InputError::new(format!(
                 "--target-sd: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
-                 (mc, mc-cos or bmc), not --integrator {other}"
-            ))
-            .into());
-        }
-        Err(other) => {
-            return Err(InputError::new(format!(
-                "--target-sd: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
-                 (mc, mc-cos or bmc), not --integrator {other}"
+                 ({}), not --integrator {name}",
+                IntegratorKind::adaptive_names()
             ))
             .into());
         }
@@ -80,9 +78,11 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let first = args.spp.unwrap_or(DEFAULT_FIRST_SPP);
     check_spp(kind, first, "--spp")?;
     check_spp(kind, max_spp, "--max-spp")?;
-    if kind.method == workbench::bq::estimator::Method::Mc && first < 2 {
+    if !kind.method.has_interval(first) {
         return Err(InputError::new(format!(
-            "--spp {first}: the first stage of adaptive MC needs at least 2 samples for a sample variance"
+            "--spp {first}: the first stage of adaptive {} needs at least {} samples to state an interval",
+            kind.method.name().to_uppercase(),
+            kind.method.min_interval_points()
         ))
         .into());
     }
@@ -134,22 +134,17 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let seed = args.seed.unwrap_or(0);
     let settings = AdaptiveSettings::new(target_sd, first, max_spp);
     let start = Instant::now();
-    let sampler = match &model {
-        Some(model) => {
-            let (sampler, jitter) = AdaptiveSampler::bmc(&settings, gps, !args.no_rotate, model, seed)?;
-            if jitter > 0.0 {
-                status!(
-                    "warning: a nested sample set's Cholesky needed jitter {jitter:.3e} on the diagonal (every \
-                     stage of that set uses it); increase the noise σ_n²"
-                );
-            }
-            sampler
-        }
-        None => AdaptiveSampler::Mc(kind.design),
-    };
+    let (sampler, jitter) =
+        AdaptiveSampler::new(kind, &settings, gps, !args.no_rotate, model.as_ref(), seed)?;
+    if jitter > 0.0 {
+        status!(
+            "warning: a nested sample set's Cholesky needed jitter {jitter:.3e} on the diagonal (every \
+             stage of that set uses it); increase the noise σ_n²"
+        );
+    }
     let pool = workbench::util::threads::pool(None)?;
     let bar = Bar::new(args.quiet);
-    bar.start("rows", args.height as u64);
+    bar.start("rows", (sampler.passes() * args.height) as u64);
     let result = pool.install(|| adaptive::render(&renderer, &sampler, &settings, seed, &bar));
     bar.finish();
     let seconds = start.elapsed().as_secs_f64();

@@ -7,7 +7,7 @@
 
 use super::plan::Plan;
 use crate::bq::factor::SpdWorkspace;
-use crate::bq::rule::{Rule, Values};
+use crate::bq::rule::{Rule, Solved, Values};
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::SetDesign;
 use crate::util::rng::stream;
@@ -288,7 +288,7 @@ pub fn run_unit(
             };
             let values = Values {
                 y: &values[d],
-                solved: solves.and_then(|s| s.values.get(fi)).map(Vec::as_slice),
+                solved: solves.and_then(|s| s.values.get(fi)).map(|v| Solved::Full(v)),
             };
             let estimate = rule.estimate(e.method, values, prior, e.scale.unwrap_or(Scale::Unit));
             amplitudes[fi][ei] = estimate.fitted_amplitude;

@@ -1,15 +1,20 @@
-//! Adaptive sampling (README, "Adaptive sampling"; intervals of math.md §7): every pixel takes samples in doubling stages `spp₀, 2spp₀, …
-//! ≤ max_spp` until the standard deviation its estimator states for **each** colour channel is
-//! at most the target `T` (`--target-sd`), or `max_spp` is reached.
+//! Adaptive sampling (README, "Adaptive sampling"; intervals of math.md §7): every pixel takes
+//! samples in doubling stages `spp₀, 2spp₀, … ≤ max_spp` until the standard deviation its
+//! estimator states for **each** colour channel is at most the target `T` (`--target-sd`), or
+//! `max_spp` is reached. The stages are walked by [`crate::bq::stages::walk`], the walker the
+//! experiments' tolerance estimators use, with [`Target::Sd`].
 //!
 //! - `mc`, `mc-cos`: the standard error `s/√N` of the mean of the terms `f/p`, `s` the sample sd,
 //!   kept as a running variance (Welford) over the pixel's fresh samples; the samples of a stage
 //!   are the first ones of the pixel's stream, so stages are nested.
-//! - `bmc`: nested sample sets — `gps` sets of `max_spp` uniform points, each stage the first
-//!   `spp` points of its set — with weights `w = Q⁻¹z` and `Var₁ = V̂ − zᵀQ⁻¹z` per stage,
-//!   precomputed once from one Cholesky factor per set grown by blocks
-//!   ([`crate::bq::factor::nested`]); the sd is `sqrt(λ̂ Var₁)` with the `ml` amplitude
-//!   `λ̂ = YᵀQ⁻¹Y / N = ‖L⁻¹Y‖² / N` (math.md §7), whose `L⁻¹Y` a pixel extends stage by stage.
+//! - every estimator with weights on uniform sets (`bmc`, `bmcp`, `bmcp-edge`, `bsq`): nested
+//!   sample sets — `gps` sets of `max_spp` uniform points, each stage the first `spp` points of
+//!   its set — with the weights of every stage precomputed once from one Cholesky factor per set
+//!   grown by blocks ([`crate::bq::factor::nested`], [`crate::bq::stages::stage_weights`]); each
+//!   stage's estimate and sd come from [`crate::bq::rule::Rule::estimate`] with the `ml`
+//!   amplitude `λ̂ = rᵀQ⁻¹r / dof = ‖L⁻¹r‖² / dof` (math.md §7), whose `L⁻¹Y` a pixel extends
+//!   stage by stage. An estimator with a prior mean takes it from the checkerboard neighbours of
+//!   a first pass, as in fixed-spp renders.
 //!
 //! What is compared with `T` is the stated sd, not an interval half-width: a calibrated sd `T`
 //! puts 95% of errors within `1.96 T`, which is what [`AdaptiveImage::within`] measures against a
@@ -19,13 +24,17 @@
 
 use super::env::Environment;
 use super::image::Image;
-use super::integrator::ShadingPoint;
+use super::integrator::neighbours::{edge_aware_prior, first_pass, neighbour_prior};
+use super::integrator::{IntegratorKind, NeighbourPrior, ShadingPoint};
 use super::renderer::Renderer;
 use super::scene::{Rgb, Scene};
+use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::NotPositiveDefinite;
 use crate::bq::factor::nested::NestedCholesky;
 use crate::bq::model::BmcModel;
-use crate::bq::stages::Tolerance;
+use crate::bq::rule::{Estimate, Rule, Solved, Values};
+use crate::bq::stages::{Target, Tolerance, stage_weights, walk};
+use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::Design;
 use crate::util::geometry::Vec3;
 use crate::util::report::Reporter;
@@ -68,14 +77,15 @@ impl AdaptiveSettings {
     }
 }
 
-/// One nested BMC set: its points (local frame) and, per stage, the weights and `Var₁`.
+/// One nested weighted set: its points (local frame), the weights of every stage, and what a
+/// pixel needs to extend `L⁻¹Y` stage by stage.
 #[derive(Clone, Debug)]
 pub struct NestedSet {
     pub points: Vec<Vec3>,
-    /// `weights[k]`: `w = Q⁻¹z` of stage `k`'s leading points.
-    pub weights: Vec<Vec<f64>>,
-    /// `unit_variance[k]`: `max(V̂ − zᵀQ⁻¹z, 0)` of stage `k`.
-    pub unit_variance: Vec<f64>,
+    /// `weights[k]`: the weights, `Q⁻¹1` and diagnostics of stage `k`'s leading points.
+    pub weights: Vec<BmcWeights>,
+    /// `L⁻¹1` of the largest stage; its leading entries are every earlier stage's own.
+    ones_half: Vec<f64>,
     /// The factor of the largest stage, its rows packed (row `i` holds `L[i, ..=i]`, so the
     /// forward substitution a pixel extends runs over contiguous memory); its leading blocks are
     /// the earlier stages' factors.
@@ -106,29 +116,48 @@ impl NestedSet {
 pub enum AdaptiveSampler {
     /// Fresh MC samples from the pixel's stream (uniform or cosine-weighted).
     Mc(Design),
-    /// Nested BMC sets, one picked per pixel, rotated by a random azimuth if `rotate`.
-    Bmc { sets: Vec<NestedSet>, rotate: bool },
+    /// Nested weighted sets for `method`, one picked per pixel, rotated by a random azimuth if
+    /// `rotate`; an estimator with a prior mean takes it from the `neighbours` of a first pass.
+    Weighted {
+        method: Method,
+        /// The density each set's points follow (uniform for the uniform sets).
+        density: Design,
+        sets: Vec<NestedSet>,
+        rotate: bool,
+        neighbours: NeighbourPrior,
+    },
 }
 
 impl AdaptiveSampler {
-    /// `gps` nested sets of `max_spp` uniform points, set `s` depending only on `(seed, s)`,
-    /// each factored once by blocks through the stages; the weights and `Var₁` of every stage
-    /// come from the final factor's leading blocks, so with jitter (see
-    /// [`crate::bq::factor::nested`]) every stage uses the same `Q + jI`. Returns the sets and the
-    /// jitter added (0 when none), for the caller's warning.
-    pub fn bmc(
+    /// The sampler of integrator `kind` ([`IntegratorKind::adaptive`] must hold): fresh samples for
+    /// MC; for an estimator with weights `gps` nested sets of `max_spp` uniform points under
+    /// `model`, set `s` depending only on `(seed, s)`, each factored once by blocks through the
+    /// stages; the weights of every stage come from the final factor's leading blocks, so with
+    /// jitter (see [`crate::bq::factor::nested`]) every stage uses the same `Q + jI`. Returns the
+    /// sampler and the jitter added (0 when none), for the caller's warning.
+    ///
+    /// # Panics
+    /// If `kind` has weights and `model` is None.
+    pub fn new(
+        kind: IntegratorKind,
         settings: &AdaptiveSettings,
         gps: usize,
         rotate: bool,
-        model: &BmcModel,
+        model: Option<&BmcModel>,
         seed: u64,
     ) -> Result<(Self, f64), NotPositiveDefinite> {
+        if !kind.uses_sets() {
+            return Ok((AdaptiveSampler::Mc(kind.design), 0.0));
+        }
+        let model = model.expect("an estimator with weights has a model");
         let max = settings.max_spp();
         let diag = model.kernel.diagonal() + model.noise;
         let mut jitter: f64 = 0.0;
         let mut sets = Vec::with_capacity(gps);
         for s in 0..gps as u64 {
-            let points = Design::Uniform.sample_set(max, &mut stream(seed, &[NESTED_SET_POINTS, s]));
+            let points = kind
+                .set_design
+                .sample_set(max, &mut stream(seed, &[NESTED_SET_POINTS, s]));
             let soa = crate::bq::kernel::PointsSoa::new(&points);
             let mut factor = NestedCholesky::with_capacity(max);
             for &m in &settings.stages {
@@ -141,27 +170,48 @@ impl AdaptiveSampler {
             }
             jitter = jitter.max(factor.jitter());
             let z: Vec<f64> = points.iter().map(|p| model.table().z(p.z)).collect();
-            let mut weights = Vec::new();
-            let mut unit_variance = Vec::new();
-            for &m in &settings.stages {
-                let mut w = z[..m].to_vec();
-                factor.solve_leading_in_place(m, &mut w);
-                let zw: f64 = z[..m].iter().zip(&w).map(|(a, b)| a * b).sum();
-                unit_variance.push((model.prior_variance() - zw).max(0.0));
-                weights.push(w);
-            }
+            let weights = settings
+                .stages
+                .iter()
+                .map(|&m| stage_weights(&factor, m, &z[..m], model.prior_variance()))
+                .collect();
             let mut rows = Vec::with_capacity(max * (max + 1) / 2);
             for i in 0..max {
                 rows.extend((0..=i).map(|k| factor.entry(i, k)));
             }
-            sets.push(NestedSet {
+            let mut set = NestedSet {
                 points,
                 weights,
-                unit_variance,
+                ones_half: Vec::with_capacity(max),
                 rows,
-            });
+            };
+            let mut ones_half = Vec::with_capacity(max);
+            set.forward_extend(&vec![1.0; max], &mut ones_half, 0);
+            set.ones_half = ones_half;
+            sets.push(set);
         }
-        Ok((AdaptiveSampler::Bmc { sets, rotate }, jitter))
+        let sampler = AdaptiveSampler::Weighted {
+            method: kind.method,
+            density: kind.set_design.density(),
+            sets,
+            rotate,
+            neighbours: kind.neighbours,
+        };
+        Ok((sampler, jitter))
+    }
+
+    /// Whether the pixels need a prior from a first pass's neighbours.
+    fn uses_prior(&self) -> bool {
+        match self {
+            AdaptiveSampler::Mc(_) => false,
+            AdaptiveSampler::Weighted { method, .. } => method.uses_prior(),
+        }
+    }
+
+    /// The row passes [`render`] makes (two for estimators with a prior), for a progress bar of
+    /// `passes() × height` rows.
+    pub fn passes(&self) -> usize {
+        if self.uses_prior() { 2 } else { 1 }
     }
 }
 
@@ -245,7 +295,9 @@ impl AdaptiveImage {
 }
 
 /// Renders with adaptive sampling; rows in parallel, every pixel from its own stream, so the
-/// image does not depend on the thread count. `progress` advances by one per row.
+/// image does not depend on the thread count. `progress` advances by one per row and pass
+/// ([`AdaptiveSampler::passes`]): for an estimator with a prior mean the first pass renders the
+/// `(i + j)`-even pixels with prior 0, the second the others with the neighbour prior.
 pub fn render(
     renderer: &Renderer,
     sampler: &AdaptiveSampler,
@@ -254,49 +306,103 @@ pub fn render(
     progress: &dyn Reporter,
 ) -> AdaptiveImage {
     let w = renderer.width;
-    let rows: Vec<Vec<(Rgb, Option<PixelEstimate>)>> = (0..renderer.height)
-        .into_par_iter()
-        .map(|j| {
-            let row = (0..w)
-                .map(|i| match renderer.shading_point(i, j) {
-                    Some(p) => {
+    let with_prior = sampler.uses_prior();
+    let pass = |prior_of: &(dyn Fn(usize, usize) -> Option<Rgb> + Sync)| -> Vec<Option<PixelEstimate>> {
+        let rows: Vec<Vec<Option<PixelEstimate>>> = (0..renderer.height)
+            .into_par_iter()
+            .map(|j| {
+                let row = (0..w)
+                    .map(|i| {
+                        let prior = prior_of(i, j)?;
+                        let p = renderer.shading_point(i, j)?;
                         let mut rng = stream(seed, &[ADAPTIVE_PIXELS, (j * w + i) as u64]);
-                        let e = pixel(&p, &renderer.scene, &renderer.env, sampler, settings, &mut rng);
-                        (e.value, Some(e))
-                    }
-                    None => (renderer.env.radiance(&renderer.camera.ray(i, j)), None),
+                        Some(pixel(
+                            &p,
+                            &renderer.scene,
+                            &renderer.env,
+                            sampler,
+                            settings,
+                            prior,
+                            &mut rng,
+                        ))
+                    })
+                    .collect();
+                progress.advance(1);
+                row
+            })
+            .collect();
+        rows.into_iter().flatten().collect()
+    };
+    let first = pass(&|i, j| (!with_prior || first_pass(i, j)).then_some([0.0; 3]));
+    let estimates = match sampler {
+        AdaptiveSampler::Weighted { neighbours, .. } if with_prior => {
+            let values: Vec<Option<Rgb>> = first.iter().map(|p| p.map(|p| p.value)).collect();
+            let geometry = match neighbours {
+                NeighbourPrior::Mean => None,
+                NeighbourPrior::EdgeAware => Some(renderer.geometry()),
+            };
+            let (width, height) = (renderer.width, renderer.height);
+            let second = pass(&|i, j| {
+                (!first_pass(i, j)).then(|| match &geometry {
+                    None => neighbour_prior(&values, width, height, i, j),
+                    Some(g) => edge_aware_prior(&values, g, width, height, i, j),
                 })
-                .collect();
-            progress.advance(1);
-            row
+            });
+            first.iter().zip(second).map(|(a, b)| a.or(b)).collect()
+        }
+        _ => first,
+    };
+    let data = estimates
+        .iter()
+        .enumerate()
+        .map(|(k, e)| match e {
+            Some(e) => e.value,
+            None => renderer.env.radiance(&renderer.camera.ray(k % w, k / w)),
         })
         .collect();
-    let pixels: Vec<(Rgb, Option<PixelEstimate>)> = rows.into_iter().flatten().collect();
     AdaptiveImage {
         image: Image {
             width: w,
             height: renderer.height,
-            data: pixels.iter().map(|p| p.0).collect(),
+            data,
         },
-        spp: pixels.iter().map(|p| p.1.map_or(0, |e| e.spp)).collect(),
-        sd: pixels.iter().map(|p| p.1.map_or([0.0; 3], |e| e.sd)).collect(),
-        met: pixels.iter().map(|p| p.1.map(|e| e.met)).collect(),
+        spp: estimates.iter().map(|e| e.map_or(0, |e| e.spp)).collect(),
+        sd: estimates.iter().map(|e| e.map_or([0.0; 3], |e| e.sd)).collect(),
+        met: estimates.iter().map(|e| e.map(|e| e.met)).collect(),
         target_sd: settings.target_sd,
     }
 }
 
-/// One pixel's adaptive estimate at shading point `p`.
+/// One pixel's adaptive estimate at shading point `p`, with prior constant `prior` per channel
+/// (used by estimators with a prior mean).
 pub fn pixel(
     p: &ShadingPoint,
     scene: &Scene,
     env: &Environment,
     sampler: &AdaptiveSampler,
     settings: &AdaptiveSettings,
+    prior: Rgb,
     rng: &mut WorkbenchRng,
 ) -> PixelEstimate {
     match sampler {
         AdaptiveSampler::Mc(design) => mc_pixel(p, scene, env, *design, settings, rng),
-        AdaptiveSampler::Bmc { sets, rotate } => bmc_pixel(p, scene, env, sets, *rotate, settings, rng),
+        AdaptiveSampler::Weighted {
+            method,
+            density,
+            sets,
+            rotate,
+            ..
+        } => weighted_pixel(
+            p,
+            scene,
+            env,
+            (*method, *density),
+            sets,
+            *rotate,
+            settings,
+            prior,
+            rng,
+        ),
     }
 }
 
@@ -309,10 +415,10 @@ fn mc_pixel(
     settings: &AdaptiveSettings,
     rng: &mut WorkbenchRng,
 ) -> PixelEstimate {
+    let target = Target::Sd(settings.target_sd);
     let (mut mean, mut m2) = ([0.0; 3], [0.0; 3]);
     let mut n = 0usize;
-    let last = settings.max_spp();
-    for &stage in &settings.stages {
+    let stop = walk(&settings.stages, |stage| {
         while n < stage {
             let v = design.sample(rng);
             let f = p.integrand(scene, env, &v);
@@ -332,28 +438,37 @@ fn mc_pixel(
                 f64::INFINITY
             }
         });
-        let met = sd.iter().all(|&s| s <= settings.target_sd);
-        if met || stage == last {
-            return PixelEstimate {
-                value: mean,
+        let met = sd.iter().all(|&sd| {
+            target.met(Some(&Uncertainty {
                 sd,
-                spp: n,
-                met,
-            };
-        }
+                dof: Some(n - 1),
+                amplitude: None,
+            }))
+        });
+        Ok::<_, std::convert::Infallible>(((mean, sd), met))
+    });
+    let Ok(stop) = stop;
+    PixelEstimate {
+        value: stop.at.0,
+        sd: stop.at.1,
+        spp: stop.n_used,
+        met: stop.met,
     }
-    unreachable!("the last stage returns")
 }
 
-/// BMC on a nested set: the set and azimuth are chosen as the fixed-spp renderer does, the
-/// integrand evaluated only on each stage's new points, `L⁻¹Y` extended per stage.
-fn bmc_pixel(
+/// An estimator with weights on a nested set: the set and azimuth are chosen as the fixed-spp
+/// renderer does, the integrand evaluated only on each stage's new points, `L⁻¹Y` extended per
+/// stage, and each stage estimated by [`Rule::estimate`] with the `ml` amplitude.
+#[allow(clippy::too_many_arguments)]
+fn weighted_pixel(
     p: &ShadingPoint,
     scene: &Scene,
     env: &Environment,
+    (method, density): (Method, Design),
     sets: &[NestedSet],
     rotate: bool,
     settings: &AdaptiveSettings,
+    prior: Rgb,
     rng: &mut WorkbenchRng,
 ) -> PixelEstimate {
     let s = if sets.len() > 1 {
@@ -364,11 +479,12 @@ fn bmc_pixel(
     let phi = if rotate { TAU * rng.random::<f64>() } else { 0.0 };
     let (sin, cos) = phi.sin_cos();
     let set = &sets[s];
+    let target = Target::Sd(settings.target_sd);
     let max = settings.max_spp();
     let mut values: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(max));
     let mut solved: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(max));
-    let mut n = 0usize;
-    for (k, &stage) in settings.stages.iter().enumerate() {
+    let (mut n, mut k) = (0usize, 0usize);
+    let stop = walk(&settings.stages, |stage| {
         for v in &set.points[n..stage] {
             let f = p.integrand(scene, env, &crate::util::geometry::rotate_about_z_by(v, sin, cos));
             for c in 0..3 {
@@ -379,27 +495,31 @@ fn bmc_pixel(
             set.forward_extend(&values[c], &mut solved[c], n);
         }
         n = stage;
-        let w = &set.weights[k];
-        let value = [0, 1, 2].map(|c| w.iter().zip(&values[c]).map(|(a, b)| a * b).sum::<f64>());
-        // ml amplitude λ̂ = YᵀQ⁻¹Y / N (math.md §7; BMC: residuals r = Y).
-        let sd = [0, 1, 2].map(|c| {
-            // As crate::bq::weights::fit_amplitude with `ml`, with YᵀQ⁻¹Y = ‖L⁻¹Y‖².
-            let lambda = if values[c].iter().all(|&y| y == 0.0) {
-                0.0
-            } else {
-                solved[c].iter().map(|y| y * y).sum::<f64>() / n as f64
+        let rule = Rule {
+            density,
+            points: &set.points[..n],
+            weights: Some(&set.weights[k]),
+            inverse_diagonal: None,
+        };
+        k += 1;
+        let estimates: [Estimate; 3] = [0, 1, 2].map(|c| {
+            let values = Values {
+                y: &values[c],
+                solved: Some(Solved::Half {
+                    y: &solved[c],
+                    ones: &set.ones_half[..n],
+                }),
             };
-            (lambda * set.unit_variance[k]).sqrt()
+            rule.estimate(method, values, prior[c], Scale::Ml)
         });
-        let met = sd.iter().all(|&s| s <= settings.target_sd);
-        if met || stage == max {
-            return PixelEstimate {
-                value,
-                sd,
-                spp: n,
-                met,
-            };
-        }
+        let met = estimates.iter().all(|e| target.met(e.uncertainty.as_ref()));
+        Ok::<_, std::convert::Infallible>((estimates, met))
+    });
+    let Ok(stop) = stop;
+    PixelEstimate {
+        value: stop.at.map(|e| e.value),
+        sd: stop.at.map(|e| e.uncertainty.map_or(f64::INFINITY, |u| u.sd)),
+        spp: stop.n_used,
+        met: stop.met,
     }
-    unreachable!("the last stage returns")
 }

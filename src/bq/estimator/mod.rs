@@ -14,6 +14,7 @@ pub mod bmcp;
 pub mod bsq;
 pub mod mc;
 
+use crate::bq::rule::Solved;
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Design;
 use crate::util::geometry::Vec3;
@@ -79,6 +80,13 @@ impl Method {
         }
     }
 
+    /// The fewest points at which the estimator states an interval ([`Method::has_interval`]).
+    pub fn min_interval_points(self) -> usize {
+        (1..)
+            .find(|&n| self.has_interval(n))
+            .expect("every estimator states an interval at some N")
+    }
+
     /// Whether the estimate takes a constant prior mean `c`.
     pub fn uses_prior(self) -> bool {
         match self {
@@ -127,15 +135,15 @@ impl Method {
         Some(values.iter().map(|y| y - o).collect())
     }
 
-    /// The fitted amplitude `λ̂` ([`crate::bq::weights::fit_amplitude`]) of this estimator's residuals,
-    /// from `values_solve = Q⁻¹Y`: `Q⁻¹r = Q⁻¹Y − o·u` with `u = Q⁻¹1`, so one solve per
-    /// integrand and weight set serves BMC, BMCP and Bayes–Sard alike (O(N) each after it).
-    /// None for MC.
+    /// The fitted amplitude `λ̂` ([`crate::bq::weights::fit_amplitude`]) of this estimator's
+    /// residuals, from `Y` solved with the factor: with `Q⁻¹Y`, `Q⁻¹r = Q⁻¹Y − o·u` (`u = Q⁻¹1`);
+    /// with `L⁻¹Y` (`ml` only), `L⁻¹r = L⁻¹Y − o·L⁻¹1`. So one solve per integrand and weight set
+    /// serves BMC, BMCP and Bayes–Sard alike (O(N) each after it). None for MC.
     pub fn amplitude(
         self,
         scale: Scale,
         values: &[f64],
-        values_solve: &[f64],
+        solved: Solved<'_>,
         weights: Option<&BmcWeights>,
         prior: f64,
         inverse_diagonal: Option<&[f64]>,
@@ -143,22 +151,26 @@ impl Method {
         let w = weights?;
         let o = self.residual_offset(values, weights, prior)?;
         let r: Vec<f64> = values.iter().map(|y| y - o).collect();
-        let solved: Vec<f64> = if o == 0.0 {
-            values_solve.to_vec()
-        } else {
-            values_solve
-                .iter()
-                .zip(&w.ones_solve)
-                .map(|(a, u)| a - o * u)
-                .collect()
+        let shift = |solved: &[f64], ones: &[f64]| -> Vec<f64> {
+            if o == 0.0 {
+                solved.to_vec()
+            } else {
+                solved.iter().zip(ones).map(|(a, u)| a - o * u).collect()
+            }
         };
-        Some(crate::bq::weights::fit_amplitude(
-            scale,
-            &r,
-            &solved,
-            self.ml_dof(values.len()),
-            inverse_diagonal,
-        ))
+        let dof = self.ml_dof(values.len());
+        Some(match solved {
+            Solved::Full(values_solve) => crate::bq::weights::fit_amplitude(
+                scale,
+                &r,
+                &shift(values_solve, &w.ones_solve),
+                dof,
+                inverse_diagonal,
+            ),
+            Solved::Half { y, ones } => {
+                crate::bq::weights::fit_amplitude_half(scale, &r, &shift(y, ones), dof)
+            }
+        })
     }
 
     /// Degrees of freedom of the `ml` amplitude and of its Student-t interval: `N` for BMC and

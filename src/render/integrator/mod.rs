@@ -17,7 +17,7 @@ use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
 use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::model::BmcModel;
-use crate::bq::rule::{Rule, Values};
+use crate::bq::rule::{Rule, Solved, Values};
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
 use crate::sampling::{Design, SetDesign};
@@ -145,6 +145,23 @@ impl IntegratorKind {
     /// Whether the integrator uses BMC sample sets (and so the `gps`/`rotate`/model options).
     pub fn uses_sets(self) -> bool {
         self.method.needs_weights()
+    }
+
+    /// Whether the integrator can sample adaptively ([`crate::render::adaptive`]): MC always; an
+    /// estimator with weights when its sets nest, so that each stage extends the one before it
+    /// (uniform sets do, ring sets do not).
+    pub fn adaptive(self) -> bool {
+        !self.uses_sets() || self.set_design.is_nested()
+    }
+
+    /// The integrators that can sample adaptively, by name, for messages.
+    pub fn adaptive_names() -> String {
+        let names: Vec<String> = Self::all()
+            .into_iter()
+            .filter(|k| k.adaptive())
+            .map(Self::name)
+            .collect();
+        names.join(", ")
     }
 }
 
@@ -402,7 +419,7 @@ impl Integrator {
         let estimates = [0, 1, 2].map(|c| {
             let values = Values {
                 y: &values[c],
-                solved: solved.as_deref().map(|s| &s[c * n..(c + 1) * n]),
+                solved: solved.as_deref().map(|s| Solved::Full(&s[c * n..(c + 1) * n])),
             };
             rule.estimate(method, values, prior[c], scale)
         });

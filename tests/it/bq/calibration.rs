@@ -17,6 +17,7 @@ use workbench::bq::estimator::Method;
 use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
 use workbench::bq::kernel_mean::KernelMeanTable;
+use workbench::bq::rule::Solved;
 use workbench::sampling::Design;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
@@ -145,7 +146,14 @@ fn amplitudes_and_bayes_sard_match_a_dense_reference() {
                 let values_solve = solve(&ws, &values);
                 let amp = |scale| {
                     method
-                        .amplitude(scale, &values, &values_solve, Some(&w), c, Some(&inv_diag))
+                        .amplitude(
+                            scale,
+                            &values,
+                            Solved::Full(&values_solve),
+                            Some(&w),
+                            c,
+                            Some(&inv_diag),
+                        )
                         .unwrap()
                 };
                 let (got_ml, got_loo) = (amp(Scale::Ml), amp(Scale::Loo));
@@ -206,7 +214,14 @@ fn zero_residuals_give_zero_amplitude() {
         for scale in [Scale::Ml, Scale::Loo] {
             let w = library(&kernel, 0.01, &pts, &table, &mut ws);
             let amp = method
-                .amplitude(scale, &zeros, &zeros, Some(&w), 0.0, Some(&ws.inverse_diagonal()))
+                .amplitude(
+                    scale,
+                    &zeros,
+                    Solved::Full(&zeros),
+                    Some(&w),
+                    0.0,
+                    Some(&ws.inverse_diagonal()),
+                )
                 .unwrap();
             assert_eq!(amp, 0.0, "{method} {scale:?}");
         }
@@ -255,7 +270,14 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
             let truth = TAU * beta + draw[n];
             let est = method.estimate(Design::Uniform, &pts, &values, Some(&w), 0.0);
             let lam = method
-                .amplitude(Scale::Ml, &values, &solve(&ws, &values), Some(&w), 0.0, None)
+                .amplitude(
+                    Scale::Ml,
+                    &values,
+                    Solved::Full(&solve(&ws, &values)),
+                    Some(&w),
+                    0.0,
+                    None,
+                )
                 .unwrap();
             let u = method
                 .uncertainty(Design::Uniform, &pts, &values, Some(&w), Scale::Ml, lam)

@@ -8,6 +8,7 @@ use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, Sobolev};
 use workbench::bq::kernel_mean::KernelMeanMode;
 use workbench::bq::model::BmcModel;
+use workbench::bq::rule::Solved;
 use workbench::bq::stages::{self, NestedWeights, Tolerance, Walker, WeightedEstimator};
 use workbench::bq::weights::Scale;
 use workbench::sampling::{Design, SetDesign};
@@ -148,7 +149,7 @@ fn extended_weight_sets_match_fresh_ones() {
                 ws.solve_in_place(&mut solved);
                 let inv = (scale == Scale::Loo).then(|| ws.inverse_diagonal());
                 let amplitude = method
-                    .amplitude(scale, v, &solved, Some(&w), prior, inv.as_deref())
+                    .amplitude(scale, v, Solved::Full(&solved), Some(&w), prior, inv.as_deref())
                     .unwrap();
                 let u = method
                     .uncertainty(Design::Uniform, &pts[..n], v, Some(&w), scale, amplitude)

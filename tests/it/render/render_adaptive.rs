@@ -7,7 +7,7 @@ use workbench::bq::kernel::{Kernel, Sobolev};
 use workbench::bq::kernel_mean::KernelMeanMode;
 use workbench::bq::model::BmcModel;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
-use workbench::render::{Environment, Renderer};
+use workbench::render::{Environment, IntegratorKind, Renderer};
 use workbench::sampling::Design;
 use workbench::util::report::Silent;
 use workbench::util::rng::stream;
@@ -27,7 +27,8 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
     let renderer = Renderer::new(24, 16, Environment::Sky);
     let settings = AdaptiveSettings::new(0.03, 8, 128);
     assert_eq!(settings.stages, vec![8, 16, 32, 64, 128]);
-    let (bmc, jitter) = AdaptiveSampler::bmc(&settings, 2, true, &model(), 3).unwrap();
+    let (bmc, jitter) =
+        AdaptiveSampler::new(IntegratorKind::BMC, &settings, 2, true, Some(&model()), 3).unwrap();
     assert_eq!(jitter, 0.0);
     for sampler in [
         AdaptiveSampler::Mc(Design::Uniform),
@@ -71,8 +72,8 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
 fn nested_sets_match_fresh_weights_at_every_stage() {
     let m = model();
     let settings = AdaptiveSettings::new(0.01, 16, 256);
-    let (sampler, _) = AdaptiveSampler::bmc(&settings, 1, false, &m, 11).unwrap();
-    let AdaptiveSampler::Bmc { sets, .. } = sampler else {
+    let (sampler, _) = AdaptiveSampler::new(IntegratorKind::BMC, &settings, 1, false, Some(&m), 11).unwrap();
+    let AdaptiveSampler::Weighted { sets, .. } = sampler else {
         unreachable!()
     };
     let set = &sets[0];
@@ -81,11 +82,12 @@ fn nested_sets_match_fresh_weights_at_every_stage() {
             .weights(&set.points[..n], &mut stream(0, &[]), &mut SpdWorkspace::new())
             .unwrap();
         let scale = fresh.weights.iter().map(|w| w.abs()).fold(0.0, f64::max);
-        for (a, b) in set.weights[k].iter().zip(&fresh.weights) {
+        for (a, b) in set.weights[k].weights.iter().zip(&fresh.weights) {
             assert!((a - b).abs() <= 1e-9 * scale, "N = {n}: {a} vs {b}");
         }
         let v = fresh.diagnostics.posterior_variance_clamped();
-        assert!((set.unit_variance[k] - v).abs() <= 1e-9 * v.max(1e-12), "N = {n}");
+        let unit_variance = set.weights[k].diagnostics.posterior_variance_clamped();
+        assert!((unit_variance - v).abs() <= 1e-9 * v.max(1e-12), "N = {n}");
     }
 }
 
@@ -233,8 +235,15 @@ fn bad_adaptive_options_are_exit_2() {
             "--max-spp 8: is below the first stage --spp 16",
         ),
         (
-            &["--target-sd", "0.01", "--max-spp", "64", "--integrator", "bmcp"],
-            "not --integrator bmcp",
+            &[
+                "--target-sd",
+                "0.01",
+                "--max-spp",
+                "64",
+                "--integrator",
+                "bmc-rings",
+            ],
+            "not --integrator bmc-rings",
         ),
         (
             &[

@@ -211,8 +211,8 @@ fn adaptive_spec_errors_are_exit_2_before_any_work() {
             "bad.json: adaptive.first_spp: 1 with variants[0] (mc): the first stage of adaptive MC needs at least 2 samples",
         ),
         (
-            SPEC.replace("\"integrator\": \"bmc\"", "\"integrator\": \"bmcp\""),
-            "bad.json: variants[2].integrator: bmcp cannot sample adaptively",
+            SPEC.replace("\"integrator\": \"bmc\"", "\"integrator\": \"bmc-rings\""),
+            "bad.json: variants[2].integrator: bmc-rings cannot sample adaptively",
         ),
         (
             SPEC.replace("\"gps\": 2", "\"gps\": 2, \"scale\": \"loo\""),

@@ -8,11 +8,6 @@ use crate::render::table::spec::AdaptiveSpec;
 /// The first stage when `first_spp` is not given (as `render --target-sd`'s default `--spp`).
 pub const DEFAULT_FIRST_SPP: usize = 16;
 
-/// The integrators that state a per-pixel sd they can extend by doubling stages
-/// ([`crate::render::adaptive`]).
-pub const ADAPTIVE_KINDS: [IntegratorKind; 3] =
-    [IntegratorKind::MC, IntegratorKind::MC_COS, IntegratorKind::BMC];
-
 /// A validated `"adaptive"` object: the table's columns are `targets`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AdaptivePlan {
@@ -103,12 +98,13 @@ pub fn check_variant(
     scale: Option<Scale>,
     at: &str,
 ) -> Result<(), String> {
-    if !ADAPTIVE_KINDS.contains(&kind) {
+    if !kind.adaptive() {
         return Err(err(
             format!("{at}.integrator"),
             format!(
                 "{kind} cannot sample adaptively: a table with \"adaptive\" needs an estimator with a per-pixel sd \
-                 it can extend by stages (mc, mc-cos or bmc)"
+                 it can extend by stages ({})",
+                IntegratorKind::adaptive_names()
             ),
         ));
     }
@@ -121,12 +117,14 @@ pub fn check_variant(
             ),
         ));
     }
-    if kind.method == crate::bq::estimator::Method::Mc && plan.first_spp < 2 {
+    if !kind.method.has_interval(plan.first_spp) {
         return Err(err(
             "adaptive.first_spp",
             format!(
-                "{} with {at} ({kind}): the first stage of adaptive MC needs at least 2 samples for a sample variance",
-                plan.first_spp
+                "{} with {at} ({kind}): the first stage of adaptive {} needs at least {} samples to state an interval",
+                plan.first_spp,
+                kind.method.name().to_uppercase(),
+                kind.method.min_interval_points()
             ),
         ));
     }

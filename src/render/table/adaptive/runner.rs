@@ -65,21 +65,16 @@ pub fn run(
             for (v, variant) in plan.variants.iter().enumerate() {
                 reporter.working_on(&format!("{} target sd {target} #{rep}", variant.label));
                 let start = Instant::now();
-                let sampler = match plan.model.as_ref().filter(|_| variant.kind.uses_sets()) {
-                    Some(model) => {
-                        let (sampler, jitter) =
-                            AdaptiveSampler::bmc(&settings, variant.gps, variant.rotate, model, seed)?;
-                        if jitter > 0.0 && rep == 0 {
-                            reporter.note(&format!(
-                                "warning: {} target sd {target}: a nested sample set's Cholesky needed jitter \
-                                 {jitter:.3e} on the diagonal (every stage of that set uses it); increase the noise σ_n²",
-                                variant.label
-                            ));
-                        }
-                        sampler
-                    }
-                    None => AdaptiveSampler::Mc(variant.kind.design),
-                };
+                let model = plan.model.as_ref().filter(|_| variant.kind.uses_sets());
+                let (sampler, jitter) =
+                    AdaptiveSampler::new(variant.kind, &settings, variant.gps, variant.rotate, model, seed)?;
+                if jitter > 0.0 && rep == 0 {
+                    reporter.note(&format!(
+                        "warning: {} target sd {target}: a nested sample set's Cholesky needed jitter \
+                         {jitter:.3e} on the diagonal (every stage of that set uses it); increase the noise σ_n²",
+                        variant.label
+                    ));
+                }
                 let image = adaptive::render(renderer, &sampler, &settings, seed, &Silent);
                 let seconds = start.elapsed().as_secs_f64();
                 rows.push(AdaptiveRow {
