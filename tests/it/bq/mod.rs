@@ -1,4 +1,5 @@
 mod calibration;
+mod conformance;
 mod designs;
 mod estimators;
 mod exact;
