@@ -77,7 +77,8 @@ impl IntegratorKind {
     /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
     /// uniform samples, those without weights also on cosine-weighted ones, those with a
     /// prior mean also with the edge-aware neighbour prior; then every estimator with weights
-    /// (and neighbour prior) again on ring sets.
+    /// (and neighbour prior) again on the sets of every other design of [`SetDesign::ALL`]
+    /// (fibonacci, stratified, sobol, rings).
     pub fn all() -> Vec<Self> {
         let mut all = Vec::new();
         for method in Method::ALL {
@@ -97,15 +98,15 @@ impl IntegratorKind {
                 });
             }
         }
-        let on_rings: Vec<Self> = all
-            .iter()
-            .filter(|k| k.uses_sets())
-            .map(|k| IntegratorKind {
-                set_design: SetDesign::Rings,
-                ..*k
-            })
-            .collect();
-        all.extend(on_rings);
+        // Every other set design the sampling module offers, so that a new design reaches the
+        // renderer without an edit here. (I.i.d. designs are MC's densities, not sample sets.)
+        let with_sets: Vec<Self> = all.iter().filter(|k| k.uses_sets()).copied().collect();
+        for set_design in SetDesign::ALL {
+            if set_design == UNIFORM_SETS || matches!(set_design, SetDesign::Iid(_)) {
+                continue;
+            }
+            all.extend(with_sets.iter().map(|k| IntegratorKind { set_design, ..*k }));
+        }
         all
     }
 

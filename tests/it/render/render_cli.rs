@@ -61,7 +61,7 @@ fn bad_input_is_exit_2_with_a_clear_message() {
     assert_input_error(
         &["render", "--integrator", "mc", "--gps", "3", "--out", "a.exr"],
         &[
-            "--gps: applies to the integrators with weights (bmc, bmcp, bmcp-edge, bsq, bmc-rings",
+            "--gps: applies to the integrators with weights (bmc, bmcp, bmcp-edge, bsq, bmc-fibonacci",
             "), not mc",
         ],
     );
