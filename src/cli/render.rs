@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 use workbench::bq::weights::Scale;
 use workbench::error::InputError;
-use workbench::files::result_folder::FileSet;
+use workbench::files::file_set::FileSet;
 use workbench::render::exact;
 use workbench::render::image::{ColourMap, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};

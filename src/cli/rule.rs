@@ -4,7 +4,7 @@ use super::model_args::ModelArgs;
 use super::output::{status, stdout};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use workbench::files::result_folder::FileSet;
+use workbench::files::file_set::FileSet;
 use workbench::sampling::SetDesign;
 
 #[derive(clap::Args, Debug)]
