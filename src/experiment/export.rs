@@ -108,12 +108,7 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
         "name": f.name(), "truth": f.integral(), "analytic_prior": f.constant_prior()
     });
     if let crate::integrand::Integrand::Axis { f: a, .. } = f {
-        use crate::integrand::family::Profile;
-        let (key, param) = match a.profile {
-            Profile::Lobe { exponent } => ("exponent", exponent),
-            Profile::Cap { half_angle } => ("half_angle", half_angle),
-            Profile::Gaussian { sharpness } => ("sharpness", sharpness),
-        };
+        let (key, param) = a.profile.parameter();
         v["type"] = a.profile.family().into();
         v["axis"] = serde_json::json!([a.axis.x, a.axis.y, a.axis.z]);
         v[key] = param.into();
