@@ -79,6 +79,35 @@ impl Method {
         }
     }
 
+    /// Whether the estimate is a Monte Carlo average of `f/p` terms, whose error falls as
+    /// `N^(−1/2)`: the error plots draw their `N^(−1/2)` guide through such a series.
+    pub fn is_monte_carlo(self) -> bool {
+        match self {
+            Method::Mc => true,
+            Method::Bmc | Method::Bmcp | Method::Bsq => false,
+        }
+    }
+
+    /// Whether the estimator has a Gaussian-process posterior, whose sd `sqrt(λ Var₁)` it
+    /// states ([`Method::uncertainty`]): what `render --sd-out` draws.
+    pub fn has_posterior(self) -> bool {
+        match self {
+            Method::Mc => false,
+            Method::Bmc | Method::Bmcp | Method::Bsq => true,
+        }
+    }
+
+    /// Whether the estimator's `Var₁` and diagnostics are its own rather than its weight set's
+    /// ([`Method::diagnostics`], [`Method::unit_variance`]): Bayes–Sard's (math.md §8) can be
+    /// negative where BMC's is not (MC kernel means), so its warnings are reported besides the
+    /// weight set's.
+    pub fn states_own_unit_variance(self) -> bool {
+        match self {
+            Method::Mc | Method::Bmc | Method::Bmcp => false,
+            Method::Bsq => true,
+        }
+    }
+
     /// Whether the estimate takes a constant prior mean `c`.
     pub fn uses_prior(self) -> bool {
         match self {

@@ -146,6 +146,12 @@ impl IntegratorKind {
     pub fn uses_sets(self) -> bool {
         self.method.needs_weights()
     }
+
+    /// Whether the integrator states a posterior sd per pixel and channel (`render --sd-out`):
+    /// its estimator has a posterior ([`Method::has_posterior`]).
+    pub fn has_posterior(self) -> bool {
+        self.method.has_posterior()
+    }
 }
 
 impl std::fmt::Display for IntegratorKind {
