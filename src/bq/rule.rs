@@ -2,17 +2,17 @@
 //! weights, BMC weights. [`Rule::estimate`] is the one sequence every caller runs — fitted
 //! amplitude (math.md §7) → stated uncertainty → estimate — for the experiment runner, the render
 //! integrators and the stage walker alike. Also what `workbench rule` writes: the limits on `N`,
-//! the generated points and their weights as a file a renderer can load.
+//! the generated points and their weights as a file a renderer can load (`workbench rule` reads
+//! a points file itself).
 
 use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::SpdWorkspace;
 use crate::bq::model::BmcModel;
-use crate::bq::weights::{BmcWeights, Scale};
+use crate::bq::weights::{BmcWeights, Scale, Solved};
 use crate::error::InputError;
 use crate::sampling::{Design, SetDesign, Structure};
 use crate::util::geometry::Vec3;
 use crate::util::rng::stream;
-use std::path::Path;
 
 /// A rule on one point set: the points in the local frame, the density each was drawn from (what
 /// MC divides by), and for the estimators with weights the weights of the set and, for the `loo`
@@ -33,16 +33,6 @@ pub struct Rule<'a> {
 pub struct Values<'a> {
     pub y: &'a [f64],
     pub solved: Option<Solved<'a>>,
-}
-
-/// `Y` solved with a factor `Q = L Lᵀ`.
-#[derive(Clone, Copy, Debug)]
-pub enum Solved<'a> {
-    /// `Q⁻¹Y`: every amplitude (`ml`, `loo`).
-    Full(&'a [f64]),
-    /// `L⁻¹Y` and `L⁻¹1`: what a pixel extends stage by stage on a nested factor (the leading
-    /// rows of `L⁻¹Y` are the earlier stages' own), enough for `ml`, whose `rᵀQ⁻¹r = ‖L⁻¹r‖²`.
-    Half { y: &'a [f64], ones: &'a [f64] },
 }
 
 /// What an estimator states: `Î`, its uncertainty (None where it states none, e.g. MC at
@@ -173,73 +163,6 @@ pub fn check_generated_count(
     check_point_count(n, what)
 }
 
-/// Largest points file read: [`MAX_POINTS`] rows of four shortest round-trip numbers take
-/// about 1.5 MiB, so anything near this is not a points file (and is not read into memory).
-pub const MAX_POINTS_FILE_BYTES: u64 = 16 << 20;
-
-/// Reads a CSV with header `x,y,z` (or a rule's `x,y,z,weight`, weights ignored) of unit vectors
-/// (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`. The file must be UTF-8 (a byte-order mark is accepted);
-/// errors name the file and the line.
-pub fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, InputError> {
-    let name = path.display();
-    let in_file = |m: String| InputError::new(format!("{name}: {m}"));
-    let text =
-        crate::files::spec_json::read_text(path, MAX_POINTS_FILE_BYTES, "points files").map_err(in_file)?;
-    parse_points_csv(&text).map_err(in_file)
-}
-
-/// Parses the text of a points CSV; errors name the line and the value.
-pub fn parse_points_csv(text: &str) -> Result<Vec<Vec3>, String> {
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let header = reader.headers().map_err(|e| format!("line 1: {e}"))?.clone();
-    // A rule's own output (`x,y,z,weight`) is accepted too; its weights are ignored.
-    let names: Vec<&str> = header.iter().collect();
-    if names != ["x", "y", "z"] && names != ["x", "y", "z", "weight"] {
-        return Err(format!(
-            "line 1: header must be `x,y,z` (or a rule's `x,y,z,weight`), got `{}`",
-            header.iter().collect::<Vec<_>>().join(",")
-        ));
-    }
-    let mut points = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            format!("line {line}: {e}")
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
-        let mut p = [0.0; 3];
-        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-            let field = &record[k];
-            p[k] = field
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("line {line}: {axis} = `{field}` is not a finite number"))?;
-        }
-        let v = Vec3::new(p[0], p[1], p[2]);
-        let norm = v.norm();
-        if (norm - 1.0).abs() > 1e-9 {
-            return Err(format!(
-                "line {line}: ({}, {}, {}) is not a unit vector (norm {norm})",
-                p[0], p[1], p[2]
-            ));
-        }
-        if v.z < 0.0 {
-            return Err(format!(
-                "line {line}: z = {} is below the horizon (need z >= 0)",
-                p[2]
-            ));
-        }
-        points.push(v);
-    }
-    if points.is_empty() {
-        return Err("no points (need at least one row after the header)".into());
-    }
-    Ok(points)
-}
-
 /// CSV `x,y,z,weight`, every number in Rust's shortest round-trip form (exact `f64`).
 pub fn rule_csv(points: &[Vec3], weights: &[f64]) -> Vec<u8> {
     let mut out = String::from("x,y,z,weight\n");
@@ -289,49 +212,6 @@ pub fn rule_summary(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn bad_points_name_the_line_and_value() {
-        let cases = [
-            ("x,y,z\n1,0,0\n0,0,2\n", "line 3"),
-            ("x,y,z\n0,0,-1\n", "below the horizon"),
-            ("x,y\n1,0\n", "header"),
-            ("x,y,z\n0,zero,1\n", "`zero`"),
-            ("x,y,z\n", "no points"),
-            ("\u{feff}x,y,z\n0,0,1\n0,1,1\n", "line 3"),
-        ];
-        for (text, needle) in cases {
-            let e = parse_points_csv(text).unwrap_err();
-            assert!(e.contains(needle), "{text:?}: {e}");
-        }
-    }
-
-    /// Spreadsheet programs on Windows start CSV files with a byte-order mark.
-    #[test]
-    fn a_byte_order_mark_is_accepted() {
-        let points = parse_points_csv("\u{feff}x,y,z\n0,0,1\n").unwrap();
-        assert_eq!(points.len(), 1);
-        assert_eq!((points[0].x, points[0].y, points[0].z), (0.0, 0.0, 1.0));
-    }
-
-    /// A byte that is not UTF-8 is reported with its line, as every other bad value is.
-    #[test]
-    fn a_non_utf8_byte_names_the_line() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("points.csv");
-        std::fs::write(&path, b"x,y,z\n0,0,1\n0,\xff,1\n").unwrap();
-        assert_eq!(
-            read_points_csv(&path).unwrap_err().to_string(),
-            format!(
-                "{}: line 3, column 3: byte 0xFF is not UTF-8 text; save the file as UTF-8",
-                path.display()
-            )
-        );
-        assert_eq!(
-            read_points_csv(dir.path()).unwrap_err().to_string(),
-            format!("{}: is a folder, not a file", dir.path().display())
-        );
-    }
 
     #[test]
     fn point_count_limits() {

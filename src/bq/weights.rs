@@ -86,6 +86,16 @@ pub fn fit_amplitude(
     }
 }
 
+/// `Y` solved with a factor `Q = L Lᵀ`.
+#[derive(Clone, Copy, Debug)]
+pub enum Solved<'a> {
+    /// `Q⁻¹Y`: every amplitude (`ml`, `loo`).
+    Full(&'a [f64]),
+    /// `L⁻¹Y` and `L⁻¹1`: what a pixel extends stage by stage on a nested factor (the leading
+    /// rows of `L⁻¹Y` are the earlier stages' own), enough for `ml`, whose `rᵀQ⁻¹r = ‖L⁻¹r‖²`.
+    Half { y: &'a [f64], ones: &'a [f64] },
+}
+
 /// [`fit_amplitude`] from `half = L⁻¹r` (`Q = L Lᵀ`) instead of `Q⁻¹r`: `ml` is
 /// `‖L⁻¹r‖² / dof` (`rᵀQ⁻¹r = ‖L⁻¹r‖²`); `unit` is 1; all residuals exactly 0 give exactly 0.
 ///

@@ -6,7 +6,7 @@ use super::model_args::ModelArgs;
 use super::output::status;
 use std::path::{Path, PathBuf};
 use workbench::error::InputError;
-use workbench::files::result_folder::FileSet;
+use workbench::files::file_set::FileSet;
 use workbench::render::image::{DEFAULT_ERROR_MAX, Image};
 
 /// The first option given that only integrators with weights use (`--gps`, `--no-rotate`, the

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 use workbench::bq::weights::Scale;
 use workbench::error::InputError;
-use workbench::files::result_folder::FileSet;
+use workbench::files::file_set::FileSet;
 use workbench::render::exact;
 use workbench::render::image::{ColourMap, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
@@ -88,7 +88,7 @@ pub struct RenderArgs {
     #[arg(long, value_parser = ["viridis", "grey"])]
     pub error_colours: Option<String>,
     /// Also write the posterior sd each pixel's estimator states, per channel (linear OpenEXR;
-    /// bmc, bmcp, bmcp-edge, bsq), its norm ‖sd‖₂ as <sd>.png on the error image's scale and,
+    /// integrators with a posterior), its norm ‖sd‖₂ as <sd>.png on the error image's scale and,
     /// with --reference, the coverage map <sd>-coverage.png and the image's coverage on stdout.
     #[arg(long, value_name = "SD.exr")]
     pub sd_out: Option<PathBuf>,
@@ -412,11 +412,20 @@ fn check_sd_options(args: &RenderArgs, kind: Option<IntegratorKind>) -> anyhow::
         return Ok(scale);
     };
     match kind {
-        Some(k) if k.uses_sets() => {}
+        Some(k) if k.has_posterior() => {}
         _ => {
+            let with_posterior: Vec<String> = IntegratorKind::all()
+                .into_iter()
+                .filter(|k| k.has_posterior())
+                .map(|k| k.name())
+                .collect();
+            let (last, rest) = with_posterior
+                .split_last()
+                .expect("some integrator has a posterior");
             return Err(InputError::new(format!(
-                "--sd-out {}: needs an integrator with a posterior (bmc, bmcp, bmcp-edge or bsq), not {}",
+                "--sd-out {}: needs an integrator with a posterior ({} or {last}), not {}",
                 sd.display(),
+                rest.join(", "),
                 args.integrator
             ))
             .into());

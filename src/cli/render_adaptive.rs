@@ -8,7 +8,7 @@ use super::progress::Bar;
 use std::path::PathBuf;
 use std::time::Instant;
 use workbench::error::InputError;
-use workbench::files::result_folder::FileSet;
+use workbench::files::file_set::FileSet;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
 use workbench::render::image::{ColourMap, ErrorScale};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};

@@ -4,8 +4,10 @@ use super::model_args::ModelArgs;
 use super::output::{status, stdout};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use workbench::files::result_folder::FileSet;
+use workbench::bq::estimator::Method;
+use workbench::files::file_set::FileSet;
 use workbench::sampling::SetDesign;
+use workbench::util::geometry::Vec3;
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
@@ -75,7 +77,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     let exact_kernel_means = args.model.resolve()?.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
     let points = match &args.points {
         Some(path) => {
-            let points = workbench::bq::rule::read_points_csv(path)?;
+            let points = read_points_csv(path)?;
             workbench::bq::rule::check_point_count(points.len(), "--points")?;
             points
         }
@@ -84,6 +86,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
             workbench::bq::rule::generate_points(n, args.seed, design)
         }
     };
+    let method = Method::from_name(&args.method).expect("clap checks the names");
     let bsq = args.method == "bsq";
     if bsq && points.len() < 2 {
         anyhow::bail!(workbench::error::InputError::new(format!(
@@ -122,11 +125,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         summary["source"] = source;
         summary["seed"] = serde_json::json!(args.seed);
         summary["method"] = serde_json::json!(args.method);
-        let dof = match args.scale.as_str() {
-            "ml" if bsq => Some(points.len() - 1),
-            "ml" => Some(points.len()),
-            _ => None,
-        };
+        let dof = (args.scale == "ml").then(|| method.ml_dof(points.len()));
         summary["scale"] = serde_json::json!({
             "scale": args.scale,
             "posterior_variance_is": "Var₁, the unit-amplitude posterior variance; with values Y the \
@@ -160,4 +159,120 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         d.negative_weights
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Largest points file read: [`workbench::bq::rule::MAX_POINTS`] rows of four shortest round-trip
+/// numbers take about 1.5 MiB, so anything near this is not a points file (and is not read into
+/// memory).
+const MAX_POINTS_FILE_BYTES: u64 = 16 << 20;
+
+/// Reads a CSV with header `x,y,z` (or a rule's `x,y,z,weight`, weights ignored) of unit vectors
+/// (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`. The file must be UTF-8 (a byte-order mark is accepted);
+/// errors name the file and the line.
+fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, workbench::error::InputError> {
+    let name = path.display();
+    let in_file = |m: String| workbench::error::InputError::new(format!("{name}: {m}"));
+    let text = workbench::files::spec_json::read_text(path, MAX_POINTS_FILE_BYTES, "points files")
+        .map_err(in_file)?;
+    parse_points_csv(&text).map_err(in_file)
+}
+
+/// Parses the text of a points CSV; errors name the line and the value.
+fn parse_points_csv(text: &str) -> Result<Vec<Vec3>, String> {
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header = reader.headers().map_err(|e| format!("line 1: {e}"))?.clone();
+    // A rule's own output (`x,y,z,weight`) is accepted too; its weights are ignored.
+    let names: Vec<&str> = header.iter().collect();
+    if names != ["x", "y", "z"] && names != ["x", "y", "z", "weight"] {
+        return Err(format!(
+            "line 1: header must be `x,y,z` (or a rule's `x,y,z,weight`), got `{}`",
+            header.iter().collect::<Vec<_>>().join(",")
+        ));
+    }
+    let mut points = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            format!("line {line}: {e}")
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        let mut p = [0.0; 3];
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            let field = &record[k];
+            p[k] = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("line {line}: {axis} = `{field}` is not a finite number"))?;
+        }
+        let v = Vec3::new(p[0], p[1], p[2]);
+        let norm = v.norm();
+        if (norm - 1.0).abs() > 1e-9 {
+            return Err(format!(
+                "line {line}: ({}, {}, {}) is not a unit vector (norm {norm})",
+                p[0], p[1], p[2]
+            ));
+        }
+        if v.z < 0.0 {
+            return Err(format!(
+                "line {line}: z = {} is below the horizon (need z >= 0)",
+                p[2]
+            ));
+        }
+        points.push(v);
+    }
+    if points.is_empty() {
+        return Err("no points (need at least one row after the header)".into());
+    }
+    Ok(points)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_points_name_the_line_and_value() {
+        let cases = [
+            ("x,y,z\n1,0,0\n0,0,2\n", "line 3"),
+            ("x,y,z\n0,0,-1\n", "below the horizon"),
+            ("x,y\n1,0\n", "header"),
+            ("x,y,z\n0,zero,1\n", "`zero`"),
+            ("x,y,z\n", "no points"),
+            ("\u{feff}x,y,z\n0,0,1\n0,1,1\n", "line 3"),
+        ];
+        for (text, needle) in cases {
+            let e = parse_points_csv(text).unwrap_err();
+            assert!(e.contains(needle), "{text:?}: {e}");
+        }
+    }
+
+    /// Spreadsheet programs on Windows start CSV files with a byte-order mark.
+    #[test]
+    fn a_byte_order_mark_is_accepted() {
+        let points = parse_points_csv("\u{feff}x,y,z\n0,0,1\n").unwrap();
+        assert_eq!(points.len(), 1);
+        assert_eq!((points[0].x, points[0].y, points[0].z), (0.0, 0.0, 1.0));
+    }
+
+    /// A byte that is not UTF-8 is reported with its line, as every other bad value is.
+    #[test]
+    fn a_non_utf8_byte_names_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("points.csv");
+        std::fs::write(&path, b"x,y,z\n0,0,1\n0,\xff,1\n").unwrap();
+        assert_eq!(
+            read_points_csv(&path).unwrap_err().to_string(),
+            format!(
+                "{}: line 3, column 3: byte 0xFF is not UTF-8 text; save the file as UTF-8",
+                path.display()
+            )
+        );
+        assert_eq!(
+            read_points_csv(dir.path()).unwrap_err().to_string(),
+            format!("{}: is a folder, not a file", dir.path().display())
+        );
+    }
 }

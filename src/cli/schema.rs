@@ -3,7 +3,7 @@
 use super::output::{status, stdout};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use workbench::files::result_folder::FileSet;
+use workbench::files::file_set::FileSet;
 use workbench::schema::SchemaKind;
 
 /// Options of `workbench schema`.

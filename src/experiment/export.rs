@@ -108,12 +108,7 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
         "name": f.name(), "truth": f.integral(), "analytic_prior": f.constant_prior()
     });
     if let crate::integrand::Integrand::Axis { f: a, .. } = f {
-        use crate::integrand::family::Profile;
-        let (key, param) = match a.profile {
-            Profile::Lobe { exponent } => ("exponent", exponent),
-            Profile::Cap { half_angle } => ("half_angle", half_angle),
-            Profile::Gaussian { sharpness } => ("sharpness", sharpness),
-        };
+        let (key, param) = a.profile.parameter();
         v["type"] = a.profile.family().into();
         v["axis"] = serde_json::json!([a.axis.x, a.axis.y, a.axis.z]);
         v[key] = param.into();
@@ -177,6 +172,25 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[Calibr
     bytes
 }
 
+/// The files an experiment's `manifest.json` written before manifests listed their files
+/// accounts for, or `None` if it is not one: its plan names the integrands (one SVG each).
+/// Passed to [`crate::files::result_folder::ResultFolder::prepare`].
+pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
+    use crate::files::result_folder::MANIFEST;
+    if manifest.get("workbench_version").is_some()
+        && let Some(integrands) = manifest.pointer("/plan/integrands").and_then(|i| i.as_array())
+    {
+        let mut names: Vec<String> = ["trials.csv", "summary.csv", "timings.json", MANIFEST]
+            .map(String::from)
+            .into();
+        for f in integrands {
+            names.push(format!("{}.svg", f.get("name")?.as_str()?));
+        }
+        return Some(names);
+    }
+    None
+}
+
 /// `timings.json`: how long the run took on how many threads. Machine-dependent, so it stays
 /// out of the manifest and out of the committed results.
 pub fn timings_json(threads: usize, wall_seconds: f64) -> Vec<u8> {
@@ -224,4 +238,31 @@ pub fn fits_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
         }
     }
     out.into_bytes()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn results_folder_holds_one_run_legacy_manifests_are_read_by_content() {
+        let experiment = serde_json::json!({
+            "workbench_version": "0.1.0",
+            "plan": {"integrands": [{"name": "cos3"}]},
+            "files": {"trials.csv": "…"},
+        });
+        let mut names = legacy_manifest_files(&experiment).unwrap();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "cos3.svg",
+                "manifest.json",
+                "summary.csv",
+                "timings.json",
+                "trials.csv"
+            ]
+        );
+        assert!(legacy_manifest_files(&serde_json::json!({"files": {"a": "b"}})).is_none());
+    }
 }

@@ -218,7 +218,13 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
         .iter()
         .map(|s| ("the shard folder", s.dir.as_path()))
         .collect();
-    let mut folder = ResultFolder::prepare(out, &out.display().to_string(), "give another OUT", &inputs)?;
+    let mut folder = ResultFolder::prepare(
+        out,
+        &out.display().to_string(),
+        "give another OUT",
+        &inputs,
+        super::export::legacy_manifest_files,
+    )?;
     let start = Instant::now();
     let logs = LogSet {
         paths: shards.iter().map(|s| s.dir.join(SHARD_UNITS)).collect(),

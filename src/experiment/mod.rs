@@ -151,7 +151,13 @@ pub fn run_plan(
         .iter()
         .map(|p| ("the experiment file", p.as_path()))
         .collect();
-    let mut folder = ResultFolder::prepare(&out_dir, &what, "use another --out", &inputs)?;
+    let mut folder = ResultFolder::prepare(
+        &out_dir,
+        &what,
+        "use another --out",
+        &inputs,
+        export::legacy_manifest_files,
+    )?;
 
     let pool = crate::util::threads::pool(overrides.threads)?;
     let threads = pool.current_num_threads();

@@ -7,10 +7,7 @@ use crate::bq::model::BmcModel;
 use crate::bq::model::ResolvedModel;
 use crate::bq::rule::MAX_POINTS;
 use crate::bq::weights::Scale;
-use crate::integrand::family::{AxisIntegrand, Profile};
-use crate::integrand::pixel::PixelIntegrand;
 use crate::integrand::{CosPower, Integrand};
-use crate::render::env::{EnvMap, Environment};
 use crate::sampling::{Design, SetDesign, Structure};
 use serde::Serialize;
 use std::sync::Arc;
@@ -574,82 +571,22 @@ fn resolve_fit_from(spec: &ExperimentSpec) -> Result<usize, String> {
 
 /// One integrand, validated, with its truth computed (and its default name filled in).
 fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
-    let (profile, name, axis, cosine) = match spec {
-        IntegrandSpec::Named(name) => {
-            return CosPower::parse(name).map(Integrand::Cos).ok_or_else(|| {
-                format!(
-                    "unknown integrand {name:?} (expected cos, cos2, cos3, …: cos<k> with k a whole number \
-                     from 0 to 2147483647, or an object with \"type\": lobe, cap, gaussian or pixel)"
-                )
-            });
+    match spec {
+        IntegrandSpec::Named(name) => CosPower::parse(name).map(Integrand::Cos).ok_or_else(|| {
+            format!(
+                "unknown integrand {name:?} (expected cos, cos2, cos3, …: cos<k> with k a whole number \
+                 from 0 to 2147483647, or an object with \"type\": {})",
+                FamilySpec::types_or()
+            )
+        }),
+        IntegrandSpec::Family(family) => {
+            let f = family.resolve()?;
+            if let Some(n) = family.name() {
+                check_file_name(n).map_err(|m| format!("name: {m}"))?;
+            }
+            Ok(f)
         }
-        IntegrandSpec::Family(FamilySpec::Lobe {
-            name,
-            axis,
-            exponent,
-            cosine,
-        }) => (Profile::Lobe { exponent: *exponent }, name, axis, *cosine),
-        IntegrandSpec::Family(FamilySpec::Cap {
-            name,
-            axis,
-            half_angle,
-            cosine,
-        }) => (
-            Profile::Cap {
-                half_angle: *half_angle,
-            },
-            name,
-            axis,
-            *cosine,
-        ),
-        IntegrandSpec::Family(FamilySpec::Pixel {
-            name,
-            pixel,
-            width,
-            height,
-            env,
-            channel,
-        }) => {
-            let environment = match env.as_str() {
-                "sky" => Environment::Sky,
-                "white" => Environment::White,
-                path => EnvMap::load(std::path::Path::new(path))
-                    .map(Environment::Map)
-                    .map_err(|e| format!("env: {}", e.0.trim_start_matches("--env ")))?,
-            };
-            let f = PixelIntegrand::new(*pixel, *width, *height, environment, env, channel)?;
-            let name = match name {
-                Some(n) => {
-                    check_file_name(n).map_err(|m| format!("name: {m}"))?;
-                    n.clone()
-                }
-                None => f.default_name(),
-            };
-            return Ok(Integrand::Pixel { name, f: Box::new(f) });
-        }
-        IntegrandSpec::Family(FamilySpec::Gaussian {
-            name,
-            axis,
-            sharpness,
-            cosine,
-        }) => (
-            Profile::Gaussian {
-                sharpness: *sharpness,
-            },
-            name,
-            axis,
-            *cosine,
-        ),
-    };
-    let f = AxisIntegrand::new(profile, *axis, cosine)?;
-    let name = match name {
-        Some(n) => {
-            check_file_name(n).map_err(|m| format!("name: {m}"))?;
-            n.clone()
-        }
-        None => default_name(&f),
-    };
-    Ok(Integrand::Axis { name, f })
+    }
 }
 
 /// An integrand's name becomes a file name (`<name>.svg`): the experiment name's alphabet.
@@ -667,25 +604,6 @@ fn check_file_name(name: &str) -> Result<(), String> {
             "{name:?} is not a usable file name (1 to {MAX_NAME} letters, digits, '-', '_', '.'; no leading '.')"
         ))
     }
-}
-
-/// `lobe8-tilt30`, `cap15-tilt45-cos`, `gaussian20-tilt0`: the family, its parameter, the axis's
-/// tilt from the normal in degrees (the azimuth does not change the integral) and `-cos` for
-/// `m = 1`.
-fn default_name(f: &AxisIntegrand) -> String {
-    let param = match f.profile {
-        Profile::Lobe { exponent } => exponent,
-        Profile::Cap { half_angle } => half_angle,
-        Profile::Gaussian { sharpness } => sharpness,
-    };
-    // To a tenth of a degree, without a trailing ".0" ([0.5, 0, 0.866] is 30.0007°: "30").
-    let tilt = format!("{:.1}", f.tilt_degrees());
-    let tilt = tilt.strip_suffix(".0").unwrap_or(&tilt);
-    format!(
-        "{}{param}-tilt{tilt}{}",
-        f.profile.family(),
-        if f.cosine { "-cos" } else { "" }
-    )
 }
 
 /// The experiment name becomes a folder: keep it to a safe alphabet and length.

@@ -6,7 +6,6 @@
 use super::fit::{SeriesFit, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::bq::estimator::Method;
 use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 use crate::sampling::{Design, SetDesign};
 use plotters::prelude::*;
@@ -22,7 +21,7 @@ pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::R
 /// The estimator the N^(−1/2) guide goes through: the first `mc` estimator on uniform i.i.d.
 /// points (the rate's textbook case), else the first `mc` one; `None` without MC.
 pub fn guide_estimator(plan: &Plan) -> Option<usize> {
-    let mc = |e: &&super::plan::PlannedEstimator| e.method == Method::Mc;
+    let mc = |e: &&super::plan::PlannedEstimator| e.method.is_monte_carlo();
     plan.estimators
         .iter()
         .position(|e| mc(&e) && e.design == SetDesign::Iid(Design::Uniform))

@@ -7,7 +7,8 @@
 
 use super::plan::Plan;
 use crate::bq::factor::SpdWorkspace;
-use crate::bq::rule::{Rule, Solved, Values};
+use crate::bq::rule::{Rule, Values};
+use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::SetDesign;
 use crate::util::rng::stream;
@@ -332,10 +333,11 @@ pub fn run_unit(
                 .flat_map(|d| d.warnings.iter().map(|m| m.message())),
         )
         .collect();
-    // Bayes–Sard's own Var₁ can be negative where BMC's is not (MC kernel means).
+    // An estimator's own Var₁ (Bayes–Sard's) can be negative where the weight set's is not (MC
+    // kernel means).
     for (e, d) in plan.estimators.iter().zip(&diagnostics) {
-        if e.method == crate::bq::estimator::Method::Bsq && e.tolerance.is_none() {
-            let d = d.as_ref().expect("BSQ has weights");
+        if e.method.states_own_unit_variance() && e.tolerance.is_none() {
+            let d = d.as_ref().expect("an estimator with its own Var₁ has weights");
             for w in &d.warnings {
                 if matches!(
                     w,

@@ -4,6 +4,7 @@
 
 use crate::bq::estimator::Method;
 pub use crate::bq::model::{KernelMeanName, KernelSpec, ModelSpec};
+pub use crate::integrand::family::FamilySpec;
 use crate::sampling::SetDesign;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -198,65 +199,9 @@ impl<'de> Deserialize<'de> for IntegrandSpec {
                 .map(IntegrandSpec::Family)
                 .map_err(D::Error::custom),
             other => Err(D::Error::custom(format!(
-                "expected a name such as \"cos3\" or an object with a \"type\" (lobe, cap, gaussian, pixel), got {other}"
+                "expected a name such as \"cos3\" or an object with a \"type\" ({}), got {other}",
+                FamilySpec::TYPES.join(", ")
             ))),
         }
     }
-}
-
-/// A rendering-like integrand about a tilted axis (math.md §1, "Rendering-like integrands").
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, JsonSchema)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-pub enum FamilySpec {
-    /// `max(0, ω·a)^e · (ω·n)^m`.
-    Lobe {
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        name: Option<String>,
-        axis: [f64; 3],
-        exponent: f64,
-        #[serde(default)]
-        cosine: bool,
-    },
-    /// `1[ω·a ≥ cos α] · (ω·n)^m`, `α = half_angle` in degrees.
-    Cap {
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        name: Option<String>,
-        axis: [f64; 3],
-        half_angle: f64,
-        #[serde(default)]
-        cosine: bool,
-    },
-    /// `exp(λ (ω·a − 1)) · (ω·n)^m`, `λ = sharpness`.
-    Gaussian {
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        name: Option<String>,
-        axis: [f64; 3],
-        sharpness: f64,
-        #[serde(default)]
-        cosine: bool,
-    },
-    /// The render scene's integrand at pixel `[i, j]` (column, row from the top left) of a
-    /// `width × height` image under `env` (`sky`, `white` or a map file), one `channel` (`r`,
-    /// `g`, `b`): math.md §1 "Scene integrands".
-    Pixel {
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        name: Option<String>,
-        pixel: [usize; 2],
-        #[serde(default = "default_size")]
-        width: usize,
-        #[serde(default = "default_size")]
-        height: usize,
-        #[serde(default = "default_env")]
-        env: String,
-        channel: String,
-    },
-}
-
-/// The renderer's default image size.
-fn default_size() -> usize {
-    256
-}
-
-fn default_env() -> String {
-    "sky".into()
 }

@@ -2,8 +2,9 @@
 //! the permissions the user's umask asks for, and never over one of the command's inputs.
 //!
 //! Sets of files that belong together (a run's folder, an image and its PNGs) are in
-//! [`crate::files::result_folder`]; this module holds the pieces: staging one file, resolving where a
-//! path really points, and cleaning what killed writers left behind.
+//! [`crate::files::result_folder`] and [`crate::files::file_set`]; this module holds the pieces:
+//! staging one file, resolving where a path really points, and cleaning what killed writers left
+//! behind.
 
 use crate::error::{Error, InputError, Result};
 use std::ffi::{OsStr, OsString};
@@ -133,7 +134,8 @@ fn follow_links(path: &Path) -> Result<PathBuf> {
     Err(InputError::new(format!("{}: too many levels of symbolic links", path.display())).into())
 }
 
-fn parent_or_dot(path: &Path) -> &Path {
+/// The folder holding `path`: its parent, or `.` for a bare name.
+pub(crate) fn parent_or_dot(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -306,6 +308,13 @@ pub fn pid_alive(pid: u32) -> bool {
         }
     }
     true
+}
+
+/// `prefix` followed by `name`, byte for byte (names need not be UTF-8).
+pub(crate) fn hidden_name(prefix: &str, name: &OsStr) -> OsString {
+    let mut s = OsString::from(prefix);
+    s.push(name);
+    s
 }
 
 /// The pid in one of our hidden names, `.workbench-<pid>-…`.

@@ -1,6 +1,10 @@
 //! Files on disk: atomic writes and staged folders ([`atomic`]), spec JSON with exact error
-//! paths ([`spec_json`]), and result folders committed whole under a lock ([`result_folder`]).
+//! paths ([`spec_json`]), result folders committed whole under a lock ([`result_folder`]),
+//! outputs named one by one and written as a set ([`file_set`]), and the lock both hold
+//! ([`lock`]).
 
 pub mod atomic;
+pub mod file_set;
+pub mod lock;
 pub mod result_folder;
 pub mod spec_json;

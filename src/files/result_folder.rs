@@ -1,25 +1,23 @@
-//! Outputs that belong together change together, or not at all.
+//! A run's or a table's folder (`results/<name>/`), changed whole or not at all: see
+//! [`ResultFolder`]. Every file is written into a hidden staging folder beside it,
+//! `.workbench-<pid>-staging-<name>/`, and the finished set takes the folder's place in one step
+//! (`renameat2(RENAME_EXCHANGE)` on Linux; elsewhere two renames, between which the folder is
+//! briefly absent). A reader sees the old set or the new one, never a mix; a command that fails
+//! or is killed leaves the old set as it was. So a folder holds exactly one run's files, listed
+//! in its `manifest.json`.
 //!
-//! - [`ResultFolder`]: a run's or a table's folder (`results/<name>/`). Every file is written
-//!   into a hidden staging folder beside it, `.workbench-<pid>-staging-<name>/`, and the
-//!   finished set takes the folder's place in one step (`renameat2(RENAME_EXCHANGE)` on Linux;
-//!   elsewhere two renames, between which the folder is briefly absent). A reader sees the old
-//!   set or the new one, never a mix; a command that fails or is killed leaves the old set as it
-//!   was. So a folder holds exactly one run's files, listed in its `manifest.json`.
-//! - [`FileSet`]: outputs named one by one (an image and its PNGs, a rule and its summary).
-//!   Each is written completely under a temporary name beside it before any is renamed into
-//!   place, so a failed write (a full disk) changes none of them.
-//!
-//! Both hold a [`Lock`] on what they write, so two commands writing the same outputs cannot
-//! interleave, and clear what killed commands left behind ([`crate::files::atomic::sweep_stale`]).
+//! Outputs named one by one are written as a [`crate::files::file_set::FileSet`]. Both hold a
+//! [`Lock`] on what they write, so two commands writing the same outputs cannot interleave, and
+//! clear what killed commands left behind ([`crate::files::atomic::sweep_stale`]).
 
 use crate::error::{Error, InputError, Result};
 use crate::files::atomic::{
-    HIDDEN_PREFIX, LOCK_PREFIX, MAX_NAME_BYTES, Staged, hidden_name_pid, remove_any, resolve,
+    HIDDEN_PREFIX, MAX_NAME_BYTES, hidden_name, hidden_name_pid, parent_or_dot, remove_any, resolve,
 };
+use crate::files::lock::Lock;
 use std::collections::{BTreeMap, BTreeSet};
 use std::ffi::{OsStr, OsString};
-use std::fs::{File, OpenOptions, TryLockError};
+use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -31,102 +29,10 @@ pub const MANIFEST: &str = "manifest.json";
 /// set: the next successful run replaces the folder, and them with it.
 pub const PARTIAL_FILES: &[&str] = &["rmse.partial.csv", "trials.partial.csv"];
 
-/// An exclusive claim on an output path, held as an advisory lock (`flock`) on
-/// `.workbench-lock-<name>` beside it. The kernel drops the lock when its process ends, however
-/// it ends, so a lock left by a killed command is simply taken over; the file (which holds the
-/// holder's pid, for the message) is removed when the lock is released, or swept later.
-pub struct Lock {
-    path: PathBuf,
-    _file: File,
-    /// False where the file system cannot lock files: the command then runs unguarded, and
-    /// must not treat other writers' staging folders as abandoned.
-    exclusive: bool,
-}
-
-impl Lock {
-    /// Locks `target` (a resolved path), or says who holds it: `what` names the output in
-    /// messages and `fix` says what else the user can do.
-    pub fn acquire(target: &Path, what: &str, fix: &str) -> Result<Lock> {
-        let dir = parent_or_dot(target);
-        std::fs::create_dir_all(dir)
-            .map_err(|e| Error::io(format!("creating folder {}", dir.display()), e))?;
-        let path = dir.join(hidden_name(LOCK_PREFIX, target.file_name().unwrap_or_default()));
-        // A releasing holder unlinks the file before unlocking it, so the file we lock may
-        // no longer be the one at `path`; then we try again with the new one.
-        for _ in 0..100 {
-            let mut file = OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(|e| Error::io(format!("creating the lock file {}", path.display()), e))?;
-            match file.try_lock() {
-                Ok(()) if !crate::files::atomic::same_inode(&file, &path) => continue,
-                Ok(()) => {
-                    // Only for the message a second command prints; the lock is the flock.
-                    let _ = file.set_len(0);
-                    let _ = write!(file, "{}", std::process::id());
-                    return Ok(Lock {
-                        path,
-                        _file: file,
-                        exclusive: true,
-                    });
-                }
-                Err(TryLockError::WouldBlock) => {
-                    let holder = std::fs::read_to_string(&path)
-                        .ok()
-                        .and_then(|s| s.trim().parse::<u32>().ok())
-                        .map_or(String::new(), |pid| format!(" (pid {pid})"));
-                    return Err(InputError::new(format!(
-                        "{what}: another workbench{holder} is writing it; wait for it to finish, or {fix}"
-                    ))
-                    .into());
-                }
-                Err(TryLockError::Error(e)) if locks_unsupported(&e) => {
-                    return Ok(Lock {
-                        path,
-                        _file: file,
-                        exclusive: false,
-                    });
-                }
-                Err(TryLockError::Error(e)) => {
-                    return Err(Error::io(format!("locking {}", path.display()), e));
-                }
-            }
-        }
-        Err(Error::io(
-            format!("locking {}", path.display()),
-            std::io::Error::other("the lock file kept being replaced"),
-        ))
-    }
-}
-
-impl Drop for Lock {
-    fn drop(&mut self) {
-        // Unlinked while still locked; the file closes (and unlocks) right after.
-        let _ = std::fs::remove_file(&self.path);
-    }
-}
-
-fn locks_unsupported(e: &std::io::Error) -> bool {
-    const ENOLCK: i32 = 37;
-    e.kind() == std::io::ErrorKind::Unsupported || e.raw_os_error() == Some(ENOLCK)
-}
-
-/// `prefix` followed by `name`, byte for byte (names need not be UTF-8).
-fn hidden_name(prefix: &str, name: &OsStr) -> OsString {
-    let mut s = OsString::from(prefix);
-    s.push(name);
-    s
-}
-
-fn parent_or_dot(path: &Path) -> &Path {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    }
-}
+/// Reads a manifest written before manifests listed their files: the names it accounts for,
+/// or `None` if it is not of the caller's kind. Each kind of result folder passes its own to
+/// [`ResultFolder::prepare`] (the rule lives with the kind that wrote those manifests).
+pub type LegacyManifest = fn(&serde_json::Value) -> Option<Vec<String>>;
 
 /// A result folder being rebuilt: see the module documentation. Dropped without
 /// [`ResultFolder::commit`] (an error, a panic), it removes its staging folder and leaves the
@@ -140,6 +46,8 @@ pub struct ResultFolder {
     /// Every file written so far, with what it holds (the manifest's `files`).
     files: BTreeMap<String, String>,
     lock: Option<Lock>,
+    /// Reads the folder's manifest if it predates the file list.
+    legacy: LegacyManifest,
     /// Folders created to hold the result folder, removed again if nothing comes of it.
     created: Vec<PathBuf>,
     committed: bool,
@@ -153,8 +61,15 @@ impl ResultFolder {
     ///
     /// `what` names the folder in messages (`--out o`, `results/tiny`), `fix` says what else the
     /// user can do (`use another --out`), and `inputs` are the command's input files
-    /// (`(description, path)`).
-    pub fn prepare(out: &Path, what: &str, fix: &str, inputs: &[(&str, &Path)]) -> Result<ResultFolder> {
+    /// (`(description, path)`). `legacy` reads the manifests of this kind written before
+    /// manifests listed their files, so that their files count as ours.
+    pub fn prepare(
+        out: &Path,
+        what: &str,
+        fix: &str,
+        inputs: &[(&str, &Path)],
+        legacy: LegacyManifest,
+    ) -> Result<ResultFolder> {
         let refuse =
             |problem: String| -> Error { InputError::new(format!("{what}: {problem}; {fix}")).into() };
         // The same, with a first remedy before the caller's.
@@ -211,6 +126,7 @@ impl ResultFolder {
             target: target.clone(),
             files: BTreeMap::new(),
             lock: None,
+            legacy,
             created,
             committed: false,
         };
@@ -229,7 +145,7 @@ impl ResultFolder {
             }
         }
         crate::files::atomic::sweep_stale(&target);
-        if let Some(foreign) = unexplained(&target) {
+        if let Some(foreign) = unexplained(&target, legacy) {
             return Err(refuse_or(
                 format!(
                     "holds {foreign}, which no workbench manifest there lists, and the results replace the \
@@ -343,7 +259,7 @@ impl ResultFolder {
 
         // Another program may have put something in the folder while we worked; it would be
         // lost with the old set, so keep the new set beside the folder instead.
-        if let Some(foreign) = unexplained(&self.target) {
+        if let Some(foreign) = unexplained(&self.target, self.legacy) {
             let name = self.target.file_name().unwrap_or_default();
             let mut kept = name.to_os_string();
             kept.push(format!(".new-{}", std::process::id()));
@@ -436,64 +352,26 @@ fn exchange(_: &Path, _: &Path) -> std::io::Result<()> {
 }
 
 /// The names a manifest of ours accounts for, or `None` if `manifest` is not one of ours.
-/// Manifests written before they listed their files are read by what they describe: an
-/// experiment's plan names its integrands (one SVG each), a table's its variants and spp
-/// values (one PNG per pair).
-fn manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
+/// Manifests written before they listed their files are read by what they describe
+/// (`legacy`, from the caller).
+fn manifest_files(manifest: &serde_json::Value, legacy: LegacyManifest) -> Option<Vec<String>> {
     if let Some(files) = manifest.get("files").and_then(|f| f.as_object())
         && files.contains_key(MANIFEST)
     {
         return Some(files.keys().cloned().collect());
     }
-    if manifest.get("workbench_version").is_some()
-        && let Some(integrands) = manifest.pointer("/plan/integrands").and_then(|i| i.as_array())
-    {
-        let mut names: Vec<String> = ["trials.csv", "summary.csv", "timings.json", MANIFEST]
-            .map(String::from)
-            .into();
-        for f in integrands {
-            names.push(format!("{}.svg", f.get("name")?.as_str()?));
-        }
-        return Some(names);
-    }
-    if manifest.get("scene").is_some()
-        && let (Some(variants), Some(spp)) = (
-            manifest.get("variants").and_then(|v| v.as_array()),
-            manifest.get("spp").and_then(|s| s.as_array()),
-        )
-    {
-        let mut names: Vec<String> = [
-            "reference.png",
-            "rmse.csv",
-            "table.csv",
-            "table.md",
-            "rmse_vs_spp.svg",
-            "timings.csv",
-            "timings.md",
-            MANIFEST,
-        ]
-        .map(String::from)
-        .into();
-        for v in variants {
-            let label = v.get("label")?.as_str()?;
-            for s in spp {
-                names.push(crate::render::table::plan::png_name(label, s.as_u64()? as usize));
-            }
-        }
-        return Some(names);
-    }
-    None
+    legacy(manifest)
 }
 
 /// What in `dir` is not ours, for the message ("notes.txt", "notes.txt, data/ and 2 more"),
 /// or `None` if everything is. Ours: the files the manifest lists, [`PARTIAL_FILES`], and our
 /// hidden files (`.workbench-…`).
-fn unexplained(dir: &Path) -> Option<String> {
+fn unexplained(dir: &Path, legacy: LegacyManifest) -> Option<String> {
     let entries = std::fs::read_dir(dir).ok()?;
     let listed: BTreeSet<String> = std::fs::read(dir.join(MANIFEST))
         .ok()
         .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-        .and_then(|v| manifest_files(&v))
+        .and_then(|v| manifest_files(&v, legacy))
         .map(|names| names.into_iter().filter(|n| is_plain_name(n)).collect())
         .unwrap_or_default();
     let mut foreign: Vec<String> = Vec::new();
@@ -517,77 +395,6 @@ fn unexplained(dir: &Path) -> Option<String> {
         1 => Some(foreign[0].clone()),
         2 => Some(format!("{} and {}", foreign[0], foreign[1])),
         n => Some(format!("{}, {} and {} more", foreign[0], foreign[1], n - 2)),
-    }
-}
-
-/// Outputs named one by one, written as a set: see the module documentation.
-pub struct FileSet {
-    _locks: Vec<Lock>,
-    staged: Vec<Staged>,
-    stale: Vec<PathBuf>,
-}
-
-impl FileSet {
-    /// Locks every output (`(flag, path)`; devices such as `/dev/null` excepted), so that two
-    /// commands writing the same files cannot interleave their sets; `fix` ends the message
-    /// when one is busy. Checks every name's length first.
-    pub fn lock(outputs: &[(&str, &Path)], fix: &str) -> Result<FileSet> {
-        let mut locks = Vec::new();
-        let mut seen: Vec<PathBuf> = Vec::new();
-        for (flag, path) in outputs {
-            crate::files::atomic::check_name_length(flag, path)?;
-            let target = resolve(path).map_err(|e| Error::io(format!("resolving {}", path.display()), e))?;
-            if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) || seen.contains(&target) {
-                continue;
-            }
-            locks.push(Lock::acquire(
-                &target,
-                &format!("{flag} {}", path.display()),
-                fix,
-            )?);
-            crate::files::atomic::sweep_stale(parent_or_dot(&target));
-            seen.push(target);
-        }
-        Ok(FileSet {
-            _locks: locks,
-            staged: Vec::new(),
-            stale: Vec::new(),
-        })
-    }
-
-    /// Writes one output completely under a temporary name beside it; nothing visible changes
-    /// until [`FileSet::commit`].
-    pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
-        self.staged.push(crate::files::atomic::stage(path, bytes)?);
-        Ok(())
-    }
-
-    /// Marks a file this command would write but does not this time (an error image without
-    /// `--reference`): a leftover of an earlier command would describe another output.
-    pub fn remove_stale(&mut self, path: &Path) {
-        self.stale.push(path.to_path_buf());
-    }
-
-    /// Renames every staged file into place, in the order staged, then removes the stale ones;
-    /// returns those it removed.
-    pub fn commit(self) -> Result<Vec<PathBuf>> {
-        let FileSet {
-            _locks,
-            staged,
-            stale,
-        } = self;
-        for s in staged {
-            s.persist()?;
-        }
-        let mut removed = Vec::new();
-        for path in stale {
-            if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file()) {
-                std::fs::remove_file(&path)
-                    .map_err(|e| Error::io(format!("removing {}", path.display()), e))?;
-                removed.push(path);
-            }
-        }
-        Ok(removed)
     }
 }
 
@@ -620,54 +427,16 @@ mod tests {
     }
 
     #[test]
-    fn results_folder_holds_one_run_lock_is_exclusive_and_released() {
-        let dir = tempfile::tempdir().unwrap();
-        let target = dir.path().join("x");
-        let lock = Lock::acquire(&target, "x", "use another --out").unwrap();
-        let e = Lock::acquire(&target, "x", "use another --out").err().unwrap();
-        let pid = std::process::id();
+    fn results_folder_holds_one_run_manifests_list_their_files() {
+        let none: LegacyManifest = |_| None;
+        let listed = serde_json::json!({"files": {"a.csv": "…", "manifest.json": "…"}});
+        assert_eq!(manifest_files(&listed, none).unwrap(), ["a.csv", "manifest.json"]);
+        let old: LegacyManifest = |_| Some(vec!["old.csv".into()]);
+        assert_eq!(manifest_files(&listed, old).unwrap(), ["a.csv", "manifest.json"]);
+        assert!(manifest_files(&serde_json::json!({"files": {"a": "b"}}), none).is_none());
         assert_eq!(
-            e.to_string(),
-            format!(
-                "x: another workbench (pid {pid}) is writing it; wait for it to finish, or use another --out"
-            )
+            manifest_files(&serde_json::json!({"files": {"a": "b"}}), old).unwrap(),
+            ["old.csv"]
         );
-        // A sweep leaves a held lock alone.
-        crate::files::atomic::sweep_stale(dir.path());
-        assert!(dir.path().join(".workbench-lock-x").exists());
-        drop(lock);
-        assert_eq!(listing(dir.path()), Vec::<String>::new());
-        drop(Lock::acquire(&target, "x", "").unwrap());
-    }
-
-    #[test]
-    fn results_folder_holds_one_run_legacy_manifests_are_read_by_content() {
-        let experiment = serde_json::json!({
-            "workbench_version": "0.1.0",
-            "plan": {"integrands": [{"name": "cos3"}]},
-            "files": {"trials.csv": "…"},
-        });
-        let mut names = manifest_files(&experiment).unwrap();
-        names.sort();
-        assert_eq!(
-            names,
-            [
-                "cos3.svg",
-                "manifest.json",
-                "summary.csv",
-                "timings.json",
-                "trials.csv"
-            ]
-        );
-        let table = serde_json::json!({
-            "scene": "render-scene v1", "spp": [4, 8],
-            "variants": [{"label": "BMC 2 GP"}],
-        });
-        assert!(
-            manifest_files(&table)
-                .unwrap()
-                .contains(&"bmc-2-gp-8spp.png".to_string())
-        );
-        assert!(manifest_files(&serde_json::json!({"files": {"a": "b"}})).is_none());
     }
 }

@@ -22,9 +22,18 @@
 //! makes square-root ends smooth, and integrated by adaptive Gauss–Legendre (bisection until
 //! the disagreements of two levels add up to 1e-14 of the integral of `|integrand|`). Tested against closed forms to
 //! 1e-12 relative and against an independent 2-D quadrature in `(θ, φ)` about the normal.
+//!
+//! **In experiment files.** [`FamilySpec`] is an integrand object as written (`{"type": "lobe",
+//! …}`, and the render scene's `pixel`); [`FamilySpec::resolve`] turns it into an [`Integrand`]
+//! with its default name ([`AxisIntegrand::default_name`]), and [`Profile::parameter`] is the
+//! manifest's parameter column. A new axis profile touches this file only.
 
+use super::Integrand;
+use super::pixel::PixelIntegrand;
 use crate::util::geometry::Vec3;
 use crate::util::quadrature::GaussLegendre;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::LazyLock;
 
@@ -46,6 +55,16 @@ impl Profile {
             Profile::Lobe { .. } => "lobe",
             Profile::Cap { .. } => "cap",
             Profile::Gaussian { .. } => "gaussian",
+        }
+    }
+
+    /// The parameter's JSON field and value: `("exponent", e)`, `("half_angle", α)`,
+    /// `("sharpness", λ)` (the manifest's parameter column).
+    pub fn parameter(&self) -> (&'static str, f64) {
+        match *self {
+            Profile::Lobe { exponent } => ("exponent", exponent),
+            Profile::Cap { half_angle } => ("half_angle", half_angle),
+            Profile::Gaussian { sharpness } => ("sharpness", sharpness),
         }
     }
 
@@ -163,6 +182,153 @@ impl AxisIntegrand {
     /// The axis's angle from the normal, in degrees.
     pub fn tilt_degrees(&self) -> f64 {
         self.axis.z.clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
+    /// `lobe8-tilt30`, `cap15-tilt45-cos`, `gaussian20-tilt0`: the family, its parameter, the
+    /// axis's tilt from the normal in degrees (the azimuth does not change the integral) and
+    /// `-cos` for `m = 1`.
+    pub fn default_name(&self) -> String {
+        let (_, param) = self.profile.parameter();
+        // To a tenth of a degree, without a trailing ".0" ([0.5, 0, 0.866] is 30.0007°: "30").
+        let tilt = format!("{:.1}", self.tilt_degrees());
+        let tilt = tilt.strip_suffix(".0").unwrap_or(&tilt);
+        format!(
+            "{}{param}-tilt{tilt}{}",
+            self.profile.family(),
+            if self.cosine { "-cos" } else { "" }
+        )
+    }
+}
+
+/// A rendering-like integrand about a tilted axis (math.md §1, "Rendering-like integrands").
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum FamilySpec {
+    /// `max(0, ω·a)^e · (ω·n)^m`.
+    Lobe {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        axis: [f64; 3],
+        exponent: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    /// `1[ω·a ≥ cos α] · (ω·n)^m`, `α = half_angle` in degrees.
+    Cap {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        axis: [f64; 3],
+        half_angle: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    /// `exp(λ (ω·a − 1)) · (ω·n)^m`, `λ = sharpness`.
+    Gaussian {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        axis: [f64; 3],
+        sharpness: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    /// The render scene's integrand at pixel `[i, j]` (column, row from the top left) of a
+    /// `width × height` image under `env` (`sky`, `white` or a map file), one `channel` (`r`,
+    /// `g`, `b`): math.md §1 "Scene integrands".
+    Pixel {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        pixel: [usize; 2],
+        #[serde(default = "default_size")]
+        width: usize,
+        #[serde(default = "default_size")]
+        height: usize,
+        #[serde(default = "default_env")]
+        env: String,
+        channel: String,
+    },
+}
+
+/// The renderer's default image size.
+fn default_size() -> usize {
+    256
+}
+
+fn default_env() -> String {
+    "sky".into()
+}
+
+impl FamilySpec {
+    /// The accepted `"type"`s, as the JSON spells them (the enum's variants, in order).
+    pub const TYPES: [&'static str; 4] = ["lobe", "cap", "gaussian", "pixel"];
+
+    /// [`FamilySpec::TYPES`] for a sentence: `lobe, cap, gaussian or pixel`.
+    pub fn types_or() -> String {
+        let (last, rest) = Self::TYPES.split_last().expect("at least one type");
+        format!("{} or {last}", rest.join(", "))
+    }
+
+    /// The `"name"` given in the file, if any.
+    pub fn name(&self) -> Option<&str> {
+        match self {
+            FamilySpec::Lobe { name, .. }
+            | FamilySpec::Cap { name, .. }
+            | FamilySpec::Gaussian { name, .. }
+            | FamilySpec::Pixel { name, .. } => name.as_deref(),
+        }
+    }
+
+    /// The integrand, validated, with its truth computed, named as given (the caller checks
+    /// the name: [`FamilySpec::name`]) or by default. Errors name the JSON field.
+    pub fn resolve(&self) -> Result<Integrand, String> {
+        let (profile, name, axis, cosine) = match self {
+            FamilySpec::Lobe {
+                name,
+                axis,
+                exponent,
+                cosine,
+            } => (Profile::Lobe { exponent: *exponent }, name, axis, *cosine),
+            FamilySpec::Cap {
+                name,
+                axis,
+                half_angle,
+                cosine,
+            } => (
+                Profile::Cap {
+                    half_angle: *half_angle,
+                },
+                name,
+                axis,
+                *cosine,
+            ),
+            FamilySpec::Gaussian {
+                name,
+                axis,
+                sharpness,
+                cosine,
+            } => (
+                Profile::Gaussian {
+                    sharpness: *sharpness,
+                },
+                name,
+                axis,
+                *cosine,
+            ),
+            FamilySpec::Pixel {
+                name,
+                pixel,
+                width,
+                height,
+                env,
+                channel,
+            } => {
+                let f = PixelIntegrand::from_env_arg(*pixel, *width, *height, env, channel)?;
+                let name = name.clone().unwrap_or_else(|| f.default_name());
+                return Ok(Integrand::Pixel { name, f: Box::new(f) });
+            }
+        };
+        let f = AxisIntegrand::new(profile, *axis, cosine)?;
+        let name = name.clone().unwrap_or_else(|| f.default_name());
+        Ok(Integrand::Axis { name, f })
     }
 }
 
@@ -299,6 +465,27 @@ fn adaptive(pieces: &[(f64, f64)], f: &dyn Fn(f64) -> f64, tol: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`FamilySpec::TYPES`] lists exactly the variants serde accepts, in order.
+    #[test]
+    fn family_types_are_the_spec_variants() {
+        let e = serde_json::from_value::<FamilySpec>(serde_json::json!({"type": "nope"}))
+            .unwrap_err()
+            .to_string();
+        let expected: Vec<String> = FamilySpec::TYPES.iter().map(|t| format!("`{t}`")).collect();
+        assert!(
+            e.contains(&format!("expected one of {}", expected.join(", "))),
+            "{e}"
+        );
+        assert_eq!(FamilySpec::types_or(), "lobe, cap, gaussian or pixel");
+        for p in [
+            Profile::Lobe { exponent: 1.0 },
+            Profile::Cap { half_angle: 1.0 },
+            Profile::Gaussian { sharpness: 1.0 },
+        ] {
+            assert!(FamilySpec::TYPES.contains(&p.family()));
+        }
+    }
 
     fn close(got: f64, want: f64, rel: f64) -> bool {
         (got - want).abs() <= rel * want.abs().max(1e-300)

@@ -111,6 +111,20 @@ impl PixelIntegrand {
         self.truth_error
     }
 
+    /// [`PixelIntegrand::new`] under `env` as the spec names it: `sky`, `white` or a map file
+    /// (read here; its errors name the field `env`).
+    pub fn from_env_arg(
+        pixel: [usize; 2],
+        width: usize,
+        height: usize,
+        env: &str,
+        channel: &str,
+    ) -> Result<Self, String> {
+        let environment =
+            Environment::from_arg(env).map_err(|e| format!("env: {}", e.0.trim_start_matches("--env ")))?;
+        PixelIntegrand::new(pixel, width, height, environment, env, channel)
+    }
+
     /// `pixel-<i>-<j>-<env>-<channel>` (`env` is `sky`, `white` or `map`).
     pub fn default_name(&self) -> String {
         let env = match self.renderer.env {

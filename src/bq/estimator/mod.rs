@@ -14,8 +14,7 @@ pub mod bmcp;
 pub mod bsq;
 pub mod mc;
 
-use crate::bq::rule::Solved;
-use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
+use crate::bq::weights::{BmcWeights, Diagnostics, Scale, Solved};
 use crate::sampling::Design;
 use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
@@ -85,6 +84,35 @@ impl Method {
         (1..)
             .find(|&n| self.has_interval(n))
             .expect("every estimator states an interval at some N")
+    }
+
+    /// Whether the estimate is a Monte Carlo average of `f/p` terms, whose error falls as
+    /// `N^(−1/2)`: the error plots draw their `N^(−1/2)` guide through such a series.
+    pub fn is_monte_carlo(self) -> bool {
+        match self {
+            Method::Mc => true,
+            Method::Bmc | Method::Bmcp | Method::Bsq => false,
+        }
+    }
+
+    /// Whether the estimator has a Gaussian-process posterior, whose sd `sqrt(λ Var₁)` it
+    /// states ([`Method::uncertainty`]): what `render --sd-out` draws.
+    pub fn has_posterior(self) -> bool {
+        match self {
+            Method::Mc => false,
+            Method::Bmc | Method::Bmcp | Method::Bsq => true,
+        }
+    }
+
+    /// Whether the estimator's `Var₁` and diagnostics are its own rather than its weight set's
+    /// ([`Method::diagnostics`], [`Method::unit_variance`]): Bayes–Sard's (math.md §8) can be
+    /// negative where BMC's is not (MC kernel means), so its warnings are reported besides the
+    /// weight set's.
+    pub fn states_own_unit_variance(self) -> bool {
+        match self {
+            Method::Mc | Method::Bmc | Method::Bmcp => false,
+            Method::Bsq => true,
+        }
     }
 
     /// Whether the estimate takes a constant prior mean `c`.

@@ -17,7 +17,8 @@ use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
 use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::model::BmcModel;
-use crate::bq::rule::{Rule, Solved, Values};
+use crate::bq::rule::{Rule, Values};
+use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
 use crate::sampling::{Design, SetDesign};
@@ -163,6 +164,12 @@ impl IntegratorKind {
             .map(Self::name)
             .collect();
         names.join(", ")
+    }
+
+    /// Whether the integrator states a posterior sd per pixel and channel (`render --sd-out`):
+    /// its estimator has a posterior ([`Method::has_posterior`]).
+    pub fn has_posterior(self) -> bool {
+        self.method.has_posterior()
     }
 }
 

@@ -15,6 +15,40 @@ use std::path::Path;
 /// Writing CSV into a `Vec` cannot fail.
 const IN_MEMORY: &str = "writing CSV to memory";
 
+/// The files a table's `manifest.json` written before manifests listed their files accounts
+/// for, or `None` if it is not one: its variants and spp values (one PNG per pair).
+/// Passed to [`crate::files::result_folder::ResultFolder::prepare`].
+pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
+    use crate::files::result_folder::MANIFEST;
+    if manifest.get("scene").is_some()
+        && let (Some(variants), Some(spp)) = (
+            manifest.get("variants").and_then(|v| v.as_array()),
+            manifest.get("spp").and_then(|s| s.as_array()),
+        )
+    {
+        let mut names: Vec<String> = [
+            "reference.png",
+            "rmse.csv",
+            "table.csv",
+            "table.md",
+            "rmse_vs_spp.svg",
+            "timings.csv",
+            "timings.md",
+            MANIFEST,
+        ]
+        .map(String::from)
+        .into();
+        for v in variants {
+            let label = v.get("label")?.as_str()?;
+            for s in spp {
+                names.push(super::plan::png_name(label, s.as_u64()? as usize));
+            }
+        }
+        return Some(names);
+    }
+    None
+}
+
 /// `manifest.json`: the resolved plan, with the reference and how render seeds are derived.
 pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
     let variants: Vec<_> = plan
@@ -281,4 +315,23 @@ pub fn timings_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
         .expect(IN_MEMORY);
     }
     w.into_inner().expect(IN_MEMORY)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn results_folder_holds_one_run_legacy_manifests_are_read_by_content() {
+        let table = serde_json::json!({
+            "scene": "render-scene v1", "spp": [4, 8],
+            "variants": [{"label": "BMC 2 GP"}],
+        });
+        assert!(
+            legacy_manifest_files(&table)
+                .unwrap()
+                .contains(&"bmc-2-gp-8spp.png".to_string())
+        );
+        assert!(legacy_manifest_files(&serde_json::json!({"files": {"a": "b"}})).is_none());
+    }
 }

@@ -78,6 +78,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         &out.display().to_string(),
         "use another --results-dir (or another \"name\" in the spec)",
         &inputs,
+        export::legacy_manifest_files,
     )?;
     if !cache.exists() {
         // The reference is written there after it is rendered: fail now, not then.

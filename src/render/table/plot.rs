@@ -4,7 +4,6 @@
 
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
-use crate::bq::estimator::Method;
 use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 use crate::render::integrator::IntegratorKind;
 use plotters::prelude::*;
@@ -22,7 +21,7 @@ fn guide_variant(plan: &TablePlan) -> Option<usize> {
     plan.variants
         .iter()
         .position(|v| v.kind == IntegratorKind::MC)
-        .or_else(|| plan.variants.iter().position(|v| v.kind.method == Method::Mc))
+        .or_else(|| plan.variants.iter().position(|v| v.kind.method.is_monte_carlo()))
 }
 
 /// The factor each variant's spp is drawn at: 1 ± k·step around the middle, the step 2%, less

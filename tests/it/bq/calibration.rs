@@ -17,7 +17,7 @@ use workbench::bq::estimator::Method;
 use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
 use workbench::bq::kernel_mean::KernelMeanTable;
-use workbench::bq::rule::Solved;
+use workbench::bq::weights::Solved;
 use workbench::sampling::Design;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;

@@ -333,7 +333,10 @@ fn sd_out_bad_input_is_exit_2() {
             "--out",
             "a.exr",
         ],
-        &["--sd-out s.exr: needs an integrator with a posterior (bmc, bmcp, bmcp-edge or bsq), not mc"],
+        &[
+            "--sd-out s.exr: needs an integrator with a posterior (bmc, bmcp, bmcp-edge, bsq, bmc-fibonacci, ",
+            "bmc-sobol, bmcp-sobol, bmcp-edge-sobol, bsq-sobol, bmc-rings, bmcp-rings, bmcp-edge-rings or bsq-rings), not mc",
+        ],
     );
     assert_input_error(
         &[
