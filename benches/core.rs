@@ -11,7 +11,7 @@ use std::time::Instant;
 use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, Sobolev};
 use workbench::bq::kernel_mean::KernelMeanTable;
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
 
@@ -38,7 +38,7 @@ fn main() {
     );
     for n in [64usize, 256, 512, 1024] {
         let reps = if n <= 256 { 41 } else { 11 };
-        let pts: Vec<Vec3> = Design::Uniform.sample_set(n, &mut stream(1, &[n as u64]));
+        let pts: Vec<Vec3> = Density::Uniform.sample_set(n, &mut stream(1, &[n as u64]));
         let z: Vec<f64> = pts.iter().map(|p| table.z(p.z)).collect();
         let mut ws = SpdWorkspace::new();
         let diag = kernel.diagonal() + 0.01;
@@ -96,7 +96,7 @@ fn main() {
 /// and `diag(Q⁻¹)` as `loo` needs. Median seconds per weight set.
 fn rings(kernel: &Kernel, table: &KernelMeanTable, sink: &mut f64) {
     use workbench::bq::weights::bmc_weights_on_rings;
-    use workbench::sampling::{SetDesign, rings};
+    use workbench::sampling::{Design, rings};
     println!();
     println!(
         "{:>6} {:>5} {:>5} {:>12} {:>12} {:>12}",
@@ -105,7 +105,7 @@ fn rings(kernel: &Kernel, table: &KernelMeanTable, sink: &mut f64) {
     for n in [512usize, 2048, 4096, 16384, 65536] {
         let layout = rings::layout(n);
         let reps = if n <= 4096 { 11 } else { 5 };
-        let pts = SetDesign::Rings.sample_set(n, &mut stream(2, &[n as u64]));
+        let pts = Design::Rings.sample_set(n, &mut stream(2, &[n as u64]));
         let z: Vec<f64> = pts.iter().map(|p| table.z(p.z)).collect();
         let y: Vec<f64> = pts.iter().map(|p| p.z.powi(3) + p.x).collect();
         let mut ws = SpdWorkspace::new();

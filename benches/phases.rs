@@ -16,7 +16,7 @@ use std::time::Instant;
 use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, PointsSoa, Sobolev};
 use workbench::bq::kernel_mean::KernelMeanTable;
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
 
@@ -37,7 +37,7 @@ struct Phases {
 /// The points of trial `trial` at `n`: the run draws from its own streams, so these are other
 /// points of the same design, which costs the same.
 fn points(n: usize, trial: u64) -> Vec<Vec3> {
-    Design::Uniform.sample_set(n, &mut stream(2023, &[n as u64, trial]))
+    Density::Uniform.sample_set(n, &mut stream(2023, &[n as u64, trial]))
 }
 
 /// The floor: `TRIALS ×` the factorisation of each N alone (assembly timed and subtracted, as

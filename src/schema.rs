@@ -10,7 +10,7 @@
 use crate::experiment::spec::ExperimentSpec;
 use crate::render::integrator::IntegratorKind;
 use crate::render::table::spec::TableSpec;
-use crate::sampling::SetDesign;
+use crate::sampling::Design;
 use schemars::{JsonSchema, Schema, SchemaGenerator, json_schema};
 use std::borrow::Cow;
 
@@ -75,16 +75,16 @@ fn one_of_names(description: &str, names: Vec<String>) -> Schema {
     })
 }
 
-/// By name, as [`SetDesign`]'s hand-written serde does; the names come from [`SetDesign::ALL`].
-impl JsonSchema for SetDesign {
+/// By name, as [`Design`]'s hand-written serde does; the names come from [`Design::ALL`].
+impl JsonSchema for Design {
     fn schema_name() -> Cow<'static, str> {
-        "SetDesign".into()
+        "Design".into()
     }
 
     fn json_schema(_: &mut SchemaGenerator) -> Schema {
         one_of_names(
             "How a sample set is drawn (math.md §2).",
-            SetDesign::ALL.iter().map(|d| d.name().to_string()).collect(),
+            Design::ALL.iter().map(|d| d.name().to_string()).collect(),
         )
     }
 }
@@ -116,7 +116,7 @@ mod tests {
             assert_eq!(SchemaKind::from_name(kind.name()), Some(kind));
         }
         let text = SchemaKind::Experiment.text();
-        for design in SetDesign::ALL {
+        for design in Design::ALL {
             assert!(
                 text.contains(&format!("\"{}\"", design.name())),
                 "{design} missing"

@@ -9,7 +9,7 @@ use crate::bq::factor::{NotPositiveDefinite, SpdWorkspace};
 use crate::bq::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
 use crate::bq::kernel_mean::{KernelMeanMode, KernelMeanTable, kernel_means_mc, kernel_means_mc_per_point};
 use crate::bq::weights::{BmcWeights, bmc_weights, bmc_weights_on_rings};
-use crate::sampling::{Design, SetDesign, Structure};
+use crate::sampling::{Density, Design, Structure};
 use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -71,7 +71,7 @@ impl BmcModel {
                 kernel_means_mc_per_point(&self.kernel, points, samples, rng)
             }
             KernelMeanMode::MonteCarloShared { samples } => {
-                let dirs = Design::Uniform.sample_set(samples, rng);
+                let dirs = Density::Uniform.sample_set(samples, rng);
                 kernel_means_mc(&self.kernel, points, &PointsSoa::new(&dirs))
             }
         }
@@ -82,7 +82,7 @@ impl BmcModel {
     pub fn weights_for_design<R: rand::Rng + ?Sized>(
         &self,
         points: &[Vec3],
-        design: SetDesign,
+        design: Design,
         rng: &mut R,
         workspace: &mut SpdWorkspace,
     ) -> Result<BmcWeights, NotPositiveDefinite> {

@@ -10,7 +10,7 @@ use crate::bq::factor::SpdWorkspace;
 use crate::bq::model::BmcModel;
 use crate::bq::weights::{BmcWeights, Scale, Solved};
 use crate::error::InputError;
-use crate::sampling::{Design, SetDesign, Structure};
+use crate::sampling::{Density, Design, Structure};
 use crate::util::geometry::Vec3;
 use crate::util::rng::stream;
 
@@ -19,7 +19,7 @@ use crate::util::rng::stream;
 /// amplitude, `diag(Q⁻¹)` of its factor.
 #[derive(Clone, Copy, Debug)]
 pub struct Rule<'a> {
-    pub density: Design,
+    pub density: Density,
     pub points: &'a [Vec3],
     pub weights: Option<&'a BmcWeights>,
     pub inverse_diagonal: Option<&'a [f64]>,
@@ -114,7 +114,7 @@ const POINTS_STREAM: u64 = 0;
 const KERNEL_MEAN_STREAM: u64 = 1;
 
 /// `n` points drawn with `design` from `seed`: the set `workbench rule --n N --seed S` uses.
-pub fn generate_points(n: usize, seed: u64, design: SetDesign) -> Vec<Vec3> {
+pub fn generate_points(n: usize, seed: u64, design: Design) -> Vec<Vec3> {
     design.sample_set(n, &mut stream(seed, &[POINTS_STREAM]))
 }
 
@@ -128,7 +128,7 @@ pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> crate::Resu
 /// a ring set ([`BmcModel::weights_for_design`]), otherwise as [`compute_rule`].
 pub fn compute_rule_for_design(
     points: &[Vec3],
-    design: SetDesign,
+    design: Design,
     model: &BmcModel,
     seed: u64,
 ) -> crate::Result<BmcWeights> {
@@ -141,7 +141,7 @@ pub fn compute_rule_for_design(
 /// as large as [`crate::bq::factor::rings::MAX_RING_POINTS`] (no `N × N` matrix is formed).
 pub fn check_generated_count(
     n: usize,
-    design: SetDesign,
+    design: Design,
     exact_kernel_means: bool,
     what: &str,
 ) -> Result<(), InputError> {

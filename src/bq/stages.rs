@@ -26,7 +26,7 @@ use crate::bq::model::BmcModel;
 use crate::bq::rule::{Estimate, Rule, Values};
 use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
-use crate::sampling::Design;
+use crate::sampling::Density;
 use crate::util::geometry::Vec3;
 
 /// The interval level whose half-width is compared with the tolerance.
@@ -130,7 +130,7 @@ pub struct Outcome {
 /// `density`) with integrand values `values` (same length): the estimate and standard error of
 /// each stage are [`Method::Mc`]'s on the stage's first points, so a trial that stops at `N` is
 /// the fixed-N estimate at `N` exactly.
-pub fn mc(density: Design, points: &[Vec3], values: &[f64], stages: &[usize], abs: f64) -> Outcome {
+pub fn mc(density: Density, points: &[Vec3], values: &[f64], stages: &[usize], abs: f64) -> Outcome {
     let target = Target::HalfWidth(abs);
     let stop = walk(stages, |m| {
         let rule = Rule {
@@ -301,7 +301,7 @@ pub fn weighted_together(
                 let i = nested.stage(m)?;
                 let stage = &nested.stages[i].1;
                 let rule = Rule {
-                    density: Design::Uniform,
+                    density: Density::Uniform,
                     points: &nested.points[..m],
                     weights: Some(&stage.weights),
                     inverse_diagonal: stage.inverse_diagonal.as_deref(),

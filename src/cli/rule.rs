@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use workbench::bq::estimator::Method;
 use workbench::files::file_set::FileSet;
-use workbench::sampling::SetDesign;
+use workbench::sampling::Design;
 use workbench::util::geometry::Vec3;
 
 #[derive(clap::Args, Debug)]
@@ -50,7 +50,7 @@ pub struct RuleArgs {
 }
 
 fn design_names() -> Vec<&'static str> {
-    SetDesign::ALL.iter().map(|d| d.name()).collect()
+    Design::ALL.iter().map(|d| d.name()).collect()
 }
 
 /// Default number of generated points.
@@ -72,8 +72,8 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     let design = args
         .design
         .as_deref()
-        .and_then(SetDesign::from_name)
-        .unwrap_or(SetDesign::Iid(workbench::sampling::Design::Uniform));
+        .and_then(Design::from_name)
+        .unwrap_or(Design::Iid(workbench::sampling::Density::Uniform));
     let exact_kernel_means = args.model.resolve()?.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
     let points = match &args.points {
         Some(path) => {

@@ -5,7 +5,7 @@
 use super::plan::{Plan, PlannedEstimator};
 use crate::bq::stages::{self, Outcome};
 use crate::bq::weights::Scale;
-use crate::sampling::SetDesign;
+use crate::sampling::Design;
 use crate::util::geometry::Vec3;
 
 /// What one tolerance estimator produced in one unit.
@@ -20,7 +20,7 @@ pub struct UnitRun {
 }
 
 /// A unit's nested set for one (design, max_n), and every integrand's values on it.
-type NestedSetValues = ((SetDesign, usize), Vec<Vec3>, Vec<Vec<f64>>);
+type NestedSetValues = ((Design, usize), Vec<Vec3>, Vec<Vec<f64>>);
 
 /// Runs every tolerance estimator of the plan in the unit with first stage `n`; `draw(design,
 /// count)` gives the unit's nested set for a design (the first `n` points are the unit's own).
@@ -30,7 +30,7 @@ pub fn run_unit(
     plan: &Plan,
     n: usize,
     trial: usize,
-    draw: &dyn Fn(SetDesign, usize) -> Vec<Vec3>,
+    draw: &dyn Fn(Design, usize) -> Vec<Vec3>,
 ) -> crate::Result<Vec<Option<UnitRun>>> {
     let mut out: Vec<Option<UnitRun>> = vec![None; plan.estimators.len()];
     // One set and its values per (design, max_n) in use.

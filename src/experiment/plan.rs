@@ -8,7 +8,7 @@ use crate::bq::model::ResolvedModel;
 use crate::bq::rule::MAX_POINTS;
 use crate::bq::weights::Scale;
 use crate::integrand::{CosPower, Integrand};
-use crate::sampling::{Design, SetDesign, Structure};
+use crate::sampling::{Density, Design, Structure};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -44,7 +44,7 @@ pub struct Plan {
     /// Distinct BMC models; estimators that share one share its weights within a trial.
     pub models: Vec<Arc<BmcModel>>,
     /// Distinct designs in use; estimators with the same design see the same sample set.
-    pub designs: Vec<SetDesign>,
+    pub designs: Vec<Design>,
     /// Smallest N of the slope fits ([`super::fit`]).
     pub fit_from_n: usize,
 }
@@ -73,7 +73,7 @@ impl Prior {
 pub struct PlannedEstimator {
     pub label: String,
     pub method: Method,
-    pub design: SetDesign,
+    pub design: Design,
     /// Index into [`Plan::models`] (methods that need weights).
     pub model: Option<usize>,
     /// The prior mean (methods that use one).
@@ -90,7 +90,7 @@ pub struct PlannedEstimator {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResolvedSettings {
     pub method: Method,
-    pub design: SetDesign,
+    pub design: Design,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kernel: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -257,7 +257,7 @@ fn check_counts(spec: &ExperimentSpec) -> Result<(), String> {
 struct Estimators {
     estimators: Vec<PlannedEstimator>,
     models: Vec<Arc<BmcModel>>,
-    designs: Vec<SetDesign>,
+    designs: Vec<Design>,
 }
 
 /// Every estimator (sweeps expanded), validated; estimators with the same model and design share
@@ -267,8 +267,8 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
     let mut models: Vec<Arc<BmcModel>> = Vec::new();
     // Estimators with the same model and design share their weights; the key's index also
     // seeds the model's kernel-mean stream, so its order is part of the results.
-    let mut model_keys: Vec<(ResolvedModel, SetDesign)> = Vec::new();
-    let mut designs: Vec<SetDesign> = Vec::new();
+    let mut model_keys: Vec<(ResolvedModel, Design)> = Vec::new();
+    let mut designs: Vec<Design> = Vec::new();
     // The JSON path of each planned estimator, for messages (a swept one names its values).
     let mut paths: Vec<String> = Vec::new();
     for super::sweep::Expanded { path, spec: e } in super::sweep::expand(&spec.estimators)? {
@@ -324,7 +324,7 @@ fn check_limits(
     spec: &ExperimentSpec,
     integrands: &[Integrand],
     estimators: &[PlannedEstimator],
-    designs: &[SetDesign],
+    designs: &[Design],
 ) -> Result<(), String> {
     let max_n = *spec.samples.iter().max().expect("samples is not empty");
     // Some designs take only some counts (the rings need N = J·M, sampling::rings).
@@ -642,7 +642,7 @@ fn resolve_estimator(
     e: &EstimatorSpec,
     at: &dyn Fn(&str) -> String,
 ) -> Result<(PlannedEstimator, Option<ResolvedModel>), String> {
-    let design = e.design.unwrap_or(SetDesign::Iid(Design::Uniform));
+    let design = e.design.unwrap_or(Design::Iid(Density::Uniform));
     let unused =
         |field: &str, value: String| err(at(field), format!("{value} is not used by method {}", e.method));
     let model = if e.method.needs_weights() {

@@ -7,7 +7,7 @@ use super::fit::{SeriesFit, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
 use crate::plot::{self as style, Axis, LegendEntry, Swatch};
-use crate::sampling::{Design, SetDesign};
+use crate::sampling::{Density, Design};
 use plotters::prelude::*;
 
 /// Height of the chart (axes and plotting area), between the title block and the legend.
@@ -24,7 +24,7 @@ pub fn guide_estimator(plan: &Plan) -> Option<usize> {
     let mc = |e: &&super::plan::PlannedEstimator| e.method.is_monte_carlo();
     plan.estimators
         .iter()
-        .position(|e| mc(&e) && e.design == SetDesign::Iid(Design::Uniform))
+        .position(|e| mc(&e) && e.design == Design::Iid(Density::Uniform))
         .or_else(|| plan.estimators.iter().position(|e| mc(&e)))
 }
 

@@ -10,7 +10,7 @@ use crate::bq::factor::SpdWorkspace;
 use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
-use crate::sampling::SetDesign;
+use crate::sampling::Design;
 use crate::util::rng::stream;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -135,7 +135,7 @@ pub fn run_unit(
             set
         })
         .collect();
-    let design_index = |d: SetDesign| {
+    let design_index = |d: Design| {
         plan.designs
             .iter()
             .position(|&x| x == d)
@@ -181,7 +181,7 @@ pub fn run_unit(
     let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
-    let mut weights: Vec<((usize, SetDesign), BmcWeights, SetSolves)> = Vec::new();
+    let mut weights: Vec<((usize, Design), BmcWeights, SetSolves)> = Vec::new();
     let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {

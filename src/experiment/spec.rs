@@ -5,7 +5,7 @@
 use crate::bq::estimator::Method;
 pub use crate::bq::model::{KernelMeanName, KernelSpec, ModelSpec};
 pub use crate::integrand::family::FamilySpec;
-use crate::sampling::SetDesign;
+use crate::sampling::Design;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -55,7 +55,7 @@ pub struct EstimatorSpec {
     pub method: Method,
     /// Sampling design by name; default `uniform`.
     #[serde(default)]
-    pub design: Option<SetDesign>,
+    pub design: Option<Design>,
     /// BMC/BMCP only; default Sobolev with s = 1.4.
     #[serde(default)]
     pub kernel: Option<KernelSpec>,

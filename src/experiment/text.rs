@@ -9,7 +9,7 @@ use super::{RunReport, export};
 pub fn describe(plan: &plan::Plan) -> String {
     let cells = plan.integrands.len() * plan.estimators.len() * plan.samples.len();
     let weight_sets: usize = {
-        let mut keys: Vec<(usize, crate::sampling::SetDesign)> = plan
+        let mut keys: Vec<(usize, crate::sampling::Design)> = plan
             .estimators
             .iter()
             .filter(|e| e.tolerance.is_none())

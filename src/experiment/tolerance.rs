@@ -4,7 +4,7 @@
 use super::spec::{CheckSpec, EstimatorSpec, ExperimentSpec, KernelMeanName};
 use crate::bq::estimator::Method;
 use crate::bq::stages::Tolerance;
-use crate::sampling::SetDesign;
+use crate::sampling::Design;
 use serde::Serialize;
 
 /// The estimator's tolerance, validated against its method, design, model and the sample counts
@@ -13,7 +13,7 @@ use serde::Serialize;
 pub fn resolve_tolerance(
     e: &EstimatorSpec,
     method: Method,
-    design: SetDesign,
+    design: Design,
     samples: &[u64],
     unit_points: u64,
     at: &dyn Fn(&str) -> String,

@@ -36,7 +36,7 @@ use crate::bq::rule::{Estimate, Rule, Values};
 use crate::bq::stages::{Target, Tolerance, stage_weights, walk};
 use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
-use crate::sampling::Design;
+use crate::sampling::Density;
 use crate::util::geometry::Vec3;
 use crate::util::report::Reporter;
 use crate::util::rng::{WorkbenchRng, stream};
@@ -116,13 +116,13 @@ impl NestedSet {
 #[derive(Clone, Debug)]
 pub enum AdaptiveSampler {
     /// Fresh MC samples from the pixel's stream (uniform or cosine-weighted).
-    Mc(Design),
+    Mc(Density),
     /// Nested weighted sets for `method`, one picked per pixel, rotated by a random azimuth if
     /// `rotate`; an estimator with a prior mean takes it from the `neighbours` of a first pass.
     Weighted {
         method: Method,
         /// The density each set's points follow (uniform for the uniform sets).
-        density: Design,
+        density: Density,
         sets: Vec<NestedSet>,
         rotate: bool,
         neighbours: NeighbourPrior,
@@ -148,7 +148,7 @@ impl AdaptiveSampler {
         seed: u64,
     ) -> Result<(Self, f64), NotPositiveDefinite> {
         if !kind.uses_sets() {
-            return Ok((AdaptiveSampler::Mc(kind.design), 0.0));
+            return Ok((AdaptiveSampler::Mc(kind.density), 0.0));
         }
         let model = model.expect("an estimator with weights has a model");
         let max = settings.max_spp();
@@ -412,7 +412,7 @@ fn mc_pixel(
     p: &ShadingPoint,
     scene: &Scene,
     env: &Environment,
-    design: Design,
+    design: Density,
     settings: &AdaptiveSettings,
     rng: &mut WorkbenchRng,
 ) -> PixelEstimate {
@@ -465,7 +465,7 @@ fn weighted_pixel(
     p: &ShadingPoint,
     scene: &Scene,
     env: &Environment,
-    (method, density): (Method, Design),
+    (method, density): (Method, Density),
     sets: &[NestedSet],
     rotate: bool,
     settings: &AdaptiveSettings,

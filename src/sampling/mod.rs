@@ -8,22 +8,22 @@ use crate::util::geometry::Vec3;
 use rand::{Rng, RngExt};
 use std::f64::consts::{PI, TAU};
 
-/// How sample directions are drawn.
+/// The density of a single sample direction (what MC divides by).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum Design {
+pub enum Density {
     /// `cos θ = u1`, `φ = 2π u2`; pdf `1/(2π)`.
     Uniform,
     /// `cos θ = sqrt(u1)`, `φ = 2π u2`; pdf `cos θ / π`.
     Cosine,
 }
 
-impl Design {
+impl Density {
     /// The name used in files and on the command line.
     pub fn name(self) -> &'static str {
         match self {
-            Design::Uniform => "uniform",
-            Design::Cosine => "cosine",
+            Density::Uniform => "uniform",
+            Density::Cosine => "cosine",
         }
     }
 
@@ -31,8 +31,8 @@ impl Design {
     #[inline]
     pub fn map(self, u1: f64, u2: f64) -> Vec3 {
         let cos_theta = match self {
-            Design::Uniform => u1,
-            Design::Cosine => u1.sqrt(),
+            Density::Uniform => u1,
+            Density::Cosine => u1.sqrt(),
         };
         let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
         let (s, c) = (TAU * u2).sin_cos();
@@ -43,8 +43,8 @@ impl Design {
     #[inline]
     pub fn pdf(self, w: &Vec3) -> f64 {
         match self {
-            Design::Uniform => 1.0 / TAU,
-            Design::Cosine => w.z.max(0.0) / PI,
+            Density::Uniform => 1.0 / TAU,
+            Density::Cosine => w.z.max(0.0) / PI,
         }
     }
 
@@ -62,7 +62,7 @@ impl Design {
     }
 }
 
-impl std::fmt::Display for Design {
+impl std::fmt::Display for Density {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
@@ -76,7 +76,7 @@ mod tests {
     #[test]
     fn samples_are_unit_vectors_in_the_upper_hemisphere() {
         let mut rng = stream(1, &[]);
-        for d in [Design::Uniform, Design::Cosine] {
+        for d in [Density::Uniform, Density::Cosine] {
             for w in d.sample_set(1000, &mut rng) {
                 assert!((w.norm() - 1.0).abs() < 1e-14);
                 assert!(w.z >= 0.0);
@@ -91,8 +91,8 @@ mod tests {
         let n = 200_000;
         let mut rng = stream(2, &[]);
         for (d, mean, var) in [
-            (Design::Uniform, 0.5, 1.0 / 12.0),
-            (Design::Cosine, 2.0 / 3.0, 1.0 / 18.0),
+            (Density::Uniform, 0.5, 1.0 / 12.0),
+            (Density::Cosine, 2.0 / 3.0, 1.0 / 18.0),
         ] {
             let m: f64 = d.sample_set(n, &mut rng).iter().map(|w| w.z).sum::<f64>() / n as f64;
             let se = (var / n as f64).sqrt();
@@ -104,21 +104,21 @@ mod tests {
 /// How a whole point set is drawn: independent points from a density, or a randomised
 /// low-discrepancy lattice (math.md §2, "extra designs").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum SetDesign {
-    /// `n` independent points from the design's density.
-    Iid(Design),
+pub enum Design {
+    /// `n` independent points from a density.
+    Iid(Density),
     /// Spherical Fibonacci lattice on the hemisphere with a Cranley–Patterson shift:
     /// `u1 = frac((i + ½)/n + s1)`, `u2 = frac(i/φ + s2)` (φ the golden ratio, `(s1, s2)`
-    /// uniform per set), mapped like [`Design::Uniform`]. Each point is uniform on the
+    /// uniform per set), mapped like [`Density::Uniform`]. Each point is uniform on the
     /// hemisphere, so MC on it is unbiased (randomised QMC), while the set is evenly spread:
     /// one point per band `cos θ ∈ [i/n, (i+1)/n)`. Marques et al. (2013) use this lattice for
     /// spherical quadrature.
     Fibonacci,
-    /// A jittered `m1 × m2` grid in `(u1, u2)`, mapped like [`Design::Uniform`] (see
+    /// A jittered `m1 × m2` grid in `(u1, u2)`, mapped like [`Density::Uniform`] (see
     /// [`stratified`]).
     Stratified,
     /// The first `n` points of a 2-D Sobol sequence, Owen-scrambled afresh for every set, mapped
-    /// like [`Design::Uniform`] (see [`sobol`]).
+    /// like [`Density::Uniform`] (see [`sobol`]).
     Sobol,
     /// `J` rings of `M` equally spaced azimuths (`N = J·M`), ring heights jittered within
     /// equal-area strata and the whole set randomly rotated (see [`rings`]): a fully symmetric
@@ -137,25 +137,25 @@ pub enum Structure {
     Rings,
 }
 
-impl SetDesign {
+impl Design {
     /// Every design, in the order of the docs: the list that the conformance tests walk and
     /// that names are parsed from. A new design is added here and in the matches below (all
     /// exhaustive, so a design not wired everywhere does not compile).
-    pub const ALL: [SetDesign; 6] = [
-        SetDesign::Iid(Design::Uniform),
-        SetDesign::Iid(Design::Cosine),
-        SetDesign::Fibonacci,
-        SetDesign::Stratified,
-        SetDesign::Sobol,
-        SetDesign::Rings,
+    pub const ALL: [Design; 6] = [
+        Design::Iid(Density::Uniform),
+        Design::Iid(Density::Cosine),
+        Design::Fibonacci,
+        Design::Stratified,
+        Design::Sobol,
+        Design::Rings,
     ];
 
-    /// Parses [`SetDesign::name`].
+    /// Parses [`Design::name`].
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|d| d.name() == name)
     }
 
-    /// The names of [`SetDesign::ALL`], for messages.
+    /// The names of [`Design::ALL`], for messages.
     pub fn names() -> String {
         Self::ALL.map(|d| d.name()).join(", ")
     }
@@ -163,62 +163,60 @@ impl SetDesign {
     /// A stable number for seeding the design's random stream (never reuse one).
     pub fn stream_id(self) -> u64 {
         match self {
-            SetDesign::Iid(Design::Uniform) => 0,
-            SetDesign::Iid(Design::Cosine) => 1,
-            SetDesign::Fibonacci => 2,
-            SetDesign::Stratified => 3,
-            SetDesign::Sobol => 4,
-            SetDesign::Rings => 5,
+            Design::Iid(Density::Uniform) => 0,
+            Design::Iid(Density::Cosine) => 1,
+            Design::Fibonacci => 2,
+            Design::Stratified => 3,
+            Design::Sobol => 4,
+            Design::Rings => 5,
         }
     }
 
     /// The name used in files and on the command line.
     pub fn name(self) -> &'static str {
         match self {
-            SetDesign::Iid(d) => d.name(),
-            SetDesign::Fibonacci => "fibonacci",
-            SetDesign::Stratified => "stratified",
-            SetDesign::Sobol => "sobol",
-            SetDesign::Rings => "rings",
+            Design::Iid(d) => d.name(),
+            Design::Fibonacci => "fibonacci",
+            Design::Stratified => "stratified",
+            Design::Sobol => "sobol",
+            Design::Rings => "rings",
         }
     }
 
     /// The density each point follows (what MC divides by).
-    pub fn density(self) -> Design {
+    pub fn density(self) -> Density {
         match self {
-            SetDesign::Iid(d) => d,
-            SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol | SetDesign::Rings => {
-                Design::Uniform
-            }
+            Design::Iid(d) => d,
+            Design::Fibonacci | Design::Stratified | Design::Sobol | Design::Rings => Density::Uniform,
         }
     }
 
     /// A set of `n` points.
     pub fn sample_set<R: Rng + ?Sized>(self, n: usize, rng: &mut R) -> Vec<Vec3> {
         match self {
-            SetDesign::Iid(d) => d.sample_set(n, rng),
-            SetDesign::Fibonacci => {
+            Design::Iid(d) => d.sample_set(n, rng),
+            Design::Fibonacci => {
                 const INV_GOLDEN: f64 = 0.618_033_988_749_894_9;
                 let (s1, s2): (f64, f64) = (rng.random(), rng.random());
                 (0..n)
                     .map(|i| {
                         let u1 = ((i as f64 + 0.5) / n as f64 + s1).fract();
                         let u2 = (i as f64 * INV_GOLDEN + s2).fract();
-                        Design::Uniform.map(u1, u2)
+                        Density::Uniform.map(u1, u2)
                     })
                     .collect()
             }
-            SetDesign::Stratified => {
+            Design::Stratified => {
                 let (m1, m2) = stratified::grid(n);
                 (0..n)
                     .map(|k| {
                         let (a, b) = ((k % m1) as f64, (k / m1) as f64);
                         let (j1, j2): (f64, f64) = (rng.random(), rng.random());
-                        Design::Uniform.map((a + j1) / m1 as f64, (b + j2) / m2 as f64)
+                        Density::Uniform.map((a + j1) / m1 as f64, (b + j2) / m2 as f64)
                     })
                     .collect()
             }
-            SetDesign::Sobol => {
+            Design::Sobol => {
                 let (s1, s2): (u32, u32) = (rng.random(), rng.random());
                 // Below the 32 scrambled bits, uniform random bits make each coordinate
                 // uniform on [0, 1) rather than on a 2^−32 grid.
@@ -227,11 +225,11 @@ impl SetDesign {
                     .map(|i| {
                         let u1 = unit(sobol::owen_scramble(sobol::sobol(i, 0), s1), rng);
                         let u2 = unit(sobol::owen_scramble(sobol::sobol(i, 1), s2), rng);
-                        Design::Uniform.map(u1, u2)
+                        Density::Uniform.map(u1, u2)
                     })
                     .collect()
             }
-            SetDesign::Rings => rings::sample_set(n, rng),
+            Design::Rings => rings::sample_set(n, rng),
         }
     }
 
@@ -239,10 +237,8 @@ impl SetDesign {
     /// this instead of matching on designs): nothing, or the ring layout.
     pub fn structure(self) -> Structure {
         match self {
-            SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => {
-                Structure::Plain
-            }
-            SetDesign::Rings => Structure::Rings,
+            Design::Iid(_) | Design::Fibonacci | Design::Stratified | Design::Sobol => Structure::Plain,
+            Design::Rings => Structure::Rings,
         }
     }
 
@@ -251,8 +247,8 @@ impl SetDesign {
     /// jittered grid and the rings depend on N.
     pub fn is_nested(self) -> bool {
         match self {
-            SetDesign::Iid(_) | SetDesign::Sobol => true,
-            SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Rings => false,
+            Design::Iid(_) | Design::Sobol => true,
+            Design::Fibonacci | Design::Stratified | Design::Rings => false,
         }
     }
 
@@ -260,31 +256,31 @@ impl SetDesign {
     /// design (see [`rings::check`]); the message says why not.
     pub fn check_count(self, n: usize) -> Result<(), String> {
         match self {
-            SetDesign::Iid(_) | SetDesign::Fibonacci | SetDesign::Stratified | SetDesign::Sobol => Ok(()),
-            SetDesign::Rings => rings::check(n).map(|_| ()),
+            Design::Iid(_) | Design::Fibonacci | Design::Stratified | Design::Sobol => Ok(()),
+            Design::Rings => rings::check(n).map(|_| ()),
         }
     }
 }
 
-impl serde::Serialize for SetDesign {
+impl serde::Serialize for Design {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(self.name())
     }
 }
 
-impl<'de> serde::Deserialize<'de> for SetDesign {
+impl<'de> serde::Deserialize<'de> for Design {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let name = String::deserialize(d)?;
-        SetDesign::from_name(&name).ok_or_else(|| {
+        Design::from_name(&name).ok_or_else(|| {
             serde::de::Error::custom(format!(
                 "unknown design {name:?}; expected one of {}",
-                SetDesign::names()
+                Design::names()
             ))
         })
     }
 }
 
-impl std::fmt::Display for SetDesign {
+impl std::fmt::Display for Design {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
@@ -301,7 +297,7 @@ mod set_design_tests {
     fn fibonacci_sets_are_stratified_in_cos_theta() {
         let mut rng = stream(9, &[]);
         for n in [1, 7, 64, 255] {
-            let pts = SetDesign::Fibonacci.sample_set(n, &mut rng);
+            let pts = Design::Fibonacci.sample_set(n, &mut rng);
             let mut bands = vec![0; n];
             for p in &pts {
                 assert!((p.norm() - 1.0).abs() < 1e-14 && p.z >= 0.0);

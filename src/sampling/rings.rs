@@ -76,7 +76,7 @@ pub fn sample_set<R: Rng + ?Sized>(n: usize, rng: &mut R) -> Vec<Vec3> {
     for a in 0..rings {
         let z = (a as f64 + rng.random::<f64>()) / rings as f64;
         for m in 0..per_ring {
-            points.push(super::Design::Uniform.map(z, (m as f64 + rotation) / per_ring as f64));
+            points.push(super::Density::Uniform.map(z, (m as f64 + rotation) / per_ring as f64));
         }
     }
     points

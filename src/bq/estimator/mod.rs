@@ -15,7 +15,7 @@ pub mod bsq;
 pub mod mc;
 
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale, Solved};
-use crate::sampling::Design;
+use crate::sampling::Density;
 use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -131,7 +131,7 @@ impl Method {
     /// If a method that needs weights is given none, or the lengths differ.
     pub fn estimate(
         self,
-        density: Design,
+        density: Density,
         points: &[Vec3],
         values: &[f64],
         weights: Option<&BmcWeights>,
@@ -241,7 +241,7 @@ impl Method {
     #[allow(clippy::too_many_arguments)]
     pub fn uncertainty(
         self,
-        density: Design,
+        density: Density,
         points: &[Vec3],
         values: &[f64],
         weights: Option<&BmcWeights>,

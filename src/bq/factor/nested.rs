@@ -300,7 +300,7 @@ mod tests {
     /// A Sobolev-kernel Gram matrix plus noise on pseudo-random hemisphere points.
     fn gram(n: usize, noise: f64) -> impl Fn(usize, usize) -> f64 {
         let pts =
-            crate::sampling::Design::Uniform.sample_set(n, &mut crate::util::rng::stream(5, &[n as u64]));
+            crate::sampling::Density::Uniform.sample_set(n, &mut crate::util::rng::stream(5, &[n as u64]));
         let k = crate::bq::kernel::Kernel::Sobolev(crate::bq::kernel::Sobolev::new(1.4).unwrap());
         move |i, j| k.eval(&pts[i], &pts[j]) + if i == j { noise } else { 0.0 }
     }

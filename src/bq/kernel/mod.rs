@@ -97,7 +97,7 @@ impl std::fmt::Display for Kernel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::Design;
+    use crate::sampling::Density;
     use crate::util::rng::stream;
 
     fn kernels() -> Vec<Kernel> {
@@ -114,7 +114,7 @@ mod tests {
     fn kernels_are_symmetric() {
         let mut rng = stream(3, &[]);
         for k in kernels() {
-            let pts = Design::Uniform.sample_set(50, &mut rng);
+            let pts = Density::Uniform.sample_set(50, &mut rng);
             for x in &pts {
                 for y in &pts {
                     assert_eq!(k.eval(x, y), k.eval(y, x));
@@ -130,7 +130,7 @@ mod tests {
         let mut rng = stream(4, &[]);
         for k in kernels() {
             for n in [5, 20, 40] {
-                let pts = Design::Uniform.sample_set(n, &mut rng);
+                let pts = Density::Uniform.sample_set(n, &mut rng);
                 let g = nalgebra::DMatrix::from_fn(n, n, |i, j| k.eval(&pts[i], &pts[j]));
                 let eig = g.symmetric_eigenvalues();
                 assert!(eig.min() > -1e-12 * eig.max(), "{k} n={n}: λ_min = {}", eig.min());
@@ -144,7 +144,7 @@ mod tests {
     fn fill_column_matches_eval_bit_for_bit() {
         let mut rng = stream(6, &[]);
         for k in kernels() {
-            let pts = Design::Uniform.sample_set(67, &mut rng);
+            let pts = Density::Uniform.sample_set(67, &mut rng);
             let soa = PointsSoa::new(&pts);
             for j in [0, 5, 50, 66] {
                 let mut col = vec![0.0; 67 - j];

@@ -152,11 +152,11 @@ pub fn kernel_means_mc_per_point<R: rand::Rng + ?Sized>(
 }
 
 /// Overwrites `directions` with uniform directions on the hemisphere: the map of
-/// [`crate::sampling::Design::Uniform`] (`cos θ = u1`, `φ = 2π u2`, with `u1, u2` drawn in the
-/// same order as its `sample`), so the directions equal `Design::Uniform.map(u1, u2)` up to a
+/// [`crate::sampling::Density::Uniform`] (`cos θ = u1`, `φ = 2π u2`, with `u1, u2` drawn in the
+/// same order as its `sample`), so the directions equal `Density::Uniform.map(u1, u2)` up to a
 /// few units in the last place.
 ///
-/// Why not call `Design::Uniform.sample`: `f64::sin_cos` is a library call that costs ~20 ns,
+/// Why not call `Density::Uniform.sample`: `f64::sin_cos` is a library call that costs ~20 ns,
 /// ten times the random numbers, and the per-point mode draws N·M directions. Here the numbers
 /// are drawn first and the map runs as a separate loop with [`cos_sin_turn`], which vectorises.
 fn fill_uniform_directions<R: rand::Rng + ?Sized>(
@@ -283,11 +283,11 @@ mod tests {
         assert!(worst < 1e-15, "max |Δ| = {worst:e}");
     }
 
-    /// The directions are `Design::Uniform`'s for the same random numbers, to a few ulps.
+    /// The directions are `Density::Uniform`'s for the same random numbers, to a few ulps.
     #[test]
     fn fill_uniform_directions_is_the_uniform_design() {
         let m = 10_000;
-        let want = crate::sampling::Design::Uniform.sample_set(m, &mut crate::util::rng::stream(5, &[]));
+        let want = crate::sampling::Density::Uniform.sample_set(m, &mut crate::util::rng::stream(5, &[]));
         let mut got = crate::bq::kernel::PointsSoa::new(&vec![Vec3::new(0.0, 0.0, 0.0); m]);
         fill_uniform_directions(&mut crate::util::rng::stream(5, &[]), &mut got);
         for (j, w) in want.iter().enumerate() {

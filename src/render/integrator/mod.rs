@@ -6,7 +6,7 @@
 //! The estimators are the experiments' own ([`crate::bq::estimator::Method`]), applied once per
 //! channel to the integrand's values at the pixel's sample directions: a new estimator is a
 //! render integrator as soon as it is a [`Method`]. What the renderer adds is where the samples
-//! come from — fresh per pixel for MC ([`Design::Uniform`] or [`Design::Cosine`]), re-used
+//! come from — fresh per pixel for MC ([`Density::Uniform`] or [`Density::Cosine`]), re-used
 //! rotated sets for estimators with weights ([`sets`]) — and, for estimators with a prior mean,
 //! the checkerboard neighbours that supply it ([`neighbours`]).
 
@@ -21,7 +21,7 @@ use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
-use crate::sampling::{Design, SetDesign};
+use crate::sampling::{Density, Design};
 use crate::util::geometry::{Frame, Vec3};
 use crate::util::rng::WorkbenchRng;
 pub use neighbours::NeighbourPrior;
@@ -33,11 +33,12 @@ use std::f64::consts::PI;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct IntegratorKind {
     pub method: Method,
-    pub design: Design,
+    /// The density of MC's fresh samples (uniform for the estimators with weights).
+    pub density: Density,
     /// How the weighted sample sets are drawn: independent uniform points
-    /// ([`SetDesign::Iid`]`(Uniform)`, the default and the only one for MC) or rings
-    /// ([`SetDesign::Rings`], weights by the `J × J` ring solver, [`crate::bq::factor::rings`]).
-    pub set_design: SetDesign,
+    /// ([`Design::Iid`]`(Uniform)`, the default and the only one for MC) or rings
+    /// ([`Design::Rings`], weights by the `J × J` ring solver, [`crate::bq::factor::rings`]).
+    pub set_design: Design,
     /// How an estimator with a prior mean (`bmcp`) gets its constant from the neighbours
     /// ([`NeighbourPrior`]); [`NeighbourPrior::Mean`] for every other estimator.
     pub neighbours: NeighbourPrior,
@@ -49,7 +50,7 @@ impl IntegratorKind {
     /// `mc-cos`: cosine-weighted samples, the standard importance-sampled baseline.
     pub const MC_COS: Self = IntegratorKind {
         method: Method::Mc,
-        design: Design::Cosine,
+        density: Density::Cosine,
         set_design: UNIFORM_SETS,
         neighbours: NeighbourPrior::Mean,
     };
@@ -61,7 +62,7 @@ impl IntegratorKind {
     /// ([`NeighbourPrior::EdgeAware`]).
     pub const BMCP_EDGE: Self = IntegratorKind {
         method: Method::Bmcp,
-        design: Design::Uniform,
+        density: Density::Uniform,
         set_design: UNIFORM_SETS,
         neighbours: NeighbourPrior::EdgeAware,
     };
@@ -69,7 +70,7 @@ impl IntegratorKind {
     const fn uniform(method: Method) -> Self {
         IntegratorKind {
             method,
-            design: Design::Uniform,
+            density: Density::Uniform,
             set_design: UNIFORM_SETS,
             neighbours: NeighbourPrior::Mean,
         }
@@ -78,7 +79,7 @@ impl IntegratorKind {
     /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
     /// uniform samples, those without weights also on cosine-weighted ones, those with a
     /// prior mean also with the edge-aware neighbour prior; then every estimator with weights
-    /// (and neighbour prior) again on the sets of every other design of [`SetDesign::ALL`]
+    /// (and neighbour prior) again on the sets of every other design of [`Design::ALL`]
     /// (fibonacci, stratified, sobol, rings).
     pub fn all() -> Vec<Self> {
         let mut all = Vec::new();
@@ -87,7 +88,7 @@ impl IntegratorKind {
             if !method.needs_weights() {
                 all.push(IntegratorKind {
                     method,
-                    design: Design::Cosine,
+                    density: Density::Cosine,
                     set_design: UNIFORM_SETS,
                     neighbours: NeighbourPrior::Mean,
                 });
@@ -102,8 +103,8 @@ impl IntegratorKind {
         // Every other set design the sampling module offers, so that a new design reaches the
         // renderer without an edit here. (I.i.d. designs are MC's densities, not sample sets.)
         let with_sets: Vec<Self> = all.iter().filter(|k| k.uses_sets()).copied().collect();
-        for set_design in SetDesign::ALL {
-            if set_design == UNIFORM_SETS || matches!(set_design, SetDesign::Iid(_)) {
+        for set_design in Design::ALL {
+            if set_design == UNIFORM_SETS || matches!(set_design, Design::Iid(_)) {
                 continue;
             }
             all.extend(with_sets.iter().map(|k| IntegratorKind { set_design, ..*k }));
@@ -116,9 +117,9 @@ impl IntegratorKind {
     /// ring sample sets (`mc`, `mc-cos`, `bmc`, `bmcp`, `bmcp-edge`, `bsq`, `bmc-rings`,
     /// `bmcp-rings`, `bmcp-edge-rings`, `bsq-rings`).
     pub fn name(self) -> String {
-        let base = match self.design {
-            Design::Uniform => self.method.name().to_string(),
-            Design::Cosine => format!("{}-cos", self.method.name()),
+        let base = match self.density {
+            Density::Uniform => self.method.name().to_string(),
+            Density::Cosine => format!("{}-cos", self.method.name()),
         };
         let base = match self.neighbours {
             NeighbourPrior::Mean => base,
@@ -186,7 +187,7 @@ impl serde::Serialize for IntegratorKind {
 }
 
 /// The sets of [`IntegratorKind::set_design`] by default: independent uniform points.
-const UNIFORM_SETS: SetDesign = SetDesign::Iid(Design::Uniform);
+const UNIFORM_SETS: Design = Design::Iid(Density::Uniform);
 
 /// Most samples per pixel for MC (ten times the thesis's 3000-spp reference would already take
 /// minutes per image).
@@ -296,11 +297,11 @@ pub struct Integrator {
 
 impl Integrator {
     /// MC with uniform (`mc`) or cosine-weighted (`mc-cos`) sampling.
-    pub fn mc(design: Design, spp: usize) -> Self {
+    pub fn mc(density: Density, spp: usize) -> Self {
         Integrator {
             kind: IntegratorKind {
                 method: Method::Mc,
-                design,
+                density,
                 set_design: UNIFORM_SETS,
                 neighbours: NeighbourPrior::Mean,
             },
@@ -385,7 +386,7 @@ impl Integrator {
                 let (set, points) = sets.pick(rng);
                 (points, Some(set))
             }
-            None => (self.kind.design.sample_set(self.spp, rng), None),
+            None => (self.kind.density.sample_set(self.spp, rng), None),
         };
         let weights: Option<&BmcWeights> = set.map(|s| &s.weights);
         let mut values: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(points.len()));
@@ -397,7 +398,7 @@ impl Integrator {
         }
         let method = self.kind.method;
         let rule = Rule {
-            density: self.kind.design,
+            density: self.kind.density,
             points: &points,
             weights,
             inverse_diagonal: None,

@@ -10,7 +10,7 @@ use crate::bq::factor::rings::RingFactor;
 use crate::bq::factor::{Factor, NotPositiveDefinite, SpdWorkspace};
 use crate::bq::model::BmcModel;
 use crate::bq::weights::{BmcWeights, Scale};
-use crate::sampling::{Design, SetDesign, Structure, rings};
+use crate::sampling::{Density, Design, Structure, rings};
 use crate::util::geometry::Vec3;
 use crate::util::rng::{WorkbenchRng, stream};
 use rand::RngExt;
@@ -47,8 +47,8 @@ pub struct BmcSets {
     pub sets: Vec<SampleSet>,
     /// Rotate the chosen set by a random azimuth per pixel.
     pub rotate: bool,
-    /// How the sets were drawn ([`SetDesign::Iid`]`(Uniform)` or [`SetDesign::Rings`]).
-    pub design: SetDesign,
+    /// How the sets were drawn ([`Design::Iid`]`(Uniform)` or [`Design::Rings`]).
+    pub design: Design,
 }
 
 impl BmcSets {
@@ -60,7 +60,7 @@ impl BmcSets {
         spp: usize,
         gps: usize,
         rotate: bool,
-        design: SetDesign,
+        design: Design,
         model: &BmcModel,
         seed: u64,
     ) -> Result<Self, NotPositiveDefinite> {
@@ -77,7 +77,7 @@ impl BmcSets {
         model: &BmcModel,
         seed: u64,
     ) -> Result<Self, NotPositiveDefinite> {
-        Self::from_design_points(points, rotate, SetDesign::Iid(Design::Uniform), model, seed)
+        Self::from_design_points(points, rotate, Design::Iid(Density::Uniform), model, seed)
     }
 
     /// Sets with the given local points drawn with `design`, weighted by
@@ -85,7 +85,7 @@ impl BmcSets {
     fn from_design_points(
         points: Vec<Vec<Vec3>>,
         rotate: bool,
-        design: SetDesign,
+        design: Design,
         model: &BmcModel,
         seed: u64,
     ) -> Result<Self, NotPositiveDefinite> {
@@ -186,10 +186,10 @@ mod tests {
     /// `+z` (same heights, same lengths, not all in place), so the weights still apply.
     #[test]
     fn picked_points_are_the_set_rotated_about_the_normal() {
-        let still = BmcSets::generate(30, 2, false, SetDesign::Iid(Design::Uniform), &model(), 9).unwrap();
+        let still = BmcSets::generate(30, 2, false, Design::Iid(Density::Uniform), &model(), 9).unwrap();
         let (set, points) = still.pick(&mut stream(1, &[]));
         assert_eq!(&points, &set.points);
-        let turning = BmcSets::generate(30, 2, true, SetDesign::Iid(Design::Uniform), &model(), 9).unwrap();
+        let turning = BmcSets::generate(30, 2, true, Design::Iid(Density::Uniform), &model(), 9).unwrap();
         let (set, points) = turning.pick(&mut stream(1, &[]));
         let mut moved = 0;
         for (p, q) in points.iter().zip(&set.points) {

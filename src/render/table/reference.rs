@@ -6,7 +6,7 @@ use crate::files::atomic::write_atomic;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
 use crate::render::renderer::Renderer;
-use crate::sampling::Design;
+use crate::sampling::Density;
 use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -66,7 +66,7 @@ pub fn reference(
     let start = Instant::now();
     let (image, what) = match plan.reference {
         ReferencePlan::Mc { spp, seed } => {
-            let integrator = Integrator::mc(Design::Uniform, spp);
+            let integrator = Integrator::mc(Density::Uniform, spp);
             reporter.start(
                 "rows (reference)",
                 (renderer.passes(&integrator) * plan.height) as u64,

@@ -18,7 +18,7 @@ use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
 use workbench::bq::kernel_mean::KernelMeanTable;
 use workbench::bq::weights::Solved;
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
 
@@ -78,7 +78,7 @@ fn amplitudes_and_bayes_sard_match_a_dense_reference() {
     for kernel in kernels() {
         let table = KernelMeanTable::new(&kernel);
         for (n, noise) in [(5, 0.01), (24, 0.01), (60, 0.001)] {
-            let pts = Design::Uniform.sample_set(n, &mut stream(41, &[n as u64]));
+            let pts = Density::Uniform.sample_set(n, &mut stream(41, &[n as u64]));
             let mut ws = SpdWorkspace::new();
             let w = library(&kernel, noise, &pts, &table, &mut ws);
             let d = dense(&kernel, noise, &pts, &table);
@@ -114,7 +114,7 @@ fn amplitudes_and_bayes_sard_match_a_dense_reference() {
             }
             assert!((bs.diagnostics.weight_sum - TAU).abs() < 1e-12);
             let est_dense: f64 = (0..n).map(|i| sol[i] * y[i]).sum();
-            let est = Method::Bsq.estimate(Design::Uniform, &pts, &values, Some(&w), 0.0);
+            let est = Method::Bsq.estimate(Density::Uniform, &pts, &values, Some(&w), 0.0);
             assert!(rel(est, est_dense) < TOL, "{kernel} n={n}: BSQ estimate");
             let u = &d.qinv * &ones;
             let var_bs = var1 + (TAU - ones.dot(&wd)).powi(2) / ones.dot(&u);
@@ -181,7 +181,7 @@ fn loo_amplitude_is_the_mean_standardised_leave_one_out_residual() {
     let kernel = Kernel::Sobolev(Sobolev::new(1.4).unwrap());
     let table = KernelMeanTable::new(&kernel);
     let n = 12;
-    let pts = Design::Uniform.sample_set(n, &mut stream(42, &[]));
+    let pts = Density::Uniform.sample_set(n, &mut stream(42, &[]));
     let d = dense(&kernel, 0.01, &pts, &table);
     let r: Vec<f64> = pts.iter().map(|p| p.z * p.z - 0.2).collect();
     let mut sum = 0.0;
@@ -206,7 +206,7 @@ fn loo_amplitude_is_the_mean_standardised_leave_one_out_residual() {
 fn zero_residuals_give_zero_amplitude() {
     let kernel = Kernel::Sobolev(Sobolev::new(1.4).unwrap());
     let table = KernelMeanTable::new(&kernel);
-    let pts = Design::Uniform.sample_set(8, &mut stream(43, &[]));
+    let pts = Density::Uniform.sample_set(8, &mut stream(43, &[]));
     let mut ws = SpdWorkspace::new();
     library(&kernel, 0.01, &pts, &table, &mut ws);
     let zeros = vec![0.0; 8];
@@ -247,7 +247,7 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
     let kernel = Kernel::Sobolev(Sobolev::new(1.4).unwrap());
     let table = KernelMeanTable::new(&kernel);
     let (n, trials, lambda, noise) = (16, 3000, 40.0, 0.01);
-    let pts = Design::Uniform.sample_set(n, &mut stream(44, &[]));
+    let pts = Density::Uniform.sample_set(n, &mut stream(44, &[]));
     let d = dense(&kernel, noise, &pts, &table);
     let mut joint = DMatrix::zeros(n + 1, n + 1);
     joint.view_mut((0, 0), (n, n)).copy_from(&(&d.q * lambda));
@@ -268,7 +268,7 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
             let draw = &l * e;
             let values: Vec<f64> = (0..n).map(|i| beta + draw[i]).collect();
             let truth = TAU * beta + draw[n];
-            let est = method.estimate(Design::Uniform, &pts, &values, Some(&w), 0.0);
+            let est = method.estimate(Density::Uniform, &pts, &values, Some(&w), 0.0);
             let lam = method
                 .amplitude(
                     Scale::Ml,
@@ -280,7 +280,7 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
                 )
                 .unwrap();
             let u = method
-                .uncertainty(Design::Uniform, &pts, &values, Some(&w), Scale::Ml, lam)
+                .uncertainty(Density::Uniform, &pts, &values, Some(&w), Scale::Ml, lam)
                 .unwrap();
             assert_eq!(u.dof, Some(method.ml_dof(n)));
             for (k, level) in [0.5, 0.8, 0.95].into_iter().enumerate() {
@@ -289,7 +289,7 @@ fn ml_intervals_cover_at_their_level_on_gp_draws() {
                 }
             }
             let unit = method
-                .uncertainty(Design::Uniform, &pts, &values, Some(&w), Scale::Unit, 1.0)
+                .uncertainty(Density::Uniform, &pts, &values, Some(&w), Scale::Unit, 1.0)
                 .unwrap();
             if (est - truth).abs() <= unit.quantile(0.95) * unit.sd {
                 unit_hits += 1;
@@ -323,11 +323,11 @@ fn mc_interval_covers_at_its_level() {
     let mut rng = stream(46, &[]);
     let mut hits = 0;
     for _ in 0..trials {
-        let pts = Design::Uniform.sample_set(n, &mut rng);
+        let pts = Density::Uniform.sample_set(n, &mut rng);
         let values: Vec<f64> = pts.iter().map(|p| f.value(p)).collect();
-        let est = Method::Mc.estimate(Design::Uniform, &pts, &values, None, 0.0);
+        let est = Method::Mc.estimate(Density::Uniform, &pts, &values, None, 0.0);
         let u = Method::Mc
-            .uncertainty(Design::Uniform, &pts, &values, None, Scale::Unit, 1.0)
+            .uncertainty(Density::Uniform, &pts, &values, None, Scale::Unit, 1.0)
             .unwrap();
         assert_eq!(u.dof, Some(n - 1));
         if (est - f.integral()).abs() <= u.quantile(0.95) * u.sd {
@@ -340,7 +340,7 @@ fn mc_interval_covers_at_its_level() {
     assert!(
         Method::Mc
             .uncertainty(
-                Design::Uniform,
+                Density::Uniform,
                 &[Vec3::new(0.0, 0.0, 1.0)],
                 &[1.0],
                 None,

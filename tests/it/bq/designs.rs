@@ -6,7 +6,7 @@ use std::f64::consts::TAU;
 use std::sync::LazyLock;
 use workbench::bq::estimator::mc;
 use workbench::integrand::family::{AxisIntegrand, Profile};
-use workbench::sampling::{Design, SetDesign, stratified};
+use workbench::sampling::{Density, Design, stratified};
 use workbench::util::quadrature::GaussLegendre;
 use workbench::util::rng::stream;
 
@@ -23,7 +23,7 @@ fn integrand() -> &'static AxisIntegrand {
 }
 
 /// MC estimates of the integral over `TRIALS` independent sets of `n` points of `design`.
-fn estimates(design: SetDesign, n: usize, seed: u64) -> Vec<f64> {
+fn estimates(design: Design, n: usize, seed: u64) -> Vec<f64> {
     let f = integrand();
     (0..TRIALS)
         .map(|t| {
@@ -46,7 +46,7 @@ fn cell_integral(h: &dyn Fn(f64, f64) -> f64, u1: (f64, f64), u2: (f64, f64)) ->
 
 /// The MC term `f/p = 2π f(ω(u1, u2))` of uniform sampling.
 fn term(u1: f64, u2: f64) -> f64 {
-    TAU * integrand().value(&Design::Uniform.map(u1, u2))
+    TAU * integrand().value(&Density::Uniform.map(u1, u2))
 }
 
 /// The exact variance of stratified MC, `(1/N²) Σ_cells Var_cell(f/p)`, each cell's mean and
@@ -90,7 +90,7 @@ fn stratified_mc_has_the_predicted_variance() {
     let n = 512;
     let truth = integrand().integral();
     let predicted = stratified_variance(n);
-    let observed = mse(&estimates(SetDesign::Stratified, n, 11), truth);
+    let observed = mse(&estimates(Design::Stratified, n, 11), truth);
     let chi = ChiSquared::new(TRIALS as f64).unwrap();
     let (lo, hi) = (
         chi.inverse_cdf(0.0005) / TRIALS as f64,
@@ -110,7 +110,7 @@ fn stratified_mc_has_the_predicted_variance() {
         iid / predicted
     );
     // And i.i.d. MC itself has σ²/N (the same test, so the comparison is like for like).
-    let observed_iid = mse(&estimates(SetDesign::Iid(Design::Uniform), n, 12), truth);
+    let observed_iid = mse(&estimates(Design::Iid(Density::Uniform), n, 12), truth);
     let ratio = observed_iid / iid;
     assert!(lo < ratio && ratio < hi, "i.i.d.: observed/predicted = {ratio}");
 }
@@ -122,7 +122,7 @@ fn stratified_mc_has_the_predicted_variance() {
 #[test]
 fn scrambled_sobol_mc_is_unbiased_and_converges_faster_than_iid() {
     let truth = integrand().integral();
-    let e512 = estimates(SetDesign::Sobol, 512, 13);
+    let e512 = estimates(Design::Sobol, 512, 13);
     let mean = e512.iter().sum::<f64>() / TRIALS as f64;
     let sd = (e512.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (TRIALS - 1) as f64).sqrt();
     assert!(
@@ -131,7 +131,7 @@ fn scrambled_sobol_mc_is_unbiased_and_converges_faster_than_iid() {
         mean - truth
     );
     let mse512 = mse(&e512, truth);
-    let mse64 = mse(&estimates(SetDesign::Sobol, 64, 14), truth);
+    let mse64 = mse(&estimates(Design::Sobol, 64, 14), truth);
     assert!(
         mse64 / mse512 > 64.0,
         "MSE falls only {}× from N = 64 to 512",

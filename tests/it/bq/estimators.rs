@@ -12,7 +12,7 @@ use workbench::bq::kernel_mean::{KernelMeanMode, KernelMeanTable};
 use workbench::bq::model::BmcModel;
 use workbench::bq::weights::{bmc_weights, worst_case_error};
 use workbench::integrand::CosPower;
-use workbench::sampling::{Design, SetDesign};
+use workbench::sampling::{Density, Design};
 use workbench::util::geometry::{Vec3, rotate_about_z};
 use workbench::util::rng::stream;
 
@@ -37,9 +37,9 @@ fn mc_is_unbiased_and_follows_the_error_law() {
         let mut rng = stream(11, &[k as u64]);
         let estimates: Vec<f64> = (0..trials)
             .map(|_| {
-                let pts = Design::Uniform.sample_set(n, &mut rng);
+                let pts = Density::Uniform.sample_set(n, &mut rng);
                 let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
-                mc::estimate(Design::Uniform, &pts, &vals)
+                mc::estimate(Density::Uniform, &pts, &vals)
             })
             .collect();
         let mean = estimates.iter().sum::<f64>() / trials as f64;
@@ -67,9 +67,9 @@ fn cosine_weighted_mc_on_cos_has_zero_variance() {
     let f = CosPower::new(1);
     let mut rng = stream(12, &[]);
     for n in [1, 7, 64] {
-        let pts = Design::Cosine.sample_set(n, &mut rng);
+        let pts = Density::Cosine.sample_set(n, &mut rng);
         let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
-        let e = mc::estimate(Design::Cosine, &pts, &vals);
+        let e = mc::estimate(Density::Cosine, &pts, &vals);
         assert!((e - PI).abs() < 1e-13, "n={n}: {e}");
     }
 }
@@ -90,7 +90,7 @@ fn bmc_on_a_constant_integrand() {
         let table = KernelMeanTable::new(&kernel);
         let mut last_gap = f64::INFINITY;
         for n in [16, 64, 256] {
-            let pts = Design::Uniform.sample_set(n, &mut stream(13, &[n as u64]));
+            let pts = Density::Uniform.sample_set(n, &mut stream(13, &[n as u64]));
             let w = weights(kernel, 0.01, &pts);
             let values = vec![0.7; n];
             assert!((bmcp::estimate(&w, &values, 0.7) - TAU * 0.7).abs() < 1e-12);
@@ -138,7 +138,7 @@ fn funk_hecke_eigenvalues_match_quadrature() {
 #[test]
 fn bmc_is_exact_for_kernel_sections() {
     for kernel in kernels() {
-        let pts = Design::Uniform.sample_set(24, &mut stream(14, &[]));
+        let pts = Density::Uniform.sample_set(24, &mut stream(14, &[]));
         let w = weights(kernel, 0.0, &pts);
         let table = KernelMeanTable::new(&kernel);
         for x in pts.iter().step_by(5) {
@@ -156,7 +156,7 @@ fn bmc_is_exact_for_kernel_sections() {
 #[test]
 fn posterior_variance_is_non_negative_and_shrinks_on_nested_sets() {
     for kernel in kernels() {
-        let all = Design::Uniform.sample_set(256, &mut stream(15, &[]));
+        let all = Density::Uniform.sample_set(256, &mut stream(15, &[]));
         let mut last = f64::INFINITY;
         for n in [1, 2, 4, 8, 16, 32, 64, 128, 256] {
             let v = weights(kernel, 0.01, &all[..n]).diagnostics.posterior_variance;
@@ -171,7 +171,7 @@ fn posterior_variance_is_non_negative_and_shrinks_on_nested_sets() {
 #[test]
 fn weights_are_invariant_under_rotation_about_the_normal() {
     for kernel in kernels() {
-        let pts = Design::Uniform.sample_set(64, &mut stream(16, &[]));
+        let pts = Density::Uniform.sample_set(64, &mut stream(16, &[]));
         let w0 = weights(kernel, 0.01, &pts);
         for phi in [0.3, 2.0, 5.5] {
             let rotated: Vec<Vec3> = pts.iter().map(|p| rotate_about_z(p, phi)).collect();
@@ -186,7 +186,7 @@ fn weights_are_invariant_under_rotation_about_the_normal() {
 /// The diagnostics describe the weights they come with.
 #[test]
 fn diagnostics_match_the_weights() {
-    let pts = Design::Uniform.sample_set(40, &mut stream(17, &[]));
+    let pts = Density::Uniform.sample_set(40, &mut stream(17, &[]));
     let table = KernelMeanTable::new(&sobolev());
     let z: Vec<f64> = pts.iter().map(|p| table.z(p.z)).collect();
     let w = bmc_weights(
@@ -215,7 +215,7 @@ fn diagnostics_match_the_weights() {
 /// Duplicate points without noise make Q singular: jitter is added and reported, never a panic.
 #[test]
 fn singular_q_gets_counted_jitter() {
-    let mut pts = Design::Uniform.sample_set(10, &mut stream(18, &[]));
+    let mut pts = Density::Uniform.sample_set(10, &mut stream(18, &[]));
     pts.push(pts[3]);
     let w = weights(sobolev(), 0.0, &pts);
     assert!(w.diagnostics.jitter > 0.0);
@@ -235,8 +235,8 @@ fn singular_q_gets_counted_jitter() {
 #[test]
 fn every_method_conforms() {
     let f = CosPower::new(3);
-    for design in SetDesign::ALL {
-        assert_eq!(SetDesign::from_name(design.name()), Some(design));
+    for design in Design::ALL {
+        assert_eq!(Design::from_name(design.name()), Some(design));
         let pts = design.sample_set(32, &mut stream(19, &[design.stream_id()]));
         let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
         let w = weights(sobolev(), 0.01, &pts);
@@ -310,13 +310,13 @@ fn every_method_conforms() {
 #[test]
 fn mc_kernel_mean_mode_converges_to_exact() {
     let kernel = sobolev();
-    let pts = Design::Uniform.sample_set(16, &mut stream(20, &[]));
+    let pts = Density::Uniform.sample_set(16, &mut stream(20, &[]));
     let exact = weights(kernel, 0.01, &pts);
     let ones = vec![1.0; pts.len()];
     let u = bmc_weights(&pts, &ones, 0.0, &kernel, 0.01, &mut SpdWorkspace::new())
         .unwrap()
         .weights;
-    let g: Vec<f64> = Design::Uniform
+    let g: Vec<f64> = Density::Uniform
         .sample_set(100_000, &mut stream(22, &[]))
         .iter()
         .map(|w| pts.iter().zip(&u).map(|(p, ui)| ui * kernel.eval(p, w)).sum())
@@ -340,20 +340,20 @@ fn mc_kernel_mean_mode_converges_to_exact() {
 /// (paired difference of absolute errors below zero by more than 5 standard errors).
 #[test]
 fn fibonacci_design_is_unbiased_and_beats_iid_mc() {
-    use workbench::sampling::SetDesign;
+    use workbench::sampling::Design;
     let (n, trials) = (64, 2000);
     for k in 1..=3 {
         let f = CosPower::new(k);
         let mut rng = stream(23, &[k as u64]);
         let (mut qmc, mut diffs) = (Vec::new(), Vec::new());
         for _ in 0..trials {
-            let mut estimate = |design: SetDesign| {
+            let mut estimate = |design: Design| {
                 let pts = design.sample_set(n, &mut rng);
                 let vals: Vec<f64> = pts.iter().map(|w| f.value(w)).collect();
                 mc::estimate(design.density(), &pts, &vals)
             };
-            let q = estimate(SetDesign::Fibonacci);
-            let m = estimate(SetDesign::Iid(Design::Uniform));
+            let q = estimate(Design::Fibonacci);
+            let m = estimate(Design::Iid(Density::Uniform));
             qmc.push(q);
             diffs.push((q - f.integral()).abs() - (m - f.integral()).abs());
         }

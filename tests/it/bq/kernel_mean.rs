@@ -10,7 +10,7 @@ use std::collections::BinaryHeap;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
 use workbench::bq::kernel_mean::{KernelMeanTable, kernel_mean_exact, kernel_mean_mc, prior_variance_exact};
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
 
@@ -536,7 +536,7 @@ fn monte_carlo_mode_agrees_within_standard_errors() {
     let m = 20_000;
     for (i, k) in kernels().into_iter().enumerate() {
         let mut rng = stream(77, &[i as u64]);
-        let dirs = Design::Uniform.sample_set(m, &mut rng);
+        let dirs = Density::Uniform.sample_set(m, &mut rng);
         for mu in [0.95f64, 0.5, 0.05] {
             let x = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
             let samples: Vec<f64> = dirs.iter().map(|w| TAU * k.eval(&x, w)).collect();

@@ -17,7 +17,7 @@ use workbench::bq::kernel_mean::{
 };
 use workbench::bq::model::BmcModel;
 use workbench::bq::weights::{NumericalWarning, bmc_weights};
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
 
@@ -43,7 +43,7 @@ fn shared(m: usize) -> KernelMeanMode {
 /// `s(x) = sd_ω[2π k(x, ω)]` for uniform ω, from a large independent sample (relative error
 /// about 1/√(2·200 000) ≈ 0.2%, negligible next to the tolerances below).
 fn mc_sd(kernel: &Kernel, x: &Vec3) -> f64 {
-    let dirs = Design::Uniform.sample_set(200_000, &mut stream(9_001, &[]));
+    let dirs = Density::Uniform.sample_set(200_000, &mut stream(9_001, &[]));
     let v: Vec<f64> = dirs.iter().map(|w| TAU * kernel.eval(x, w)).collect();
     workbench::util::stats::sample_sd(&v)
 }
@@ -65,7 +65,7 @@ fn sample_variance(x: &[f64]) -> f64 {
 #[test]
 fn per_point_estimates_are_unbiased_within_their_standard_error() {
     let m = 2000;
-    let pts = Design::Uniform.sample_set(64, &mut stream(31, &[]));
+    let pts = Density::Uniform.sample_set(64, &mut stream(31, &[]));
     for (ki, kernel) in kernels().into_iter().enumerate() {
         let model = BmcModel::new(kernel, 0.01, per_point(m));
         let z = model.kernel_means(&pts, &mut stream(32, &[ki as u64]));
@@ -138,7 +138,7 @@ fn errors_of_different_points_are_uncorrelated() {
 fn per_point_mode_is_reproducible() {
     use rand::RngExt;
     let kernel = sobolev();
-    let pts = Design::Uniform.sample_set(40, &mut stream(35, &[]));
+    let pts = Density::Uniform.sample_set(40, &mut stream(35, &[]));
     let model = BmcModel::new(kernel, 0.01, per_point(300));
     let a = model.kernel_means(&pts, &mut stream(36, &[]));
     let b = model.kernel_means(&pts, &mut stream(36, &[]));
@@ -159,16 +159,16 @@ fn per_point_mode_is_reproducible() {
 }
 
 /// (4) The shared mode gives the numbers the MC mode gave before the per-point reading
-/// existed, bit for bit: M directions drawn from the rng by `Design::Uniform.sample_set`, then
+/// existed, bit for bit: M directions drawn from the rng by `Density::Uniform.sample_set`, then
 /// [`kernel_means_mc`] over them; and so the same weights.
 #[test]
 fn shared_mode_keeps_the_old_numbers() {
     let kernel = sobolev();
-    let pts = Design::Uniform.sample_set(50, &mut stream(39, &[]));
+    let pts = Density::Uniform.sample_set(50, &mut stream(39, &[]));
     let m = 1000;
     let model = BmcModel::new(kernel, 0.01, shared(m));
     let got = model.kernel_means(&pts, &mut stream(40, &[]));
-    let dirs = Design::Uniform.sample_set(m, &mut stream(40, &[]));
+    let dirs = Density::Uniform.sample_set(m, &mut stream(40, &[]));
     let old = kernel_means_mc(&kernel, &pts, &PointsSoa::new(&dirs));
     assert_eq!(got, old);
     let w = model
@@ -193,7 +193,7 @@ fn shared_mode_keeps_the_old_numbers() {
 #[test]
 fn per_point_mode_converges_to_exact() {
     let kernel = sobolev();
-    let pts = Design::Uniform.sample_set(16, &mut stream(20, &[]));
+    let pts = Density::Uniform.sample_set(16, &mut stream(20, &[]));
     let exact = BmcModel::new(kernel, 0.01, KernelMeanMode::Exact)
         .weights(&pts, &mut stream(0, &[]), &mut SpdWorkspace::new())
         .unwrap();
@@ -250,7 +250,7 @@ fn negative_variance_warnings(w: &workbench::bq::weights::BmcWeights) -> Vec<f64
 #[test]
 fn negative_posterior_variance_is_clamped_and_warned() {
     let kernel = sobolev();
-    let pts = Design::Uniform.sample_set(512, &mut stream(41, &[]));
+    let pts = Density::Uniform.sample_set(512, &mut stream(41, &[]));
     let mut ws = SpdWorkspace::new();
     for mode in [per_point(10_000), shared(10_000)] {
         let model = BmcModel::new(kernel, 0.01, mode);

@@ -8,7 +8,7 @@ use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::{Kernel, Sobolev, SquaredExponential};
 use workbench::bq::kernel_mean::KernelMeanMode;
 use workbench::bq::model::BmcModel;
-use workbench::sampling::SetDesign;
+use workbench::sampling::Design;
 use workbench::util::rng::stream;
 
 fn max_rel(a: &[f64], b: &[f64]) -> f64 {
@@ -25,9 +25,9 @@ fn mc_on_rings_is_unbiased() {
     let trials = 400;
     let estimates: Vec<f64> = (0..trials)
         .map(|t| {
-            let pts = SetDesign::Rings.sample_set(512, &mut stream(31, &[t]));
+            let pts = Design::Rings.sample_set(512, &mut stream(31, &[t]));
             let values: Vec<f64> = pts.iter().map(f).collect();
-            mc::estimate(SetDesign::Rings.density(), &pts, &values)
+            mc::estimate(Design::Rings.density(), &pts, &values)
         })
         .collect();
     let mean = estimates.iter().sum::<f64>() / trials as f64;
@@ -60,12 +60,12 @@ fn ring_solver_matches_the_dense_solve() {
     for (kernel, n, compare) in cases {
         let noise = 0.01;
         let model = BmcModel::new(kernel, noise, KernelMeanMode::Exact);
-        let pts = SetDesign::Rings.sample_set(n, &mut stream(32, &[n as u64]));
+        let pts = Design::Rings.sample_set(n, &mut stream(32, &[n as u64]));
         let y: Vec<f64> = pts.iter().map(|p| p.z.powi(3) + p.x).collect();
         let (mut ring_ws, mut dense_ws) = (SpdWorkspace::new(), SpdWorkspace::new());
         let rng = &mut stream(0, &[]);
         let ring = model
-            .weights_for_design(&pts, SetDesign::Rings, rng, &mut ring_ws)
+            .weights_for_design(&pts, Design::Rings, rng, &mut ring_ws)
             .unwrap();
         let what = format!("{kernel} n={n}");
         let z = model.kernel_means(&pts, rng);

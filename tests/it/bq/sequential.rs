@@ -11,7 +11,7 @@ use workbench::bq::model::BmcModel;
 use workbench::bq::stages::{self, NestedWeights, Tolerance, Walker, WeightedEstimator};
 use workbench::bq::weights::Scale;
 use workbench::bq::weights::Solved;
-use workbench::sampling::{Design, SetDesign};
+use workbench::sampling::{Density, Design};
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
 
@@ -40,7 +40,7 @@ fn stages_double_up_to_max_n() {
 /// Fibonacci lattice and the jittered grid are not, which is why tolerances refuse them.
 #[test]
 fn nested_designs_keep_their_first_points() {
-    for d in SetDesign::ALL {
+    for d in Design::ALL {
         let small = d.sample_set(16, &mut stream(3, &[d.stream_id()]));
         let large = d.sample_set(64, &mut stream(3, &[d.stream_id()]));
         let nested = small[..] == large[..16];
@@ -57,13 +57,13 @@ fn nested_designs_keep_their_first_points() {
 /// state a zero-width interval at the first stage and stop there.
 #[test]
 fn a_constant_integrand_stops_at_the_first_stage() {
-    let pts = Design::Uniform.sample_set(256, &mut stream(1, &[]));
+    let pts = Density::Uniform.sample_set(256, &mut stream(1, &[]));
     let ones = vec![1.0; pts.len()];
     let t = Tolerance {
         abs: 1e-9,
         max_n: 256,
     };
-    let o = stages::mc(Design::Uniform, &pts, &ones, &t.stages(8), t.abs);
+    let o = stages::mc(Density::Uniform, &pts, &ones, &t.stages(8), t.abs);
     assert_eq!((o.n_used, o.met), (8, true));
     assert!((o.estimate - std::f64::consts::TAU).abs() < 1e-12);
 
@@ -89,27 +89,27 @@ fn a_constant_integrand_stops_at_the_first_stage() {
 /// one stops early, and what it reports at N is exactly the fixed-N estimate and sd at N.
 #[test]
 fn the_rule_stops_where_the_interval_is_narrow_enough() {
-    let pts = Design::Uniform.sample_set(512, &mut stream(2, &[]));
+    let pts = Density::Uniform.sample_set(512, &mut stream(2, &[]));
     let v: Vec<f64> = pts.iter().map(cos3).collect();
     let stages = Tolerance { abs: 1.0, max_n: 512 }.stages(4);
-    let tight = stages::mc(Design::Uniform, &pts, &v, &stages, 1e-9);
+    let tight = stages::mc(Density::Uniform, &pts, &v, &stages, 1e-9);
     assert_eq!((tight.n_used, tight.met), (512, false));
-    let loose = stages::mc(Design::Uniform, &pts, &v, &stages, 0.3);
+    let loose = stages::mc(Density::Uniform, &pts, &v, &stages, 0.3);
     assert!(loose.met && loose.n_used < 512, "{loose:?}");
     let n = loose.n_used;
     let u = Method::Mc
-        .uncertainty(Design::Uniform, &pts[..n], &v[..n], None, Scale::Unit, 1.0)
+        .uncertainty(Density::Uniform, &pts[..n], &v[..n], None, Scale::Unit, 1.0)
         .unwrap();
     assert_eq!(
         loose.estimate,
-        Method::Mc.estimate(Design::Uniform, &pts[..n], &v[..n], None, 0.0)
+        Method::Mc.estimate(Density::Uniform, &pts[..n], &v[..n], None, 0.0)
     );
     assert_eq!(loose.uncertainty, Some(u));
     assert!(stages::half_width(&u) <= 0.3);
     // The stage before did not meet it (that is why it went on).
     let before = Method::Mc
         .uncertainty(
-            Design::Uniform,
+            Density::Uniform,
             &pts[..n / 2],
             &v[..n / 2],
             None,
@@ -125,7 +125,7 @@ fn the_rule_stops_where_the_interval_is_narrow_enough() {
 #[test]
 fn extended_weight_sets_match_fresh_ones() {
     let m = model();
-    let pts = Design::Uniform.sample_set(128, &mut stream(4, &[]));
+    let pts = Density::Uniform.sample_set(128, &mut stream(4, &[]));
     let values = vec![pts.iter().map(cos3).collect::<Vec<f64>>()];
     let stages = Tolerance { abs: 1.0, max_n: 128 }.stages(8);
     for method in [Method::Bmc, Method::Bmcp, Method::Bsq] {
@@ -152,9 +152,9 @@ fn extended_weight_sets_match_fresh_ones() {
                     .amplitude(scale, v, Solved::Full(&solved), Some(&w), prior, inv.as_deref())
                     .unwrap();
                 let u = method
-                    .uncertainty(Design::Uniform, &pts[..n], v, Some(&w), scale, amplitude)
+                    .uncertainty(Density::Uniform, &pts[..n], v, Some(&w), scale, amplitude)
                     .unwrap();
-                let est = method.estimate(Design::Uniform, &pts[..n], v, Some(&w), prior);
+                let est = method.estimate(Density::Uniform, &pts[..n], v, Some(&w), prior);
                 let got = o.uncertainty.unwrap();
                 let what = format!("{method} {} at N = {n}", scale.name());
                 assert!(

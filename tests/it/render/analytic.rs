@@ -10,7 +10,7 @@ use workbench::bq::model::BmcModel;
 use workbench::bq::weights::DEFAULT_NOISE;
 use workbench::render::integrator::BmcSets;
 use workbench::render::{Environment, Image, Integrator, IntegratorKind, Renderer, Scene};
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::report::Silent;
 
@@ -69,7 +69,7 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
     let m = model();
     let spp = 40;
 
-    let img = r.render(&Integrator::mc(Design::Cosine, spp), 1, &hidden());
+    let img = r.render(&Integrator::mc(Density::Cosine, spp), 1, &hidden());
     for (k, a, _) in &hit {
         for c in 0..3 {
             assert!(
@@ -80,7 +80,7 @@ fn white_environment_gives_the_albedo_for_every_integrator() {
         }
     }
 
-    let img = r.render(&Integrator::mc(Design::Uniform, spp), 2, &hidden());
+    let img = r.render(&Integrator::mc(Density::Uniform, spp), 2, &hidden());
     for c in 0..3 {
         let a = hit[0].1[c];
         let mean = hit.iter().map(|(k, _, _)| img.data[*k][c]).sum::<f64>() / hit.len() as f64;
@@ -259,7 +259,7 @@ fn bmcp_differs_from_bmc_exactly_where_the_prior_is_not_zero() {
 fn rmse_falls_with_spp_and_bmc_beats_mc() {
     let size = 64;
     let r = Renderer::new(size, size, Environment::Sky);
-    let reference = r.render(&Integrator::mc(Design::Uniform, 1000), 999, &hidden());
+    let reference = r.render(&Integrator::mc(Density::Uniform, 1000), 999, &hidden());
     let m = model();
     let reps = 4u64;
     let mut previous = [f64::INFINITY; 2];
@@ -267,7 +267,7 @@ fn rmse_falls_with_spp_and_bmc_beats_mc() {
         let mut mean = [0.0; 2];
         for rep in 0..reps {
             let seed = 100 * spp as u64 + rep;
-            let mc: Image = r.render(&Integrator::mc(Design::Uniform, spp), seed, &hidden());
+            let mc: Image = r.render(&Integrator::mc(Density::Uniform, spp), seed, &hidden());
             let b = r.render(&bmc(IntegratorKind::BMC, spp, 4, true, &m, seed), seed, &hidden());
             let (e_mc, e_bmc) = (mc.rmse(&reference), b.rmse(&reference));
             assert!(e_bmc < e_mc, "spp {spp} rep {rep}: BMC {e_bmc} vs MC {e_mc}");

@@ -8,7 +8,7 @@ use workbench::bq::kernel_mean::KernelMeanMode;
 use workbench::bq::model::BmcModel;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
 use workbench::render::{Environment, IntegratorKind, Renderer};
-use workbench::sampling::Design;
+use workbench::sampling::Density;
 use workbench::util::report::Silent;
 use workbench::util::rng::stream;
 
@@ -31,8 +31,8 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
         AdaptiveSampler::new(IntegratorKind::BMC, &settings, 2, true, Some(&model()), 3).unwrap();
     assert_eq!(jitter, 0.0);
     for sampler in [
-        AdaptiveSampler::Mc(Design::Uniform),
-        AdaptiveSampler::Mc(Design::Cosine),
+        AdaptiveSampler::Mc(Density::Uniform),
+        AdaptiveSampler::Mc(Density::Cosine),
         bmc,
     ] {
         let r = adaptive::render(&renderer, &sampler, &settings, 5, &Silent);
