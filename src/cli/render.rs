@@ -414,11 +414,7 @@ fn check_sd_options(args: &RenderArgs, kind: Option<IntegratorKind>) -> anyhow::
     match kind {
         Some(k) if k.has_posterior() => {}
         _ => {
-            let with_posterior: Vec<String> = IntegratorKind::all()
-                .into_iter()
-                .filter(|k| k.has_posterior())
-                .map(|k| k.name())
-                .collect();
+            let with_posterior = IntegratorKind::names_where(|k| k.has_posterior());
             let (last, rest) = with_posterior
                 .split_last()
                 .expect("some integrator has a posterior");
@@ -491,12 +487,7 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
         if let Some(flag) = image_files::weight_option_given(args.gps, args.no_rotate, &args.model) {
             return Err(InputError::new(format!(
                 "{flag}: applies to the integrators with weights ({}), not {}",
-                IntegratorKind::all()
-                    .into_iter()
-                    .filter(|k| k.uses_sets())
-                    .map(|k| k.name())
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                IntegratorKind::names_where(|k| k.uses_sets()).join(", "),
                 args.integrator
             ))
             .into());

@@ -138,11 +138,17 @@ impl IntegratorKind {
 
     /// The names of [`IntegratorKind::all`], for messages and `--help`.
     pub fn names() -> String {
+        Self::names_where(|_| true).join(", ")
+    }
+
+    /// The names of the integrators of [`IntegratorKind::all`] for which `keep` holds, in order,
+    /// for messages that list what an option accepts.
+    pub fn names_where(keep: impl Fn(&Self) -> bool) -> Vec<String> {
         Self::all()
-            .iter()
-            .map(|k| k.name())
-            .collect::<Vec<_>>()
-            .join(", ")
+            .into_iter()
+            .filter(|k| keep(k))
+            .map(Self::name)
+            .collect()
     }
 
     /// Whether the integrator uses BMC sample sets (and so the `gps`/`rotate`/model options).
@@ -159,12 +165,7 @@ impl IntegratorKind {
 
     /// The integrators that can sample adaptively, by name, for messages.
     pub fn adaptive_names() -> String {
-        let names: Vec<String> = Self::all()
-            .into_iter()
-            .filter(|k| k.adaptive())
-            .map(Self::name)
-            .collect();
-        names.join(", ")
+        Self::names_where(|k| k.adaptive()).join(", ")
     }
 
     /// Whether the integrator states a posterior sd per pixel and channel (`render --sd-out`):

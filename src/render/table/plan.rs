@@ -512,9 +512,10 @@ mod tests {
         ));
         assert_eq!(
             err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),
-            "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of mc, mc-cos, bmc, bmcp, bmcp-edge, bsq, bmc-fibonacci, bmcp-fibonacci, \
-             bmcp-edge-fibonacci, bsq-fibonacci, bmc-stratified, bmcp-stratified, bmcp-edge-stratified, bsq-stratified, \
-             bmc-sobol, bmcp-sobol, bmcp-edge-sobol, bsq-sobol, bmc-rings, bmcp-rings, bmcp-edge-rings, bsq-rings"
+            format!(
+                "t.json: variants[0].integrator: unknown integrator \"bmx\"; expected one of {}",
+                IntegratorKind::names()
+            )
         );
         assert_eq!(
             err(&format!("{{{base}, \"spp\": [20, 0]}}")),

@@ -2,6 +2,7 @@
 //! and a message naming the option or file.
 
 use crate::common::*;
+use workbench::render::IntegratorKind;
 
 /// Exit 2 with every `needle` in stderr.
 fn assert_input_error(args: &[&str], needles: &[&str]) {
@@ -58,12 +59,17 @@ fn bad_input_is_exit_2_with_a_clear_message() {
         ],
     );
     // Options that do not apply are errors, not silently ignored.
+    let with_weights = IntegratorKind::names_where(|k| k.uses_sets());
+    assert!(
+        with_weights.starts_with(&["bmc".into(), "bmcp".into()])
+            && with_weights.contains(&"bsq-rings".into())
+    );
     assert_input_error(
         &["render", "--integrator", "mc", "--gps", "3", "--out", "a.exr"],
-        &[
-            "--gps: applies to the integrators with weights (bmc, bmcp, bmcp-edge, bsq, bmc-fibonacci",
-            "), not mc",
-        ],
+        &[&format!(
+            "--gps: applies to the integrators with weights ({}), not mc",
+            with_weights.join(", ")
+        )],
     );
     assert_input_error(
         &["render", "--integrator", "mc-cos", "--s", "1.5", "--out", "a.exr"],
@@ -333,10 +339,15 @@ fn sd_out_bad_input_is_exit_2() {
             "--out",
             "a.exr",
         ],
-        &[
-            "--sd-out s.exr: needs an integrator with a posterior (bmc, bmcp, bmcp-edge, bsq, bmc-fibonacci, ",
-            "bmc-sobol, bmcp-sobol, bmcp-edge-sobol, bsq-sobol, bmc-rings, bmcp-rings, bmcp-edge-rings or bsq-rings), not mc",
-        ],
+        &[&{
+            let names = IntegratorKind::names_where(|k| k.has_posterior());
+            let (last, rest) = names.split_last().unwrap();
+            assert!(rest.contains(&"bmc".to_string()) && last == "bsq-rings");
+            format!(
+                "--sd-out s.exr: needs an integrator with a posterior ({} or {last}), not mc",
+                rest.join(", ")
+            )
+        }],
     );
     assert_input_error(
         &[
