@@ -68,14 +68,11 @@ pub fn fit_amplitude(
     dof: usize,
     inverse_diagonal: Option<&[f64]>,
 ) -> f64 {
-    if scale == Scale::Unit {
-        return 1.0;
-    }
-    if residuals.iter().all(|&r| r == 0.0) {
-        return 0.0;
+    if let Some(amplitude) = fixed_amplitude(scale, residuals) {
+        return amplitude;
     }
     match scale {
-        Scale::Unit => unreachable!("returned above"),
+        Scale::Unit => unreachable!("fixed_amplitude returns it"),
         // rᵀQ⁻¹r ≥ 0 for SPD Q; max() only guards rounding.
         Scale::Ml => (dot(residuals, solved) / dof as f64).max(0.0),
         Scale::Loo => {
@@ -83,6 +80,18 @@ pub fn fit_amplitude(
             assert_eq!(d.len(), solved.len(), "one diagonal entry per point");
             solved.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / solved.len() as f64
         }
+    }
+}
+
+/// The amplitudes that need no solve: 1 for `unit`, and exactly 0 when every residual is 0
+/// (whatever the scale fitted).
+fn fixed_amplitude(scale: Scale, residuals: &[f64]) -> Option<f64> {
+    if scale == Scale::Unit {
+        Some(1.0)
+    } else if residuals.iter().all(|&r| r == 0.0) {
+        Some(0.0)
+    } else {
+        None
     }
 }
 
@@ -102,14 +111,11 @@ pub enum Solved<'a> {
 /// # Panics
 /// With `loo`, which needs `Q⁻¹r` itself.
 pub fn fit_amplitude_half(scale: Scale, residuals: &[f64], half: &[f64], dof: usize) -> f64 {
-    if scale == Scale::Unit {
-        return 1.0;
-    }
-    if residuals.iter().all(|&r| r == 0.0) {
-        return 0.0;
+    if let Some(amplitude) = fixed_amplitude(scale, residuals) {
+        return amplitude;
     }
     match scale {
-        Scale::Unit => unreachable!("returned above"),
+        Scale::Unit => unreachable!("fixed_amplitude returns it"),
         Scale::Ml => (half.iter().map(|y| y * y).sum::<f64>() / dof as f64).max(0.0),
         Scale::Loo => panic!("the loo amplitude needs Q⁻¹r, not L⁻¹r"),
     }
@@ -189,6 +195,31 @@ pub struct Diagnostics {
 }
 
 impl Diagnostics {
+    /// The diagnostics of `weights` from a factor with `info`: their statistics, `V̂`, the
+    /// posterior variance, and the factor's `warnings` with the negative-variance one if due.
+    fn of(
+        weights: &[f64],
+        posterior_variance: f64,
+        mut warnings: Vec<NumericalWarning>,
+        info: FactorInfo,
+        prior_variance: f64,
+    ) -> Self {
+        warnings.extend(negative_variance_warning(posterior_variance));
+        let stats = WeightStats::of(weights);
+        Diagnostics {
+            n: weights.len(),
+            weight_sum: stats.sum,
+            negative_weights: stats.negative,
+            min_weight: stats.min,
+            max_weight: stats.max,
+            jitter: info.jitter,
+            condition_estimate: info.condition_estimate,
+            prior_variance,
+            posterior_variance,
+            warnings,
+        }
+    }
+
     /// The posterior variance as reported: `max(V̂ − zᵀ Q⁻¹ z, 0)` (math.md §7).
     pub fn posterior_variance_clamped(&self) -> f64 {
         self.posterior_variance.max(0.0)
@@ -245,24 +276,24 @@ impl BmcWeights {
             .map(|(w, u)| w + shift * u)
             .collect();
         let posterior_variance = self.bayes_sard_variance();
-        let mut warnings: Vec<NumericalWarning> = self
+        let warnings: Vec<NumericalWarning> = self
             .diagnostics
             .warnings
             .iter()
             .filter(|w| !matches!(w, NumericalWarning::NegativePosteriorVariance { .. }))
             .cloned()
             .collect();
-        warnings.extend(negative_variance_warning(posterior_variance));
-        let stats = WeightStats::of(&weights);
-        let diagnostics = Diagnostics {
-            weight_sum: stats.sum,
-            negative_weights: stats.negative,
-            min_weight: stats.min,
-            max_weight: stats.max,
+        let factor = FactorInfo {
+            jitter: self.diagnostics.jitter,
+            condition_estimate: self.diagnostics.condition_estimate,
+        };
+        let diagnostics = Diagnostics::of(
+            &weights,
             posterior_variance,
             warnings,
-            ..self.diagnostics.clone()
-        };
+            factor,
+            self.diagnostics.prior_variance,
+        );
         BmcWeights {
             weights,
             ones_solve: self.ones_solve.clone(),
@@ -398,7 +429,6 @@ pub(crate) fn with_diagnostics(
         jitter,
         condition_estimate,
     } = info;
-    let n = weights.len();
     let mut warnings = Vec::new();
     if jitter > 0.0 {
         warnings.push(NumericalWarning::Jitter { amount: jitter });
@@ -409,20 +439,7 @@ pub(crate) fn with_diagnostics(
         });
     }
     let posterior_variance = prior_variance - dot(z, &weights);
-    warnings.extend(negative_variance_warning(posterior_variance));
-    let stats = WeightStats::of(&weights);
-    let diagnostics = Diagnostics {
-        n,
-        weight_sum: stats.sum,
-        negative_weights: stats.negative,
-        min_weight: stats.min,
-        max_weight: stats.max,
-        jitter,
-        condition_estimate,
-        prior_variance,
-        posterior_variance,
-        warnings,
-    };
+    let diagnostics = Diagnostics::of(&weights, posterior_variance, warnings, info, prior_variance);
     BmcWeights {
         weights,
         ones_solve,
