@@ -16,7 +16,7 @@ pub struct ModelArgs {
     /// Covariance kernel [default: sobolev].
     #[arg(long, value_parser = ["sobolev", "se"])]
     kernel: Option<String>,
-    /// Sobolev smoothness s, in (1, 2) [default: 1.4].
+    /// Sobolev smoothness s, in (1, 2), (2, 3) or (3, 4) (math.md §9) [default: 1.4].
     #[arg(long, allow_negative_numbers = true)]
     s: Option<f64>,
     /// Squared-exponential σ_f [default: 1].

@@ -7,7 +7,7 @@ pub mod fast_pow;
 mod sobolev;
 mod squared_exponential;
 
-pub use sobolev::Sobolev;
+pub use sobolev::{Sobolev, funk_hecke_power};
 pub use squared_exponential::SquaredExponential;
 
 use crate::util::geometry::Vec3;
@@ -275,7 +275,8 @@ impl Kernel {
             Kernel::Sobolev(k) if out.len() < SHORT_COLUMN => {
                 for i in 0..out.len() {
                     let (dx, dy, dz) = (xs[i] - qx, ys[i] - qy, zs[i] - qz);
-                    out[i] = k.constant() - fast_pow::pow_inline(squared_norm(dx, dy, dz), k.half_exponent());
+                    let d2 = squared_norm(dx, dy, dz);
+                    out[i] = k.combine(d2, fast_pow::pow_inline(d2, k.half_exponent()));
                 }
             }
             Kernel::Sobolev(k) => {
@@ -304,7 +305,7 @@ impl Kernel {
                         fast_pow::pow_block(&d2, k.half_exponent(), &mut v, m.next_multiple_of(8));
                     }
                     for l in 0..m {
-                        out[i + l] = k.constant() - v[l];
+                        out[i + l] = k.combine(d2[l], v[l]);
                     }
                     i += m;
                 }

@@ -1,33 +1,87 @@
 use super::KernelError;
 
-/// Sobolev kernel on the sphere (Marques et al. 2019; math.md §4):
+/// Sobolev kernels on the sphere (RKHS `H^s(S²)`; Marques et al. 2019; math.md §4 and §9), as
+/// functions of `d² = ‖x − y‖² = 2 − 2t`, `t = x·y`, `ν = s − 1`:
 ///
-/// `k(x, y) = 2^(2s−1)/s − ‖x − y‖^(2s−2)`, smoothness `1 < s < 2` (thesis: `s = 1.4`).
+/// - `1 < s < 2` (thesis: `s = 1.4`): `k = 2^(2s−1)/s − d^(2ν)`; its mean over the whole sphere
+///   is `4π · 2^(2s−2)/s` for every `x`.
+/// - `2 < s < 3`: `k = C₀ + C₁ t + d^(2ν)`;
+/// - `3 < s < 4`: `k = C₀ + C₁ t + C₂ P₂(t) − d^(2ν)`;
 ///
-/// Its mean over the whole sphere is `4π · 2^(2s−2)/s` for every `x`.
+/// where the low-degree coefficients continue the eigenvalue decay `(1 + l(l+1))^(−s)` below the
+/// first degree at which `±d^(2ν)` alone is positive (math.md §9, [`funk_hecke_power`]). `s = 2`
+/// and `s = 3` are excluded (logarithmic limits).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sobolev {
     s: f64,
+    /// `κ(0)`.
     constant: f64,
     half_exponent: f64,
+    /// For `s > 2`: the polynomial part in `d²` and the sign of the power.
+    smooth: Option<Smooth>,
+}
+
+/// The polynomial part of a Sobolev kernel with `s > 2`, `C₀ + C₁ t + C₂ P₂(t)` written in
+/// `u = d²` (`t = 1 − u/2`, `P₂(t) = 1 − 3u/2 + 3u²/8`): `a₀ + a₁ u + a₂ u²`, and the sign of
+/// `d^(2ν)` (`+` for `2 < s < 3`, `−` for `3 < s < 4`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Smooth {
+    legendre: [f64; 3],
+    poly: [f64; 3],
+    sign: f64,
+}
+
+/// `e_l(ν) = 2π ∫_{−1}^{1} (2 − 2t)^ν P_l(t) dt`, the Funk–Hecke eigenvalue of `d^(2ν)` at
+/// degree `l`: `2π · 2^(2ν+1) · (−1)^l · ν(ν−1)…(ν−l+1) / ((ν+1)(ν+2)…(ν+l+1))`
+/// (Gradshteyn & Ryzhik 7.127 with `t → −t`).
+pub fn funk_hecke_power(nu: f64, l: usize) -> f64 {
+    let mut ratio = 1.0 / (nu + 1.0);
+    for j in 0..l {
+        ratio *= -(nu - j as f64) / (nu + j as f64 + 2.0);
+    }
+    std::f64::consts::TAU * 2f64.powf(2.0 * nu + 1.0) * ratio
 }
 
 impl Sobolev {
     /// The thesis's smoothness.
     pub const DEFAULT_S: f64 = 1.4;
 
-    /// Validates `1 < s < 2`.
+    /// Validates `s ∈ (1, 2) ∪ (2, 3) ∪ (3, 4)`.
     pub fn new(s: f64) -> Result<Self, KernelError> {
-        if !(s > 1.0 && s < 2.0) {
+        if !(s > 1.0 && s < 4.0 && s != 2.0 && s != 3.0) {
             return Err(KernelError {
                 kernel: "sobolev",
-                message: format!("s must be in (1, 2), got {s}"),
+                message: format!("s must be in (1, 2), (2, 3) or (3, 4), got {s}"),
             });
         }
+        let nu = s - 1.0;
+        if s < 2.0 {
+            return Ok(Sobolev {
+                s,
+                constant: 2f64.powf(2.0 * s - 1.0) / s,
+                half_exponent: nu,
+                smooth: None,
+            });
+        }
+        let e = |l: usize| funk_hecke_power(nu, l);
+        let decay = |l: usize| (1.0 + (l * (l + 1)) as f64).powf(-s);
+        let four_pi = 2.0 * std::f64::consts::TAU;
+        // The first degree at which ±d^(2ν) has a positive eigenvalue, and that sign.
+        let (first, sign) = if s < 3.0 { (2, 1.0) } else { (3, -1.0) };
+        let mut legendre = [0.0; 3];
+        let lambda_first = sign * e(first);
+        for (l, c) in legendre.iter_mut().enumerate().take(first) {
+            // λ_l = λ_first · decay(l)/decay(first); C_l = (2l + 1)(λ_l − sign · e_l)/(4π).
+            let lambda = lambda_first * decay(l) / decay(first);
+            *c = (2 * l + 1) as f64 * (lambda - sign * e(l)) / four_pi;
+        }
+        let [c0, c1, c2] = legendre;
+        let poly = [c0 + c1 + c2, -0.5 * c1 - 1.5 * c2, 0.375 * c2];
         Ok(Sobolev {
             s,
-            constant: 2f64.powf(2.0 * s - 1.0) / s,
-            half_exponent: s - 1.0,
+            constant: poly[0],
+            half_exponent: nu,
+            smooth: Some(Smooth { legendre, poly, sign }),
         })
     }
 
@@ -36,25 +90,181 @@ impl Sobolev {
         self.half_exponent
     }
 
-    /// `2^(2s−1)/s`, the kernel at `d² = 0`.
-    pub(crate) fn constant(&self) -> f64 {
-        self.constant
+    /// `κ(d²)` given `p = (d²)^(s−1)`: what the vectorised assembly combines its powers with.
+    /// For `s < 2` exactly `2^(2s−1)/s − p`.
+    #[inline(always)]
+    pub(crate) fn combine(&self, d2: f64, p: f64) -> f64 {
+        match &self.smooth {
+            None => self.constant - p,
+            Some(sm) => sm.poly[0] + d2 * (sm.poly[1] + d2 * sm.poly[2]) + sm.sign * p,
+        }
     }
 
     pub fn s(&self) -> f64 {
         self.s
     }
 
-    /// `2^(2s−1)/s − (d²)^(s−1)`.
+    /// The Legendre coefficients `[C₀, C₁, C₂]` of the polynomial part (`s > 2`; zeros below).
+    pub fn legendre_coefficients(&self) -> [f64; 3] {
+        self.smooth.map_or([0.0; 3], |sm| sm.legendre)
+    }
+
+    /// The sign of `d^(2ν)` in the kernel: `−` for `1 < s < 2` and `3 < s < 4`, `+` for
+    /// `2 < s < 3`.
+    pub fn power_sign(&self) -> f64 {
+        self.smooth.map_or(-1.0, |sm| sm.sign)
+    }
+
+    /// `κ(d²)`.
     #[inline]
     pub fn of_squared_distance(&self, d2: f64) -> f64 {
         // d² = 0 gives the constant exactly (pow(0, p) = 0).
-        self.constant - super::fast_pow::pow(d2, self.half_exponent)
+        self.combine(d2, super::fast_pow::pow(d2, self.half_exponent))
     }
 
-    /// `∫_a^b [c − (2 − 2t)^(s−1)] dt = c (b − a) − [(2 − 2a)^s − (2 − 2b)^s] / (2s)`.
+    /// `∫_a^b κ(2 − 2t) dt`: the polynomial part `C₀ t + C₁ t²/2 + C₂ (t³ − t)/2` between the
+    /// ends, and `± [(2 − 2a)^s − (2 − 2b)^s] / (2s)` for the power.
     pub fn integral_over_t(&self, a: f64, b: f64) -> f64 {
         let s = self.s;
-        self.constant * (b - a) - ((2.0 - 2.0 * a).powf(s) - (2.0 - 2.0 * b).powf(s)) / (2.0 * s)
+        let power = ((2.0 - 2.0 * a).powf(s) - (2.0 - 2.0 * b).powf(s)) / (2.0 * s);
+        match &self.smooth {
+            None => self.constant * (b - a) - power,
+            Some(sm) => {
+                let [c0, c1, c2] = sm.legendre;
+                let antiderivative = |t: f64| c0 * t + c1 * t * t / 2.0 + c2 * (t * t * t - t) / 2.0;
+                antiderivative(b) - antiderivative(a) + sm.sign * power
+            }
+        }
+    }
+
+    /// `∫ κ(2 − 2t) dt` over `[1 − e, 1]` (`above`) or `[−1, −1 + e]`, without cancellation for a
+    /// short interval: the power part is given (`∫ (2 − 2t)^ν dt` over the interval), the
+    /// polynomial part is formed from `e` directly.
+    pub(crate) fn cap_integral(&self, e: f64, above: bool, power: f64) -> f64 {
+        match &self.smooth {
+            None => self.constant * e - power,
+            Some(sm) => {
+                let [c0, c1, c2] = sm.legendre;
+                // ∫ t dt = ±e(2 − e)/2, ∫ P₂ dt = (1 − e) e (2 − e)/2 on either cap.
+                let linear = e * (2.0 - e) / 2.0;
+                let linear = if above { linear } else { -linear };
+                c0 * e + c1 * linear + c2 * (1.0 - e) * e * (2.0 - e) / 2.0 + sm.sign * power
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::util::quadrature::GaussLegendre;
+
+    /// `e_l(ν)` against Gauss–Legendre in `t` on graded panels toward the `(1 − t)^ν` end.
+    #[test]
+    fn funk_hecke_eigenvalues_match_quadrature() {
+        let p = |l: usize, t: f64| match l {
+            0 => 1.0,
+            1 => t,
+            2 => (3.0 * t * t - 1.0) / 2.0,
+            _ => (5.0 * t * t * t - 3.0 * t) / 2.0,
+        };
+        for nu in [0.4, 1.2, 1.75, 2.5, 2.9] {
+            for l in 0..4 {
+                let sum = graded(-1.0, 1.0, |t| (2.0 - 2.0 * t).powf(nu) * p(l, t));
+                let want = std::f64::consts::TAU * sum;
+                let got = funk_hecke_power(nu, l);
+                assert!(
+                    (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                    "ν={nu}, l={l}: {got} vs {want}"
+                );
+            }
+        }
+    }
+
+    /// `∫_a^b f dt` by 30-point Gauss–Legendre on 16 equal panels, the part within 1/2 of `t = 1`
+    /// on panels graded geometrically toward it (where `(1 − t)^ν` is singular).
+    fn graded(a: f64, b: f64, f: impl Fn(f64) -> f64) -> f64 {
+        let rule = GaussLegendre::new(30);
+        let split = b.min(0.5).max(a);
+        let w = (split - a) / 16.0;
+        let mut sum: f64 = (0..16)
+            .map(|i| rule.integrate(a + i as f64 * w, a + (i + 1) as f64 * w, &f))
+            .sum();
+        if b > split {
+            // [split, b] toward 1: [1 − (1 − split)2^−k, 1 − (1 − split)2^−(k+1)], cut at b.
+            for k in 0..60 {
+                let lo = 1.0 - (1.0 - split) * 0.5f64.powi(k);
+                let hi = (1.0 - (1.0 - split) * 0.5f64.powi(k + 1)).min(b);
+                if lo >= b {
+                    break;
+                }
+                sum += rule.integrate(lo, hi, &f);
+            }
+        }
+        sum
+    }
+
+    /// The construction of math.md §9: the kernel's eigenvalue at degree `l`,
+    /// `4π C_l/(2l + 1) ± e_l` (the power's by [`funk_hecke_power`], checked against quadrature
+    /// above), is positive at every degree 0..=6 and follows the decay `(1 + l(l+1))^(−s)` below
+    /// the first degree the power decides.
+    #[test]
+    fn smoother_kernels_have_positive_eigenvalues_with_the_sobolev_decay() {
+        let four_pi = 2.0 * std::f64::consts::TAU;
+        for s in [2.25, 2.75, 3.25, 3.75] {
+            let k = Sobolev::new(s).unwrap();
+            let c = k.legendre_coefficients();
+            let eig = |l: usize| {
+                let poly = if l < 3 {
+                    four_pi * c[l] / (2 * l + 1) as f64
+                } else {
+                    0.0
+                };
+                poly + k.power_sign() * funk_hecke_power(s - 1.0, l)
+            };
+            let first = if s < 3.0 { 2 } else { 3 };
+            let decay = |l: usize| (1.0 + (l * (l + 1)) as f64).powf(-s);
+            for l in 0..7 {
+                assert!(eig(l) > 0.0, "s={s}: eigenvalue {l} = {}", eig(l));
+            }
+            for l in 0..first {
+                let want = eig(first) * decay(l) / decay(first);
+                assert!(
+                    (eig(l) - want).abs() < 1e-12 * want,
+                    "s={s}, l={l}: {} vs {want}",
+                    eig(l)
+                );
+            }
+            // The kernel itself has that polynomial part: κ(2 − 2t) ∓ (2 − 2t)^ν at t = 0.3.
+            let t: f64 = 0.3;
+            let poly = c[0] + c[1] * t + c[2] * (3.0 * t * t - 1.0) / 2.0;
+            let got = k.of_squared_distance(2.0 - 2.0 * t) - k.power_sign() * (2.0 - 2.0 * t).powf(s - 1.0);
+            assert!((got - poly).abs() < 1e-12 * poly.abs(), "s={s}: {got} vs {poly}");
+        }
+    }
+
+    #[test]
+    fn integral_over_t_matches_quadrature() {
+        for s in [1.4, 2.5, 3.5] {
+            let k = Sobolev::new(s).unwrap();
+            for (a, b) in [(-1.0, 1.0), (-0.3, 0.8), (0.5, 1.0)] {
+                let want = graded(a, b, |t| k.of_squared_distance(2.0 - 2.0 * t));
+                let got = k.integral_over_t(a, b);
+                assert!(
+                    (got - want).abs() < 1e-12 * want.abs().max(1.0),
+                    "s={s} [{a},{b}]: {got} vs {want}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn s_of_two_three_or_outside_one_to_four_is_refused() {
+        for s in [1.0, 2.0, 3.0, 4.0, 0.5, 4.5, f64::NAN] {
+            assert!(Sobolev::new(s).is_err(), "s = {s}");
+        }
+        for s in [1.01, 1.99, 2.01, 2.99, 3.01, 3.99] {
+            assert!(Sobolev::new(s).is_ok(), "s = {s}");
+        }
     }
 }

@@ -135,9 +135,9 @@ fn decay_width(kernel: &Kernel, m: f64) -> f64 {
 fn cap_integral(kernel: &Kernel, e: f64, above: bool) -> f64 {
     match kernel {
         Kernel::Sobolev(k) => {
-            // κ = c − (2 − 2t)^(s−1): ∫ = c e − [(2 − 2t)^s]/(2s) between the ends.
+            // κ = P(t) ± (2 − 2t)^(s−1): the power integrates to [(2 − 2t)^s]/(2s) between the
+            // ends; the polynomial part is the kernel's own (Sobolev::cap_integral).
             let s = k.s();
-            let c = kernel.diagonal();
             let power_term = if above {
                 // (2 − 2a)^s − 0.
                 (2.0 * e).powf(s)
@@ -145,7 +145,7 @@ fn cap_integral(kernel: &Kernel, e: f64, above: bool) -> f64 {
                 // 4^s − (2 + 2a)^s = 4^s (1 − (1 − e/2)^s).
                 -(4f64.powf(s)) * (s * (-0.5 * e).ln_1p()).exp_m1()
             };
-            c * e - power_term / (2.0 * s)
+            k.cap_integral(e, above, power_term / (2.0 * s))
         }
         Kernel::SquaredExponential(k) => {
             // κ = σ² exp(−(1 − t)/l²): ∫ = σ² l² exp(−(1 − t)/l²) between the ends.

@@ -89,7 +89,14 @@ fn bad_rule_input_is_exit_2_with_a_clear_message() {
         (&["rule", "--points", "missing.csv"], "missing.csv"),
         (&["rule", "--n", "0"], "--n"),
         (&["rule", "--n", "100000"], "GiB"),
-        (&["rule", "--s", "2.5"], "s must be in (1, 2)"),
+        (
+            &["rule", "--s", "2"],
+            "s must be in (1, 2), (2, 3) or (3, 4), got 2",
+        ),
+        (
+            &["rule", "--s", "4.5"],
+            "s must be in (1, 2), (2, 3) or (3, 4), got 4.5",
+        ),
         (&["rule", "--kernel", "se", "--length", "0"], "length"),
         (&["rule", "--noise", "-1"], "--noise"),
         (

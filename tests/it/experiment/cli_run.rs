@@ -319,9 +319,9 @@ fn bad_experiment_files_are_exit_2_before_any_work() {
         (
             SMALL.replace(
                 "{ \"type\": \"se\", \"sigma\": 1, \"length\": 0.5 }",
-                "{ \"type\": \"sobolev\", \"s\": 2.5 }",
+                "{ \"type\": \"sobolev\", \"s\": 3 }",
             ),
-            "estimators[4].kernel: sobolev kernel: s must be in (1, 2), got 2.5",
+            "estimators[4].kernel: sobolev kernel: s must be in (1, 2), (2, 3) or (3, 4), got 3",
         ),
         (
             SMALL.replace("\"length\": 0.5", "\"length\": -1"),
