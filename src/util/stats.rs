@@ -46,10 +46,17 @@ pub fn interval_quantile(dof: Option<usize>, level: f64) -> f64 {
 
 /// Quantile `p ∈ [0, 1]` of sorted data by linear interpolation between order statistics
 /// (Hyndman & Fan type 7, the default of R and NumPy).
+///
+/// Between two equal order statistics the quantile is that value, so infinities (an interval
+/// of width 0 around a wrong estimate gives `|err|/sd = ∞`) give `∞`, not the `NaN` of
+/// `∞ + 0·(∞ − ∞)`.
 pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
     let h = (sorted.len() - 1) as f64 * p;
     let lo = h.floor() as usize;
     let hi = h.ceil() as usize;
+    if sorted[lo] == sorted[hi] {
+        return sorted[lo];
+    }
     sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
 }
 
@@ -137,5 +144,17 @@ mod tests {
         let x = [4.0, 8.0, 16.0, 32.0];
         let y: Vec<f64> = x.iter().map(|v: &f64| 3.0 * v.powf(-0.5)).collect();
         assert!((log_log_slope(&x, &y) + 0.5).abs() < 1e-12);
+    }
+
+    /// Regression (issue 20): the median of ratios that are mostly `∞` is `∞`, not NaN; finite
+    /// data interpolate as before.
+    #[test]
+    fn quantiles_of_infinities_are_infinite() {
+        let inf = f64::INFINITY;
+        assert_eq!(quantile_sorted(&[0.5, inf, inf], 0.5), inf);
+        assert_eq!(quantile_sorted(&[0.5, 1.0, inf, inf], 0.5), inf);
+        assert_eq!(quantile_sorted(&[inf, inf], 0.3), inf);
+        assert_eq!(quantile_sorted(&[1.0, 2.0, 4.0, 8.0], 0.5), 3.0);
+        assert_eq!(quantile_sorted(&[1.0, 2.0, 2.0, 8.0], 0.5), 2.0);
     }
 }
