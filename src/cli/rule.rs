@@ -125,7 +125,6 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         summary["source"] = source;
         summary["seed"] = serde_json::json!(args.seed);
         summary["method"] = serde_json::json!(args.method);
-        let dof = (args.scale == "ml").then(|| method.ml_dof(points.len()));
         summary["scale"] = serde_json::json!({
             "scale": args.scale,
             "posterior_variance_is": "Var₁, the unit-amplitude posterior variance; with values Y the \
@@ -136,8 +135,13 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
                 "ml" => "rᵀQ⁻¹r / N, r = Y (BMC) or Y − c·1 (BMCP)",
                 _ => "(1/N) Σ (Q⁻¹r)_i² / (Q⁻¹)_ii",
             },
-            "student_t_dof": dof,
+            "interval": if args.scale == "ml" { "student_t" } else { "normal" },
         });
+        // The degrees of freedom exist only for the Student-t interval of `ml`: elsewhere the key
+        // is left out rather than written as null (which a NaN would also give).
+        if args.scale == "ml" {
+            summary["scale"]["student_t_dof"] = serde_json::json!(method.ml_dof(points.len()));
+        }
         if let Some(m) = resolved.samples() {
             summary["kernel_mean_samples"] = serde_json::json!(m);
         }

@@ -214,7 +214,11 @@ fn bayes_sard_rule_sums_to_two_pi() {
     assert_eq!(bsq["method"], "bsq");
     assert_eq!(bsq["scale"]["scale"], "ml");
     assert_eq!(bsq["scale"]["student_t_dof"], 39);
-    assert_eq!(bmc["scale"]["student_t_dof"], serde_json::Value::Null);
+    assert_eq!(bsq["scale"]["interval"], "student_t");
+    // Regression (issue 21, item 3): no `"student_t_dof": null` where no Student-t interval
+    // applies; the interval kind says what does.
+    assert!(bmc["scale"].get("student_t_dof").is_none(), "{}", bmc["scale"]);
+    assert_eq!(bmc["scale"]["interval"], "normal");
 
     let o = workbench(dir.path(), &["rule", "--n", "1", "--method", "bsq"]);
     assert_eq!(o.status.code(), Some(2));
