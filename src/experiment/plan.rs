@@ -12,6 +12,10 @@ use crate::sampling::{Density, Design, Structure};
 use serde::Serialize;
 use std::sync::Arc;
 
+/// The largest BMCP prior constant `|c|` accepted (see the estimator's prior arm: beyond about
+/// 1e146 the fitted amplitude overflows).
+pub const MAX_PRIOR: f64 = 1e100;
+
 /// Largest number of points one unit of work (one N and trial) draws across all designs in use:
 /// each design draws its own set of N points, and each set and its integrand values take
 /// [`BYTES_PER_POINT`] per worker thread, so this keeps a thread under 0.3 GiB. With one design
@@ -660,12 +664,18 @@ fn resolve_estimator(
     let prior = if e.method.uses_prior() {
         Some(match e.prior.unwrap_or(PriorSpec::Named(PriorName::Analytic)) {
             PriorSpec::Named(PriorName::Analytic) => Prior::Analytic,
-            // 2πc must be finite, or every estimate is infinite or NaN.
-            PriorSpec::Value(c) if (std::f64::consts::TAU * c).is_finite() => Prior::Value(c),
+            // The fitted amplitude's rᵀQ⁻¹r with r = Y − c·1 is about c²·1ᵀQ⁻¹1, and 1ᵀQ⁻¹1
+            // reaches N/σ_n² ≈ 1e16 (N = 16384, σ_n² = 1e-12): beyond |c| ≈ 1e146 it overflows
+            // to an infinite amplitude (or NaN and a false zero-amplitude warning), so the bound
+            // leaves a wide margin below that and far above any integrand's mean.
+            PriorSpec::Value(c) if c.abs() <= MAX_PRIOR => Prior::Value(c),
             PriorSpec::Value(c) => {
                 return Err(err(
                     at("prior"),
-                    format!("must be finite with |2π·c| representable (|c| ≤ 2.8e307), got {c:e}"),
+                    format!(
+                        "must be finite with |c| ≤ {MAX_PRIOR:e} (larger constants overflow the fitted \
+                         amplitude's rᵀQ⁻¹r), got {c:e}"
+                    ),
                 ));
             }
         })

@@ -27,9 +27,42 @@ fn silent_nan_or_infinity_a_prior_that_can_only_overflow_is_rejected() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(!dir.path().join("results").exists(), "nothing may be written");
 
-    std::fs::write(dir.path().join("x.json"), SPEC.replace("PRIOR", "1e300")).unwrap();
+    std::fs::write(dir.path().join("x.json"), SPEC.replace("PRIOR", "1e100")).unwrap();
     let o = workbench(dir.path(), &["run", "x.json", "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Issue 21, item 2: a large but finite BMCP prior (|c| ≈ 1e155) overflowed the fitted
+/// amplitude — an infinite amplitude and sd with no warning at N = 2, a false "every residual is
+/// 0" warning at N = 64. It is now refused with the bound stated; at the bound the amplitude and
+/// the posterior sd are finite and nothing warns.
+#[test]
+fn overflowing_amplitude_a_huge_bmcp_prior_is_refused_with_the_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = |prior: &str| SPEC.replace("PRIOR", prior).replace("[4, 8]", "[2, 64]");
+    std::fs::write(dir.path().join("x.json"), spec("-1e155")).unwrap();
+    let o = workbench(dir.path(), &["run", "x.json", "-q"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("x.json: estimators[1].prior: must be finite with |c| ≤ 1e100")
+            && err.contains("-1e155"),
+        "{err}"
+    );
+    assert!(!dir.path().join("results").exists(), "nothing may be written");
+
+    std::fs::write(dir.path().join("x.json"), spec("-1e100")).unwrap();
+    let o = workbench(dir.path(), &["run", "x.json", "-q", "--out", "o"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&dir.path().join("o/trials.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    for r in rows.iter().filter(|r| r[col("estimator")] == "BMCP") {
+        let amplitude: f64 = r[col("amplitude")].parse().unwrap();
+        let sd: f64 = r[col("posterior_sd")].parse().unwrap();
+        assert!(amplitude.is_finite() && amplitude > 0.0, "amplitude {amplitude}");
+        assert!(sd.is_finite() && sd > 0.0, "sd {sd}");
+        assert_eq!(r[col("warnings")], "0", "{r:?}");
+    }
 }
 
 /// A cached reference with a NaN pixel was used without a word: it is now damaged, reported and
