@@ -28,6 +28,18 @@ impl Lock {
         std::fs::create_dir_all(dir)
             .map_err(|e| Error::io(format!("creating folder {}", dir.display()), e))?;
         let path = dir.join(hidden_name(LOCK_PREFIX, target.file_name().unwrap_or_default()));
+        // The lock file appears at `path` with the holder's pid already in it: it is written
+        // and locked under a name of our own, then hard-linked into place, which fails if a
+        // file is there. So a refused command always finds the pid to name (creating the file
+        // at `path` and then writing the pid left a moment in which it was empty).
+        let own = dir.join(format!(
+            "{}{}-lock-{}.tmp",
+            crate::files::atomic::HIDDEN_PREFIX,
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos())
+        ));
         // A releasing holder unlinks the file before unlocking it, so the file we lock may
         // no longer be the one at `path`; then we try again with the new one.
         for _ in 0..100 {
@@ -35,37 +47,62 @@ impl Lock {
                 .read(true)
                 .write(true)
                 .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(|e| Error::io(format!("creating the lock file {}", path.display()), e))?;
-            match file.try_lock() {
-                Ok(()) if !same_inode(&file, &path) => continue,
+                .truncate(true)
+                .open(&own)
+                .map_err(|e| Error::io(format!("creating the lock file {}", own.display()), e))?;
+            let _ = write!(file, "{}", std::process::id());
+            let placed = match file.try_lock() {
+                Ok(()) => std::fs::hard_link(&own, &path),
+                Err(TryLockError::Error(e)) if locks_unsupported(&e) => {
+                    let _ = std::fs::remove_file(&own);
+                    return Ok(Lock {
+                        path: own,
+                        _file: file,
+                        exclusive: false,
+                    });
+                }
+                Err(TryLockError::Error(e)) => {
+                    let _ = std::fs::remove_file(&own);
+                    return Err(Error::io(format!("locking {}", own.display()), e));
+                }
+                Err(TryLockError::WouldBlock) => unreachable!("nobody else knows our own file"),
+            };
+            let _ = std::fs::remove_file(&own);
+            match placed {
                 Ok(()) => {
-                    // Only for the message a second command prints; the lock is the flock.
-                    let _ = file.set_len(0);
-                    let _ = write!(file, "{}", std::process::id());
                     return Ok(Lock {
                         path,
                         _file: file,
                         exclusive: true,
                     });
                 }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+                Err(e) => return Err(Error::io(format!("creating the lock file {}", path.display()), e)),
+            }
+            // Someone's lock file is there: held (name the holder), or left by a killed
+            // command (remove it and try again).
+            drop(file);
+            let Ok(theirs) = OpenOptions::new().read(true).open(&path) else {
+                continue;
+            };
+            match theirs.try_lock() {
+                Ok(()) => {
+                    if same_inode(&theirs, &path) {
+                        let _ = std::fs::remove_file(&path);
+                    }
+                }
                 Err(TryLockError::WouldBlock) => {
-                    let holder = std::fs::read_to_string(&path)
+                    // From the file we opened, not the path: a releasing holder may have
+                    // unlinked it meanwhile, but its content is the holder's pid.
+                    let mut text = String::new();
+                    let holder = std::io::Read::read_to_string(&mut &theirs, &mut text)
                         .ok()
-                        .and_then(|s| s.trim().parse::<u32>().ok())
+                        .and_then(|_| text.trim().parse::<u32>().ok())
                         .map_or(String::new(), |pid| format!(" (pid {pid})"));
                     return Err(InputError::new(format!(
                         "{what}: another workbench{holder} is writing it; wait for it to finish, or {fix}"
                     ))
                     .into());
-                }
-                Err(TryLockError::Error(e)) if locks_unsupported(&e) => {
-                    return Ok(Lock {
-                        path,
-                        _file: file,
-                        exclusive: false,
-                    });
                 }
                 Err(TryLockError::Error(e)) => {
                     return Err(Error::io(format!("locking {}", path.display()), e));
@@ -115,5 +152,43 @@ mod tests {
         let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
         assert!(left.is_empty());
         drop(Lock::acquire(&target, "x", "").unwrap());
+    }
+
+    /// Issue 21, item 1: a refused writer sometimes found the lock file empty (created, not yet
+    /// holding the pid, or unlinked by a holder on its way out) and named no holder. The file now
+    /// appears with the pid in it and the pid is read from the file that was opened: a refusal
+    /// names the holder, both plainly and with two threads taking and releasing the same lock in
+    /// a tight loop.
+    #[test]
+    fn a_refused_writer_always_names_the_holder() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out");
+        let take = || Lock::acquire(&target, "out", "use another --out");
+        let names_the_holder = |e: Error| {
+            let m = e.to_string();
+            assert!(m.contains(&format!("(pid {})", std::process::id())), "{m}");
+        };
+        let held = take().unwrap();
+        names_the_holder(take().err().expect("refused while held"));
+        drop(held);
+        std::thread::scope(|s| {
+            for _ in 0..2 {
+                s.spawn(|| {
+                    for _ in 0..2000 {
+                        match take() {
+                            Ok(lock) => drop(lock),
+                            Err(e) => names_the_holder(e),
+                        }
+                    }
+                });
+            }
+        });
+        // Nothing is left behind: no lock file, no temporary file.
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
     }
 }
