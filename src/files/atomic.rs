@@ -12,16 +12,17 @@ use std::io::Write;
 use std::path::{Component, Path, PathBuf};
 
 /// Every hidden file or folder this crate creates starts with this. Temporary files and staging
-/// folders go on with the writer's pid and `-` (`.workbench-1234-…`), so a later run can tell a
-/// dead writer's leftovers from a live writer's work ([`sweep_stale`]); lock files go on with
-/// `lock-` ([`LOCK_PREFIX`]).
+/// folders go on with their writer, `<pid>.<host>` and `-` (`.workbench-1234.9f3a07c2e1d4-…`,
+/// [`writer`]), so a later run on the same host can tell a dead writer's leftovers from a live
+/// writer's work, and leaves other hosts' alone ([`sweep_stale`]); lock files go on with `lock-`
+/// ([`LOCK_PREFIX`]).
 pub const HIDDEN_PREFIX: &str = ".workbench-";
 
 /// Lock files are `.workbench-lock-<name of what they guard>`, beside it.
 pub const LOCK_PREFIX: &str = ".workbench-lock-";
 
 /// The longest output name (file or folder) accepted, in bytes: file systems allow 255, and the
-/// hidden names made from it (lock file, staging folder) add up to 30.
+/// hidden names made from it (lock file, staging folder) add up to 45.
 pub const MAX_NAME_BYTES: usize = 200;
 
 /// Writes `bytes` to `path` by way of a temporary file in the same folder and a rename.
@@ -66,7 +67,7 @@ pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged> {
     let dir = parent_or_dot(&target);
     std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating folder {}", dir.display()), e))?;
     sweep_stale(dir);
-    let prefix = format!("{HIDDEN_PREFIX}{}-", std::process::id());
+    let prefix = format!("{HIDDEN_PREFIX}{}-", writer(std::process::id()));
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(".tmp");
     // Temporary files are created 0600; results are ordinary new files: 0666 requested, cut by
@@ -317,18 +318,64 @@ pub(crate) fn hidden_name(prefix: &str, name: &OsStr) -> OsString {
     s
 }
 
-/// The pid in one of our hidden names, `.workbench-<pid>-…`.
-pub fn hidden_name_pid(name: &OsStr) -> Option<u32> {
+/// Who wrote a hidden name: `<pid>.<host>`, with [`host_tag`] of this host.
+pub fn writer(pid: u32) -> String {
+    format!("{pid}.{}", host_tag())
+}
+
+/// This host and pid namespace, as 12 hex digits: a hash of the kernel's boot id and of the pid
+/// namespace. Folders shared between hosts (a cluster's result folders and caches) hold other
+/// hosts' hidden files, whose pids mean nothing here; a pid is only judged on the host (and in
+/// the pid namespace) that wrote it. `000000000000` where neither can be read (not Linux).
+pub fn host_tag() -> &'static str {
+    static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TAG.get_or_init(|| {
+        let boot = std::fs::read_to_string("/proc/sys/kernel/random/boot_id").unwrap_or_default();
+        let namespace = std::fs::read_link("/proc/self/ns/pid").unwrap_or_default();
+        if boot.is_empty() && namespace.as_os_str().is_empty() {
+            return "0".repeat(12);
+        }
+        // FNV-1a, 64 bits: stable across builds and platforms (std's hasher is not).
+        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in boot
+            .trim()
+            .bytes()
+            .chain([0])
+            .chain(namespace.as_os_str().as_encoded_bytes().iter().copied())
+        {
+            hash ^= u64::from(b);
+            hash = hash.wrapping_mul(0x0100_0000_01b3);
+        }
+        format!("{:012x}", hash >> 16)
+    })
+}
+
+/// The writer of one of our hidden names, `.workbench-<pid>.<host>-…`: its pid and host tag, as
+/// text (`<pid>.<host>`) and parsed. Names of earlier versions (`.workbench-<pid>-…`) give the
+/// pid with no host.
+pub fn hidden_name_writer(name: &OsStr) -> Option<(&str, u32, Option<&str>)> {
     let rest = name.to_str()?.strip_prefix(HIDDEN_PREFIX)?;
-    let (pid, _) = rest.split_once('-')?;
+    let (writer, _) = rest.split_once('-')?;
+    let (pid, host) = match writer.split_once('.') {
+        Some((pid, host)) if host.len() == 12 && host.bytes().all(|b| b.is_ascii_hexdigit()) => {
+            (pid, Some(host))
+        }
+        Some(_) => return None,
+        None => (writer, None),
+    };
     if pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
         return None;
     }
-    pid.parse().ok()
+    Some((writer, pid.parse().ok()?, host))
 }
 
-/// Removes from `dir` what killed writers left: our temporary files and staging folders whose
-/// process is gone, and lock files nobody holds. Best effort and silent: a leftover that cannot
+/// The pid in one of our hidden names (see [`hidden_name_writer`]).
+pub fn hidden_name_pid(name: &OsStr) -> Option<u32> {
+    hidden_name_writer(name).map(|(_, pid, _)| pid)
+}
+
+/// Removes from `dir` what killed writers left: our temporary files and staging folders written
+/// on this host whose process is gone, and lock files nobody holds. Best effort and silent: a leftover that cannot
 /// be removed now is tried again next time, and never blocks the command.
 pub fn sweep_stale(dir: &Path) {
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -337,8 +384,10 @@ pub fn sweep_stale(dir: &Path) {
     for entry in entries.flatten() {
         let name = entry.file_name();
         let path = entry.path();
-        if let Some(pid) = hidden_name_pid(&name) {
-            if !pid_alive(pid) {
+        if let Some((_, pid, host)) = hidden_name_writer(&name) {
+            // Only this host's, and only a dead writer's: another host's pid means nothing here,
+            // and a name without a host (an earlier version's) may be anyone's.
+            if host == Some(host_tag()) && !pid_alive(pid) {
                 remove_any(&path);
             }
         } else if name.to_str().is_some_and(|n| n.starts_with(LOCK_PREFIX)) {
@@ -475,5 +524,17 @@ mod tests {
         assert_eq!(hidden_name_pid(OsStr::new(".workbench-lock-x")), None);
         assert_eq!(hidden_name_pid(OsStr::new(".workbench-Ab3x9q")), None);
         assert_eq!(hidden_name_pid(OsStr::new("workbench-1-x")), None);
+        // With the host: `<pid>.<12 hex digits>`; anything else after the dot is not ours.
+        let name = format!(".workbench-{}-staging-x", writer(77));
+        assert_eq!(
+            hidden_name_writer(OsStr::new(&name)),
+            Some((writer(77).as_str(), 77, Some(host_tag())))
+        );
+        assert_eq!(
+            hidden_name_writer(OsStr::new(".workbench-5-a.tmp")),
+            Some(("5", 5, None))
+        );
+        assert_eq!(hidden_name_writer(OsStr::new(".workbench-5.xyz-a.tmp")), None);
+        assert_eq!(host_tag().len(), 12);
     }
 }

@@ -35,7 +35,7 @@ impl Lock {
         let own = dir.join(format!(
             "{}{}-lock-{}.tmp",
             crate::files::atomic::HIDDEN_PREFIX,
-            std::process::id(),
+            crate::files::atomic::writer(std::process::id()),
             std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_nanos())

@@ -12,7 +12,8 @@
 
 use crate::error::{Error, InputError, Result};
 use crate::files::atomic::{
-    HIDDEN_PREFIX, MAX_NAME_BYTES, hidden_name, hidden_name_pid, parent_or_dot, remove_any, resolve,
+    HIDDEN_PREFIX, MAX_NAME_BYTES, hidden_name, hidden_name_writer, parent_or_dot, remove_any, resolve,
+    writer,
 };
 use crate::files::lock::Lock;
 use std::collections::{BTreeMap, BTreeSet};
@@ -122,7 +123,7 @@ impl ResultFolder {
             .map_err(|e| Error::io(format!("creating folder {}", parent.display()), e))?;
         let mut folder = ResultFolder {
             shown: out.to_path_buf(),
-            staging: parent.join(staged_name("staging", name, std::process::id())),
+            staging: parent.join(staged_name("staging", name, &writer(std::process::id()))),
             target: target.clone(),
             files: BTreeMap::new(),
             lock: None,
@@ -137,8 +138,8 @@ impl ResultFolder {
             // We hold the lock, so staging folders for this name are abandoned whoever made them.
             for entry in std::fs::read_dir(&parent).into_iter().flatten().flatten() {
                 let n = entry.file_name();
-                if hidden_name_pid(&n).is_some_and(|pid| {
-                    n == staged_name("staging", name, pid) || n == staged_name("old", name, pid)
+                if hidden_name_writer(&n).is_some_and(|(w, _, _)| {
+                    n == staged_name("staging", name, w) || n == staged_name("old", name, w)
                 }) {
                     remove_any(&entry.path());
                 }
@@ -280,7 +281,7 @@ impl ResultFolder {
         let old = parent_or_dot(&self.target).join(staged_name(
             "old",
             self.target.file_name().unwrap_or_default(),
-            std::process::id(),
+            &writer(std::process::id()),
         ));
         swap_into_place(&self.staging, &self.target, &old)
             .map_err(|e| Error::io(format!("moving the new results into {}", self.shown.display()), e))?;
@@ -303,9 +304,9 @@ impl Drop for ResultFolder {
     }
 }
 
-/// `.workbench-<pid>-<role>-<name>`: a staging folder, or the old set on its way out.
-fn staged_name(role: &str, name: &OsStr, pid: u32) -> OsString {
-    hidden_name(&format!("{HIDDEN_PREFIX}{pid}-{role}-"), name)
+/// `.workbench-<writer>-<role>-<name>`: a staging folder, or the old set on its way out.
+fn staged_name(role: &str, name: &OsStr, writer: &str) -> OsString {
+    hidden_name(&format!("{HIDDEN_PREFIX}{writer}-{role}-"), name)
 }
 
 fn is_plain_name(name: &str) -> bool {

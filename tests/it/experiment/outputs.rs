@@ -351,23 +351,34 @@ fn results_folder_holds_one_run_takes_over_what_a_killed_run_left() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("a.json"), COS3).unwrap();
+    let dead = workbench::files::atomic::writer(DEAD_PID);
     std::fs::write(d.join(".workbench-lock-o"), DEAD_PID.to_string()).unwrap();
-    let staging = d.join(format!(".workbench-{DEAD_PID}-staging-o"));
+    let staging = d.join(format!(".workbench-{dead}-staging-o"));
     std::fs::create_dir(&staging).unwrap();
     std::fs::write(staging.join("trials.csv"), "half").unwrap();
-    std::fs::write(d.join(format!(".workbench-{DEAD_PID}-x1.tmp")), "").unwrap();
+    std::fs::write(d.join(format!(".workbench-{dead}-x1.tmp")), "").unwrap();
     std::fs::write(d.join(".workbench-lock-other"), "").unwrap();
-    // The test process is alive: its files must stay.
-    let alive = format!(".workbench-{}-x2.tmp", std::process::id());
-    std::fs::write(d.join(&alive), "").unwrap();
+    // The test process is alive: its files must stay. So must another host's (its pid means
+    // nothing here) and an earlier version's, which do not say their host.
+    let alive = format!(
+        ".workbench-{}-x2.tmp",
+        workbench::files::atomic::writer(std::process::id())
+    );
+    let elsewhere = format!(".workbench-{DEAD_PID}.0123456789ab-staging-p");
+    let unknown_host = format!(".workbench-{DEAD_PID}-x3.tmp");
+    for name in [&alive, &elsewhere, &unknown_host] {
+        std::fs::write(d.join(name), "").unwrap();
+    }
+    let mut kept = vec![alive.clone(), elsewhere.clone(), unknown_host.clone()];
+    kept.sort();
     ok(&workbench(d, &["run", "a.json", "-q", "--out", "o"]));
-    assert_eq!(hidden(d), std::slice::from_ref(&alive));
+    assert_eq!(hidden(d), kept);
     assert_eq!(listing(&d.join("o")), manifest_files(&d.join("o")));
 
     // Beside single files too.
-    std::fs::write(d.join(format!(".workbench-{DEAD_PID}-y.tmp")), "").unwrap();
+    std::fs::write(d.join(format!(".workbench-{dead}-y.tmp")), "").unwrap();
     ok(&workbench(d, &render_args(&["--out", "img.exr"])));
-    assert_eq!(hidden(d), [alive]);
+    assert_eq!(hidden(d), kept);
 }
 
 /// Every file of the earlier run is as it was when a later run fails partway through writing
@@ -736,4 +747,90 @@ fn non_utf8_output_names_keep_their_bytes() {
     ok(&o);
     assert!(d.join(OsStr::from_bytes(b"o\xfe/trials.csv")).is_file());
     assert_eq!(hidden(d), Vec::<String>::new());
+}
+
+/// Issue 21, item 1: shards on two hosts write beside each other in one shared folder
+/// (`--out shards/1`, `--out shards/2`). A shard starting on one host deleted the staging folder
+/// of a shard still running on another, whose pid it could not see, and that shard then failed
+/// at its end. A second pid namespace stands in for the second host (`unshare`, as root on the
+/// project's machines): a shard there is stopped mid-run, so its staging folder stays as a
+/// running shard's would, and a shard here must leave it alone. The same leftover made here is
+/// a dead writer's and is swept.
+#[test]
+fn shared_parent_a_shard_leaves_another_hosts_staging_folder_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = r#"{"name": "k", "integrands": ["cos3"], "estimators": [{"label": "MC", "method": "mc"},
+        {"label": "BMC", "method": "bmc"}], "samples": [256, 512], "trials": 2000, "seed": 11}"#;
+    std::fs::write(d.join("s.json"), spec).unwrap();
+    std::fs::create_dir(d.join("shards")).unwrap();
+    let bin = env!("CARGO_BIN_EXE_workbench");
+    let staging_of = |shard: &str| -> Vec<String> {
+        hidden(&d.join("shards"))
+            .into_iter()
+            .filter(|n| n.ends_with(&format!("-staging-{shard}")))
+            .collect()
+    };
+    // "Host" B: a few processes first, so that the shard's pid is not one of this namespace's
+    // low ones; stopped after a second, long before 2000 trials of BMC at N = 512 are done.
+    let script = format!(
+        "for i in 1 2 3 4 5 6 7 8 9; do /bin/true; done; \
+         timeout --foreground -s KILL 1 {bin} run s.json --shard 2/2 --threads 1 --out shards/2 -q; exit 0"
+    );
+    let status = std::process::Command::new("unshare")
+        .args(["--pid", "--fork", "--mount-proc", "sh", "-c", &script])
+        .current_dir(d)
+        .status()
+        .expect("unshare runs (util-linux, as root)");
+    assert!(status.success(), "unshare: {status}");
+    let b = staging_of("2");
+    assert_eq!(
+        b.len(),
+        1,
+        "the other host's shard left no staging folder: {:?}",
+        hidden(&d.join("shards"))
+    );
+    // Here: a run beside it, which sweeps the shared folder for dead writers' leftovers as it
+    // starts (B's pid is not alive in this namespace: the old rule removed the folder).
+    let small = spec.replace("2000", "4");
+    std::fs::write(d.join("s.json"), &small).unwrap();
+    ok(&workbench(
+        d,
+        &["run", "s.json", "--threads", "1", "--out", "shards/1", "-q"],
+    ));
+    assert_eq!(
+        staging_of("2"),
+        b,
+        "a shard here removed the other host's staging folder"
+    );
+
+    // The same kind of leftover from this host is a dead writer's: swept by the next run.
+    std::fs::write(d.join("s.json"), spec).unwrap();
+    let status = std::process::Command::new("timeout")
+        .args([
+            "--foreground",
+            "-s",
+            "KILL",
+            "1",
+            bin,
+            "run",
+            "s.json",
+            "--shard",
+            "2/2",
+            "--threads",
+            "1",
+        ])
+        .args(["--out", "shards/3", "-q"])
+        .current_dir(d)
+        .status()
+        .unwrap();
+    assert!(!status.success(), "the shard was to be stopped mid-run");
+    assert_eq!(staging_of("3").len(), 1);
+    std::fs::write(d.join("s.json"), &small).unwrap();
+    ok(&workbench(
+        d,
+        &["run", "s.json", "--threads", "1", "--out", "shards/4", "-q"],
+    ));
+    assert!(staging_of("3").is_empty(), "{:?}", hidden(&d.join("shards")));
+    assert_eq!(staging_of("2"), b);
 }
