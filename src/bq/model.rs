@@ -3,7 +3,9 @@
 //! (`model`) and the command line (`rule`, `render`).
 //!
 //! JSON: `"kernel": {"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`,
-//! `"noise": 0.01`, `"kernel_mean": "exact" | "mc" | "mc-shared"`, `"kernel_mean_samples": 10000`.
+//! `"noise": 0.01`, `"kernel_mean": "exact" | "mc" | "mc-shared"`, `"kernel_mean_samples": 10000`;
+//! or a model fitted per weight set over a grid (math.md §9),
+//! `"kernel": {"type": "fitted", "grid": {"s": [1.2, 1.6, 2.75, 3.75], "noise": [1e-2, 1e-8]}}`.
 
 use crate::bq::factor::{NotPositiveDefinite, SpdWorkspace};
 use crate::bq::kernel::{Kernel, PointsSoa, Sobolev, SquaredExponential};
@@ -22,11 +24,18 @@ pub const DEFAULT_SE_SIGMA: f64 = 1.0;
 pub const DEFAULT_SE_LENGTH: f64 = 0.5;
 
 /// A BMC model: kernel, noise and kernel-mean mode; turns point sets into weights.
+///
+/// A fitted model ([`BmcModel::fitted`]) holds its grid's models as [`BmcModel::candidates`];
+/// its own kernel and noise are the first candidate's and stand for it only where a single
+/// model is unavoidable (a kernel-mean table for `V̂`); callers that estimate choose among the
+/// candidates per weight set and integrand ([`crate::bq::fitted`]).
 #[derive(Clone, Debug)]
 pub struct BmcModel {
     pub kernel: Kernel,
     pub noise: f64,
     pub mode: KernelMeanMode,
+    /// The grid of a fitted model, in grid order (`s` outer, noise inner); empty for a fixed one.
+    candidates: Vec<BmcModel>,
     /// The exact `z(μ)` and `V̂`, tabulated once and shared between threads; used for the
     /// `z_i` in the exact mode, and for `V̂` in both (the MC mode estimates only the `z_i`, as
     /// the thesis did).
@@ -41,7 +50,37 @@ impl BmcModel {
             kernel,
             noise,
             mode,
+            candidates: Vec::new(),
             table,
+        }
+    }
+
+    /// A model fitted per weight set over `candidates` (math.md §9), each with exact kernel
+    /// means.
+    ///
+    /// # Panics
+    /// With no candidates.
+    pub fn fitted(candidates: Vec<BmcModel>) -> Self {
+        let first = candidates.first().expect("a fitted model has candidates").clone();
+        BmcModel { candidates, ..first }
+    }
+
+    /// The grid of a fitted model (empty for a fixed model).
+    pub fn candidates(&self) -> &[BmcModel] {
+        &self.candidates
+    }
+
+    /// Whether the model is fitted per weight set over a grid.
+    pub fn is_fitted(&self) -> bool {
+        !self.candidates.is_empty()
+    }
+
+    /// A short name of a fixed model for tables: `s=2.75 noise=1e-8` (Sobolev) or
+    /// `se(sigma=1, length=0.5) noise=0.01`.
+    pub fn label(&self) -> String {
+        match &self.kernel {
+            Kernel::Sobolev(k) => format!("s={} noise={:e}", k.s(), self.noise),
+            other => format!("{other} noise={:e}", self.noise),
         }
     }
 
@@ -122,8 +161,9 @@ impl BmcModel {
     }
 }
 
-/// `{"type": "sobolev", "s": 1.4}` or `{"type": "se", "sigma": 1, "length": 0.5}`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
+/// `{"type": "sobolev", "s": 1.4}`, `{"type": "se", "sigma": 1, "length": 0.5}` or
+/// `{"type": "fitted", "grid": {"s": [...], "noise": [...]}}`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(tag = "type", deny_unknown_fields)]
 pub enum KernelSpec {
     #[serde(rename = "sobolev")]
@@ -138,7 +178,32 @@ pub enum KernelSpec {
         #[serde(default)]
         length: Option<f64>,
     },
+    /// Sobolev kernels and noises chosen per weight set and integrand by the profiled marginal
+    /// likelihood (math.md §9); the grid defaults to [`DEFAULT_GRID_S`] × [`DEFAULT_GRID_NOISE`].
+    #[serde(rename = "fitted")]
+    Fitted {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        grid: Option<GridSpec>,
+    },
 }
+
+/// The grid of a fitted model: every `s` with every noise σ_n².
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub s: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<Vec<f64>>,
+}
+
+/// The fitted model's default smoothnesses (math.md §9): two rough kernels (edged integrands)
+/// and two smooth ones (analytic integrands).
+pub const DEFAULT_GRID_S: [f64; 4] = [1.2, 1.6, 2.75, 3.75];
+/// The fitted model's default noises σ_n² (math.md §9): the thesis's and a near-interpolating one.
+pub const DEFAULT_GRID_NOISE: [f64; 2] = [1e-2, 1e-8];
+/// Most models a grid may hold: each costs a factorisation per weight set.
+pub const MAX_GRID_MODELS: usize = 64;
 
 /// How the kernel means are obtained, by name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, schemars::JsonSchema)]
@@ -165,7 +230,7 @@ impl KernelMeanName {
 }
 
 /// The model fields as given; `None` means "the default".
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -208,12 +273,16 @@ pub struct ModelError {
 }
 
 /// A validated model with every default filled in.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ResolvedModel {
+    /// The kernel (a fitted model: its first candidate's).
     pub kernel: Kernel,
+    /// The noise σ_n² (a fitted model: its first candidate's).
     pub noise: f64,
     pub kernel_mean: KernelMeanName,
     pub mode: KernelMeanMode,
+    /// A fitted model's grid, `(kernel, noise)` in grid order (`s` outer, noise inner).
+    pub grid: Option<Vec<(Kernel, f64)>>,
 }
 
 impl ModelSpec {
@@ -242,13 +311,17 @@ impl ModelSpec {
     /// noise 0.01, exact kernel means (MC: M = 10 000).
     pub fn resolve(&self) -> Result<ResolvedModel, ModelError> {
         let fail = |field, message: String| ModelError { field, message };
-        let kernel = match self.kernel.unwrap_or(KernelSpec::Sobolev { s: None }) {
+        if let Some(KernelSpec::Fitted { grid }) = &self.kernel {
+            return self.resolve_fitted(grid.as_ref());
+        }
+        let kernel = match self.kernel.clone().unwrap_or(KernelSpec::Sobolev { s: None }) {
             KernelSpec::Sobolev { s } => Sobolev::new(s.unwrap_or(Sobolev::DEFAULT_S)).map(Kernel::Sobolev),
             KernelSpec::SquaredExponential { sigma, length } => SquaredExponential::new(
                 sigma.unwrap_or(DEFAULT_SE_SIGMA),
                 length.unwrap_or(DEFAULT_SE_LENGTH),
             )
             .map(Kernel::SquaredExponential),
+            KernelSpec::Fitted { .. } => unreachable!("resolved above"),
         }
         .map_err(|e| fail(ModelField::Kernel, e.to_string()))?;
         let noise = crate::bq::weights::validate_noise(self.noise.unwrap_or(DEFAULT_NOISE))
@@ -281,6 +354,78 @@ impl ModelSpec {
             noise,
             kernel_mean,
             mode,
+            grid: None,
+        })
+    }
+
+    /// A fitted kernel: its grid checked (every `s` a Sobolev smoothness, every noise finite and
+    /// ≥ 0, neither list empty) with exact kernel means; the noise comes from the grid.
+    fn resolve_fitted(&self, grid: Option<&GridSpec>) -> Result<ResolvedModel, ModelError> {
+        let fail = |field, message: String| ModelError { field, message };
+        if let Some(noise) = self.noise {
+            return Err(fail(
+                ModelField::Noise,
+                format!(
+                    "{noise:?} is not used with a fitted kernel: its noises are the grid's \"noise\" list"
+                ),
+            ));
+        }
+        if let Some(mean) = self.kernel_mean.filter(|&m| m != KernelMeanName::Exact) {
+            return Err(fail(
+                ModelField::KernelMean,
+                format!(
+                    "{:?} cannot be used with a fitted kernel: the marginal likelihood needs exact kernel means",
+                    mean.name()
+                ),
+            ));
+        }
+        if self.kernel_mean_samples.is_some() {
+            return Err(fail(
+                ModelField::KernelMeanSamples,
+                "is only used with \"kernel_mean\": \"mc\" or \"mc-shared\"".into(),
+            ));
+        }
+        let s = grid.and_then(|g| g.s.clone()).unwrap_or(DEFAULT_GRID_S.to_vec());
+        let noises = grid
+            .and_then(|g| g.noise.clone())
+            .unwrap_or(DEFAULT_GRID_NOISE.to_vec());
+        for (name, list) in [("s", &s), ("noise", &noises)] {
+            if list.is_empty() {
+                return Err(fail(
+                    ModelField::Kernel,
+                    format!("grid.{name} is empty; give at least one value or leave it out for the default"),
+                ));
+            }
+        }
+        if s.len() * noises.len() > MAX_GRID_MODELS {
+            return Err(fail(
+                ModelField::Kernel,
+                format!(
+                    "the grid has {} × {} = {} models; at most {MAX_GRID_MODELS} (each costs a factorisation per weight set)",
+                    s.len(),
+                    noises.len(),
+                    s.len() * noises.len()
+                ),
+            ));
+        }
+        let mut models = Vec::with_capacity(s.len() * noises.len());
+        for &si in &s {
+            let kernel = Sobolev::new(si)
+                .map(Kernel::Sobolev)
+                .map_err(|e| fail(ModelField::Kernel, format!("grid.s: {e}")))?;
+            for &noise in &noises {
+                let noise = crate::bq::weights::validate_noise(noise)
+                    .map_err(|m| fail(ModelField::Kernel, format!("grid.{m}")))?;
+                models.push((kernel, noise));
+            }
+        }
+        let (kernel, noise) = models[0];
+        Ok(ResolvedModel {
+            kernel,
+            noise,
+            kernel_mean: KernelMeanName::Exact,
+            mode: KernelMeanMode::Exact,
+            grid: Some(models),
         })
     }
 }
@@ -288,12 +433,42 @@ impl ModelSpec {
 impl ResolvedModel {
     /// The model, with its kernel-mean table (about 10 ms to tabulate).
     pub fn build(&self) -> BmcModel {
-        BmcModel::new(self.kernel, self.noise, self.mode)
+        match &self.grid {
+            Some(grid) => BmcModel::fitted(
+                grid.iter()
+                    .map(|&(kernel, noise)| BmcModel::new(kernel, noise, self.mode))
+                    .collect(),
+            ),
+            None => BmcModel::new(self.kernel, self.noise, self.mode),
+        }
+    }
+
+    /// Whether the model is fitted per weight set over a grid.
+    pub fn is_fitted(&self) -> bool {
+        self.grid.is_some()
     }
 
     /// The resolved fields as JSON (kernel with its parameters, noise, kernel mean and, for
     /// MC kernel means, their sample count), for manifests and `validate`.
     pub fn to_json(&self) -> serde_json::Value {
+        if let Some(grid) = &self.grid {
+            let mut s: Vec<f64> = Vec::new();
+            let mut noise: Vec<f64> = Vec::new();
+            for (k, n) in grid {
+                if let Kernel::Sobolev(k) = k
+                    && !s.contains(&k.s())
+                {
+                    s.push(k.s());
+                }
+                if !noise.contains(n) {
+                    noise.push(*n);
+                }
+            }
+            return serde_json::json!({
+                "kernel": {"type": "fitted", "grid": {"s": s, "noise": noise}},
+                "kernel_mean": self.kernel_mean,
+            });
+        }
         let mut json = serde_json::json!({
             "kernel": self.kernel.to_json(),
             "noise": self.noise,

@@ -63,6 +63,7 @@ pub fn run_units(
                 warnings: Vec::new(),
                 messages: Vec::new(),
                 fitted: Vec::new(),
+                chosen: Vec::new(),
                 sequential: r.sequential,
                 cost: runner::Cost::default(),
             }));

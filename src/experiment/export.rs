@@ -54,8 +54,11 @@ pub fn summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
     let mut s = String::from(
         "integrand,estimator,n,trials,mean_abs_error,ci95_low,ci95_high,median_abs_error,\
          q10_abs_error,q90_abs_error,mean_posterior_sd,coverage50,coverage80,coverage95,\
-         median_abs_error_over_sd,warnings\n",
+         median_abs_error_over_sd,warnings",
     );
+    // Only a plan with a fitted model has the column of its choices.
+    let fitted = plan.has_fitted_model();
+    s.push_str(if fitted { ",chosen_models\n" } else { "\n" });
     for c in cells {
         writeln!(
             s,
@@ -78,8 +81,39 @@ pub fn summary_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
             c.warnings
         )
         .expect("writing to a String");
+        if fitted {
+            s.pop();
+            writeln!(s, ",{}", model_shares(plan, c)).expect("writing to a String");
+        }
     }
     s.into_bytes()
+}
+
+/// A fitted model's choices in a cell, most chosen first (ties in grid order):
+/// `s=3.75 noise=1e-8: 0.82; s=2.75 noise=1e-8: 0.18` (empty for a fixed model).
+fn model_shares(plan: &Plan, c: &CellSummary) -> String {
+    let Some(m) = plan.estimators[c.estimator].model else {
+        return String::new();
+    };
+    let mut counts: Vec<(usize, u64)> = c
+        .model_counts
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(_, k)| k > 0)
+        .collect();
+    counts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    counts
+        .iter()
+        .map(|&(k, count)| {
+            format!(
+                "{}: {}",
+                plan.models[m].candidates()[k].label(),
+                count as f64 / c.trials as f64
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// The resolved plan as JSON (what `validate` prints and the manifest records).

@@ -3,7 +3,7 @@
 //! bytes (the wall-clock `timings*` files and `*-cost.svg` aside).
 
 use super::plan::Plan;
-use super::rows::{TRIALS_HEADER, timing_part, trials_part};
+use super::rows::{timing_part, trials_header, trials_part};
 use super::summary::{self, Accumulator, CalibrationOutcome, CellSummary, CheckOutcome};
 use super::unit_log::{LogSet, rows_per_unit};
 use super::{cost_plot, coverage_plot, export, plot};
@@ -42,11 +42,12 @@ pub fn write_set(
         "trials.csv",
         "one row per (integrand, estimator, n, trial)",
         &mut |w| {
-            writeln!(w, "{TRIALS_HEADER}").map_err(failed)?;
+            let with_model = plan.has_fitted_model();
+            writeln!(w, "{}", trials_header(with_model)).map_err(failed)?;
             for pair in 0..rows_per_unit(plan) {
                 logs.for_each_row(plan, &mut |_, fi, ei, line| {
                     if fi * plan.estimators.len() + ei == pair {
-                        writeln!(w, "{}", trials_part(line)).map_err(failed)?;
+                        writeln!(w, "{}", trials_part(line, with_model)).map_err(failed)?;
                     }
                     Ok(())
                 })?;

@@ -244,7 +244,11 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
             ))
             .into()
         };
-        let (n, trial, values) = parse_row(line).map_err(|m| wrong(format!("a row {m}")))?;
+        let (n, trial, mut values, model) = parse_row(line).map_err(|m| wrong(format!("a row {m}")))?;
+        if let Some(label) = model {
+            values.model =
+                Some(super::rows::model_index(&plan, ei, label).map_err(|m| wrong(format!("a row {m}")))?);
+        }
         if (n, trial) != (plan.samples[ni], t) {
             return Err(wrong(format!("found a row of N = {n}, trial {trial}")));
         }

@@ -137,6 +137,16 @@ pub struct CalibrationCheck {
 }
 
 /// Parses the JSON text; errors say where (`path: message`).
+impl Plan {
+    /// Whether an estimator's model is fitted per weight set (math.md §9): `trials.csv` and
+    /// `summary.csv` then have a column of the chosen models.
+    pub fn has_fitted_model(&self) -> bool {
+        self.estimators
+            .iter()
+            .any(|e| e.model.is_some_and(|m| self.models[m].is_fitted()))
+    }
+}
+
 pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
     if crate::files::spec_json::spec_kind(text) == Some(crate::files::spec_json::SpecKind::RenderTable) {
         return Err(
@@ -298,8 +308,18 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
             &at,
         )?;
         planned.settings.tolerance = planned.tolerance;
+        if planned.tolerance.is_some() && model.as_ref().is_some_and(ResolvedModel::is_fitted) {
+            // The stage walker extends one nested factor per weight set; a fitted model would
+            // need one per grid model and a choice per stage, which it does not do yet.
+            return Err(err(
+                at("kernel"),
+                "a fitted kernel cannot be used with a tolerance yet; give a fixed kernel (e.g. \
+                 {\"type\": \"sobolev\", \"s\": 2.75}) or drop \"tolerance\""
+                    .to_string(),
+            ));
+        }
         if let Some(model) = model {
-            let key = (model, planned.design);
+            let key = (model.clone(), planned.design);
             let index = match model_keys.iter().position(|k| *k == key) {
                 Some(index) => index,
                 None => {
@@ -700,10 +720,10 @@ fn resolve_estimator(
         scale,
         method: e.method,
         design,
-        kernel: model.map(|m| m.kernel.to_json()),
-        noise: model.map(|m| m.noise),
-        kernel_mean: model.map(|m| m.kernel_mean),
-        kernel_mean_samples: model.and_then(|m| m.samples()),
+        kernel: model.as_ref().map(|m| m.to_json()["kernel"].clone()),
+        noise: model.as_ref().filter(|m| !m.is_fitted()).map(|m| m.noise),
+        kernel_mean: model.as_ref().map(|m| m.kernel_mean),
+        kernel_mean_samples: model.as_ref().and_then(|m| m.samples()),
         prior: prior.map(|p| match p {
             Prior::Analytic => PriorSpec::Named(PriorName::Analytic),
             Prior::Value(c) => PriorSpec::Value(c),

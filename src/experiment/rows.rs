@@ -15,14 +15,29 @@ use std::fmt::Write;
 pub const TRIALS_HEADER: &str = "integrand,estimator,method,design,n,trial,estimate,truth,abs_error,posterior_sd,\
                                  warnings,weight_sum,negative_weights,jitter,condition_estimate,amplitude,dof";
 
-/// The columns a unit log adds after [`TRIALS_HEADER`]: integrand evaluations (deterministic)
-/// and wall-clock seconds (not).
-pub const COST_HEADER: &str = "evaluations,weight_set_seconds,seconds";
+/// The column `trials.csv` adds after [`TRIALS_HEADER`] when an estimator's model is fitted
+/// (math.md §9): the grid's model that won, e.g. `s=2.75 noise=1e-8` (empty for the others).
+pub const MODEL_HEADER: &str = "model";
 
-/// Number of [`COST_HEADER`] columns.
+/// The columns a unit log adds after [`TRIALS_HEADER`]: the chosen model ([`MODEL_HEADER`],
+/// kept in every log so that one row format serves every plan), integrand evaluations
+/// (deterministic) and wall-clock seconds (not).
+pub const COST_HEADER: &str = "model,evaluations,weight_set_seconds,seconds";
+
+/// Number of cost columns of [`COST_HEADER`] (after `model`).
 const COST_COLUMNS: usize = 3;
-/// Columns of a log row after the estimator label: `method` … `dof`, then the cost columns.
-const TAIL_COLUMNS: usize = 15 + COST_COLUMNS;
+/// Columns of a log row after the estimator label: `method` … `dof`, `model`, then the cost
+/// columns.
+const TAIL_COLUMNS: usize = 15 + 1 + COST_COLUMNS;
+
+/// The header of `trials.csv`: [`TRIALS_HEADER`], and [`MODEL_HEADER`] when `with_model`.
+pub fn trials_header(with_model: bool) -> String {
+    if with_model {
+        format!("{TRIALS_HEADER},{MODEL_HEADER}")
+    } else {
+        TRIALS_HEADER.to_string()
+    }
+}
 
 fn opt(v: Option<f64>) -> String {
     v.map_or(String::new(), |x| format!("{x:?}"))
@@ -55,7 +70,7 @@ pub fn unit_rows(
             let est = unit.estimates[fi][ei];
             let uncertainty = unit.uncertainty[fi][ei];
             // The weight set's diagnostics (empty for MC).
-            let diagnostics = unit.diagnostics[ei].as_ref().map_or(",,,".to_string(), |d| {
+            let diagnostics = unit.diagnostics[fi][ei].as_ref().map_or(",,,".to_string(), |d| {
                 format!(
                     "{:?},{},{:?},{:?}",
                     d.weight_sum, d.negative_weights, d.jitter, d.condition_estimate
@@ -68,10 +83,15 @@ pub fn unit_rows(
                 evaluations: unit.cost.evaluations[fi][ei],
                 weight_set_seconds: unit.cost.weight_set[ei],
                 seconds: unit.cost.seconds[fi][ei],
+                model: unit.chosen[fi][ei].map(|c| c as u16),
             };
+            let model = row.model.map_or(String::new(), |c| {
+                let m = e.model.expect("a chosen model has a model");
+                plan.models[m].candidates()[usize::from(c)].label()
+            });
             writeln!(
                 out,
-                "{},{},{},{},{n},{trial},{est:?},{truth:?},{:?},{},{},{diagnostics},{},{},{},{:?},{:?}",
+                "{},{},{},{},{n},{trial},{est:?},{truth:?},{:?},{},{},{diagnostics},{},{},{model},{},{:?},{:?}",
                 f.name(),
                 csv_field(&e.label),
                 e.method.name(),
@@ -94,9 +114,11 @@ pub fn unit_rows(
     values
 }
 
-/// The `trials.csv` part of a log row (without its cost columns).
-pub fn trials_part(line: &str) -> &str {
-    line.rsplitn(COST_COLUMNS + 1, ',').last().unwrap_or(line)
+/// The `trials.csv` part of a log row: without its cost columns, and without the `model`
+/// column unless `with_model`.
+pub fn trials_part(line: &str, with_model: bool) -> &str {
+    let drop = COST_COLUMNS + usize::from(!with_model);
+    line.rsplitn(drop + 1, ',').last().unwrap_or(line)
 }
 
 /// `integrand,estimator,n,trial` and the cost columns of a log row (a `timings-trials.csv`
@@ -119,15 +141,17 @@ pub fn timing_part(line: &str) -> Option<String> {
     ))
 }
 
-/// Reads a log row back: its N, trial and values; `Err` says what is wrong with it.
-pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues), String> {
+/// Reads a log row back: its N, trial, values and the chosen model's label (fitted models;
+/// [`model_index`] turns it into [`RowValues::model`]); `Err` says what is wrong with it.
+pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues, Option<&str>), String> {
     let mut tail: Vec<&str> = line.rsplitn(TAIL_COLUMNS + 1, ',').collect();
     if tail.len() != TAIL_COLUMNS + 1 {
         return Err(format!("has {} columns, not {}", tail.len(), TAIL_COLUMNS + 2));
     }
     tail.reverse();
     // After the prefix: 1 method, 2 design, 3 n, 4 trial, 5 estimate, 6 truth, 7 abs_error,
-    // 8 posterior_sd, 9 warnings, 10–13 diagnostics, 14 amplitude, 15 dof, 16–18 cost.
+    // 8 posterior_sd, 9 warnings, 10–13 diagnostics, 14 amplitude, 15 dof, 16 model (the chosen
+    // model's label; its index is resolved by the caller), 17–19 cost.
     fn num<T: std::str::FromStr>(s: &str, what: &str) -> Result<T, String> {
         s.parse().map_err(|_| format!("has {what} {s:?}"))
     }
@@ -143,11 +167,24 @@ pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues), String> {
             abs_error: num(tail[7], "abs_error")?,
             sd,
             warnings: num(tail[9], "warnings")?,
-            evaluations: num(tail[16], "evaluations")?,
-            weight_set_seconds: num(tail[17], "weight_set_seconds")?,
-            seconds: num(tail[18], "seconds")?,
+            evaluations: num(tail[17], "evaluations")?,
+            weight_set_seconds: num(tail[18], "weight_set_seconds")?,
+            seconds: num(tail[19], "seconds")?,
+            model: None,
         },
+        (!tail[16].is_empty()).then_some(tail[16]),
     ))
+}
+
+/// The index of the chosen model `label` among estimator `ei`'s fitted grid; `Err` when the
+/// estimator's model is not fitted or has no such model.
+pub fn model_index(plan: &Plan, ei: usize, label: &str) -> Result<u16, String> {
+    plan.estimators[ei]
+        .model
+        .map(|m| plan.models[m].candidates())
+        .and_then(|c| c.iter().position(|m| m.label() == label))
+        .map(|i| i as u16)
+        .ok_or_else(|| format!("has model {label:?}, not one of its estimator's grid"))
 }
 
 #[cfg(test)]
@@ -157,24 +194,31 @@ mod tests {
     #[test]
     fn a_log_row_reads_back_exactly_and_splits_into_its_parts() {
         let line = "cos3,\"BMC, ml\",bmc,uniform,16,7,0.1234567890123,0.125,0.0015432109877,\
-                    1e-300,2,1.0,0,0.0,12.5,0.3,,16,0.001,0.0025";
-        let (n, t, v) = parse_row(line).unwrap();
+                    1e-300,2,1.0,0,0.0,12.5,0.3,,s=2.75 noise=1e-8,16,0.001,0.0025";
+        let (n, t, v, model) = parse_row(line).unwrap();
+        assert_eq!(model, Some("s=2.75 noise=1e-8"));
         assert_eq!((n, t), (16, 7));
         assert_eq!(v.abs_error, 0.0015432109877);
         assert_eq!(v.sd, Some((1e-300, None)));
         assert_eq!((v.warnings, v.evaluations), (2, 16));
         assert_eq!((v.weight_set_seconds, v.seconds), (0.001, 0.0025));
         assert_eq!(
-            trials_part(line),
+            trials_part(line, false),
             "cos3,\"BMC, ml\",bmc,uniform,16,7,0.1234567890123,0.125,0.0015432109877,1e-300,2,1.0,0,0.0,12.5,0.3,"
+        );
+        assert_eq!(
+            trials_part(line, true),
+            "cos3,\"BMC, ml\",bmc,uniform,16,7,0.1234567890123,0.125,0.0015432109877,1e-300,2,1.0,0,0.0,12.5,0.3,,\
+             s=2.75 noise=1e-8"
         );
         assert_eq!(
             timing_part(line).unwrap(),
             "cos3,\"BMC, ml\",16,7,16,0.001,0.0025"
         );
-        let mc = "f,MC,mc,uniform,1,0,0.5,0.25,0.25,,0,,,,,,,1,0.0,1e-6";
+        let mc = "f,MC,mc,uniform,1,0,0.5,0.25,0.25,,0,,,,,,,,1,0.0,1e-6";
         assert_eq!(parse_row(mc).unwrap().2.sd, None);
-        let t = "f,BSQ,bsq,uniform,8,0,0.5,0.25,0.25,0.1,0,1.0,0,0.0,3.0,0.2,7,8,0.0,1e-6";
+        assert_eq!(parse_row(mc).unwrap().3, None);
+        let t = "f,BSQ,bsq,uniform,8,0,0.5,0.25,0.25,0.1,0,1.0,0,0.0,3.0,0.2,7,,8,0.0,1e-6";
         assert_eq!(parse_row(t).unwrap().2.sd, Some((0.1, Some(7))));
         assert!(parse_row("f,MC,mc,uniform,1,0").is_err());
         assert!(parse_row(&mc.replace("0.25,0.25", "0.25,zz")).is_err());

@@ -27,14 +27,18 @@ pub struct UnitResult {
     /// `uncertainty[integrand][estimator]`: the stated sd and its interval's law (None when
     /// the estimator has none, e.g. MC with N = 1).
     pub uncertainty: Vec<Vec<Option<crate::bq::estimator::Uncertainty>>>,
-    /// The diagnostics of each estimator's weight set (None for MC).
-    pub diagnostics: Vec<Option<crate::bq::weights::Diagnostics>>,
-    /// Numerical warnings of each estimator's weight set.
-    pub warnings: Vec<u32>,
+    /// `diagnostics[integrand][estimator]`: of the weight set the estimate used (None for MC);
+    /// the same on every integrand but for a fitted model, which chooses per integrand.
+    pub diagnostics: Vec<Vec<Option<crate::bq::weights::Diagnostics>>>,
+    /// `warnings[integrand][estimator]`: numerical warnings of that weight set.
+    pub warnings: Vec<Vec<u32>>,
     /// The warnings' messages, once per weight set.
     pub messages: Vec<String>,
     /// `fitted[integrand][estimator]`: the amplitude was fitted (`ml` or `loo`).
     pub fitted: Vec<Vec<bool>>,
+    /// `chosen[integrand][estimator]`: for a fitted model, the index of the grid's model that
+    /// won (math.md §9; [`crate::bq::model::BmcModel::candidates`]).
+    pub chosen: Vec<Vec<Option<usize>>>,
     /// `sequential[integrand][estimator]`: where a tolerance estimator stopped (None for the
     /// others; [`super::adaptive`]).
     pub sequential: Vec<Vec<Option<crate::bq::stages::Outcome>>>,
@@ -61,7 +65,7 @@ impl UnitResult {
     /// Warnings of estimator `ei` on integrand `fi`: its weight set's, plus one if the estimate
     /// is not finite, plus one if a fitted amplitude is 0 (`zero_amplitude`, math.md §7).
     pub fn warnings_for(&self, fi: usize, ei: usize) -> u32 {
-        self.warnings[ei]
+        self.warnings[fi][ei]
             + u32::from(!self.estimates[fi][ei].is_finite())
             + u32::from(self.zero_amplitude(fi, ei))
     }
@@ -181,13 +185,15 @@ pub fn run_unit(
     let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
     let ni = plan.integrands.len();
     let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
-    let mut weights: Vec<((usize, Design), BmcWeights, SetSolves)> = Vec::new();
+    // One entry per (model, design) weight set: its candidates (one for a fixed model; every
+    // model of the grid for a fitted one, each with its own factor, solves and log det Q).
+    let mut weights: Vec<((usize, Design), Vec<SetCandidate>)> = Vec::new();
     let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {
             continue;
         };
-        if weights.iter().any(|(k, _, _)| *k == (m, e.design)) {
+        if weights.iter().any(|(k, _)| *k == (m, e.design)) {
             continue;
         }
         let clock = Instant::now();
@@ -203,44 +209,96 @@ pub fn run_unit(
         );
         let d = design_index(e.design);
         let set = &sets[d];
-        let w = plan.models[m]
-            .weights_for_design(set, e.design, &mut rng, workspace)
-            .map_err(|source| crate::Error::Numerical {
-                what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
-                source,
-            })?;
         let sharing = |x: &&super::plan::PlannedEstimator| {
             x.model == Some(m) && x.design == e.design && x.tolerance.is_none()
         };
+        let fitted_model = plan.models[m].is_fitted();
         let fitted = |x: &super::plan::PlannedEstimator| x.scale.is_some_and(|s| s != Scale::Unit);
-        let mut solves = SetSolves::default();
-        if plan.estimators.iter().filter(sharing).any(fitted) {
-            solves.inverse_diagonal = plan
-                .estimators
-                .iter()
-                .filter(sharing)
-                .any(|x| x.scale == Some(Scale::Loo))
-                .then(|| workspace.inverse_diagonal());
-            solves.values = (0..plan.integrands.len())
-                .map(|fi| {
-                    let mut values_solve = values[fi][d].clone();
-                    workspace.solve_in_place(&mut values_solve);
-                    values_solve
-                })
-                .collect();
+        // A fitted model's choice needs `Q⁻¹Y` of every candidate, whatever the scale.
+        let solve_values = fitted_model || plan.estimators.iter().filter(sharing).any(fitted);
+        let loo = plan
+            .estimators
+            .iter()
+            .filter(sharing)
+            .any(|x| x.scale == Some(Scale::Loo));
+        let models: Vec<&crate::bq::model::BmcModel> = if fitted_model {
+            plan.models[m].candidates().iter().collect()
+        } else {
+            vec![&plan.models[m]]
+        };
+        let mut candidates = Vec::with_capacity(models.len());
+        for model in models {
+            let w = model
+                .weights_for_design(set, e.design, &mut rng, workspace)
+                .map_err(|source| crate::Error::Numerical {
+                    what: format!("estimator {:?}, N = {n}, trial {trial}", e.label),
+                    source,
+                })?;
+            let mut solves = SetSolves::default();
+            if solve_values {
+                solves.inverse_diagonal = loo.then(|| workspace.inverse_diagonal());
+                solves.values = (0..plan.integrands.len())
+                    .map(|fi| {
+                        let mut values_solve = values[fi][d].clone();
+                        workspace.solve_in_place(&mut values_solve);
+                        values_solve
+                    })
+                    .collect();
+            }
+            let log_det = if fitted_model {
+                workspace.log_det()
+            } else {
+                f64::NAN
+            };
+            candidates.push(SetCandidate {
+                weights: w,
+                solves,
+                log_det,
+            });
         }
-        weights.push(((m, e.design), w, solves));
+        weights.push(((m, e.design), candidates));
         weight_seconds.push(clock.elapsed().as_secs_f64());
     }
     let weight_set_of = |e: &super::plan::PlannedEstimator| {
         e.model.filter(|_| e.tolerance.is_none()).map(|m| {
-            weights
+            &weights
                 .iter()
-                .find(|(k, _, _)| *k == (m, e.design))
+                .find(|(k, _)| *k == (m, e.design))
                 .expect("computed above")
+                .1
         })
     };
-    let weights_of = |e: &super::plan::PlannedEstimator| weight_set_of(e).map(|(_, w, _)| w);
+    // `chosen[fi][ei]`: the grid index a fitted model chose for the estimator on the integrand.
+    let mut chosen: Vec<Vec<Option<usize>>> = vec![vec![None; plan.estimators.len()]; ni];
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            let Some(set) = weight_set_of(e).filter(|_| plan.models[e.model.expect("has a set")].is_fitted())
+            else {
+                continue;
+            };
+            let y = &values[fi][design_index(e.design)];
+            let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
+            let ells: Vec<f64> = set
+                .iter()
+                .map(|c| {
+                    crate::bq::fitted::log_marginal_likelihood(
+                        e.method,
+                        y,
+                        &c.solves.values[fi],
+                        &c.weights,
+                        prior,
+                        c.log_det,
+                    )
+                    .unwrap_or(f64::NAN)
+                })
+                .collect();
+            chosen[fi][ei] = Some(crate::bq::fitted::best(&ells));
+        }
+    }
+    let candidate_of = |fi: usize, ei: usize| {
+        weight_set_of(&plan.estimators[ei]).map(|set| &set[chosen[fi][ei].unwrap_or(0)])
+    };
+    let weights_of = |fi: usize, ei: usize| candidate_of(fi, ei).map(|c| &c.weights);
 
     let weight_set_seconds: Vec<f64> = plan
         .estimators
@@ -252,7 +310,7 @@ pub fn run_unit(
             e.model.map_or(0.0, |m| {
                 weight_seconds[weights
                     .iter()
-                    .position(|(k, _, _)| *k == (m, e.design))
+                    .position(|(k, _)| *k == (m, e.design))
                     .expect("computed above")]
             })
         })
@@ -280,11 +338,11 @@ pub fn run_unit(
             let clock = Instant::now();
             let d = design_index(e.design);
             let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
-            let solves = weight_set_of(e).map(|(_, _, s)| s);
+            let solves = candidate_of(fi, ei).map(|c| &c.solves);
             let rule = Rule {
                 density: e.design.density(),
                 points: &sets[d],
-                weights: weights_of(e),
+                weights: weights_of(fi, ei),
                 inverse_diagonal: solves.and_then(|s| s.inverse_diagonal.as_deref()),
             };
             let values = Values {
@@ -307,35 +365,54 @@ pub fn run_unit(
         uncertainty.push(sds);
         fitted.push(amplitudes[fi].iter().map(Option::is_some).collect::<Vec<bool>>());
     }
-    let diagnostics: Vec<Option<crate::bq::weights::Diagnostics>> = plan
-        .estimators
-        .iter()
-        .zip(&adaptive)
-        .map(|(e, run)| match run {
-            Some(run) => run.diagnostics.clone(),
-            None => e.method.diagnostics(weights_of(e)),
+    // `diagnostics[fi][ei]`: the weight set each estimate used (a fitted model's chosen one).
+    let diagnostics: Vec<Vec<Option<crate::bq::weights::Diagnostics>>> = (0..ni)
+        .map(|fi| {
+            plan.estimators
+                .iter()
+                .zip(&adaptive)
+                .enumerate()
+                .map(|(ei, (e, run))| match run {
+                    Some(run) => run.diagnostics.clone(),
+                    None => e.method.diagnostics(weights_of(fi, ei)),
+                })
+                .collect()
         })
         .collect();
-    let warnings: Vec<u32> = plan
-        .estimators
+    let warnings: Vec<Vec<u32>> = diagnostics
         .iter()
-        .zip(&diagnostics)
-        .map(|(_, d)| d.as_ref().map_or(0, |d| d.warnings.len() as u32))
+        .map(|row| {
+            row.iter()
+                .map(|d| d.as_ref().map_or(0, |d| d.warnings.len() as u32))
+                .collect()
+        })
         .collect();
-    let mut messages: Vec<String> = weights
-        .iter()
-        .flat_map(|(_, w, _)| w.diagnostics.warnings.iter().map(|m| m.message()))
-        .chain(
-            adaptive
-                .iter()
-                .flatten()
-                .filter_map(|r| r.diagnostics.as_ref())
-                .flat_map(|d| d.warnings.iter().map(|m| m.message())),
-        )
-        .collect();
+    // Each weight set's warnings once: a fixed model's set, and each candidate a fitted model
+    // chose somewhere in the unit (a candidate nobody chose affected no estimate).
+    let mut messages: Vec<String> = Vec::new();
+    for ((m, _), set) in &weights {
+        for (c, candidate) in set.iter().enumerate() {
+            let used = !plan.models[*m].is_fitted()
+                || chosen
+                    .iter()
+                    .flatten()
+                    .zip(plan.estimators.iter().cycle())
+                    .any(|(&ch, e)| ch == Some(c) && e.model == Some(*m));
+            if used {
+                messages.extend(candidate.weights.diagnostics.warnings.iter().map(|w| w.message()));
+            }
+        }
+    }
+    messages.extend(
+        adaptive
+            .iter()
+            .flatten()
+            .filter_map(|r| r.diagnostics.as_ref())
+            .flat_map(|d| d.warnings.iter().map(|m| m.message())),
+    );
     // An estimator's own Var₁ (Bayes–Sard's) can be negative where the weight set's is not (MC
     // kernel means).
-    for (e, d) in plan.estimators.iter().zip(&diagnostics) {
+    for (e, d) in plan.estimators.iter().zip(&diagnostics[0]) {
         if e.method.states_own_unit_variance() && e.tolerance.is_none() {
             let d = d.as_ref().expect("an estimator with its own Var₁ has weights");
             for w in &d.warnings {
@@ -388,6 +465,7 @@ pub fn run_unit(
         warnings,
         messages,
         fitted,
+        chosen,
         sequential: (0..ni)
             .map(|fi| {
                 adaptive
@@ -402,6 +480,14 @@ pub fn run_unit(
             evaluations,
         },
     })
+}
+
+/// One model's weight set on a unit's points: its weights, what its factor solved, and (fitted
+/// models) `log det Q`.
+struct SetCandidate {
+    weights: BmcWeights,
+    solves: SetSolves,
+    log_det: f64,
 }
 
 /// What a weight set's factor solved for the fitted amplitudes of the estimators that use it,

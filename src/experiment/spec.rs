@@ -144,7 +144,7 @@ impl EstimatorSpec {
     /// The model fields (kernel, noise, kernel mean), parsed by [`ModelSpec::resolve`].
     pub fn model(&self) -> ModelSpec {
         ModelSpec {
-            kernel: self.kernel,
+            kernel: self.kernel.clone(),
             noise: self.noise,
             kernel_mean: self.kernel_mean,
             kernel_mean_samples: self.kernel_mean_samples,

@@ -34,6 +34,9 @@ pub struct CellSummary {
     pub mean_seconds: f64,
     pub median_seconds: f64,
     pub mean_weight_set_seconds: f64,
+    /// A fitted model's choices: `model_counts[k]` trials chose the grid's model `k` (empty
+    /// for a fixed model).
+    pub model_counts: Vec<u64>,
 }
 
 /// What the summary needs from one row of `trials.csv` (and its cost columns): the same
@@ -49,6 +52,8 @@ pub struct RowValues {
     /// Wall-clock seconds (machine-dependent): the estimator's weight set, and the whole.
     pub weight_set_seconds: f64,
     pub seconds: f64,
+    /// A fitted model's choice: the index of the grid's model that won (math.md §9).
+    pub model: Option<u16>,
 }
 
 /// One cell's running state. Keeps two `f64` per trial (the absolute error and the stated sd,
@@ -70,6 +75,8 @@ struct CellState {
     /// Each trial's seconds, for the median (single precision is plenty for a clock reading).
     trial_seconds: Vec<f32>,
     weight_set_seconds: f64,
+    /// Trials per chosen model of a fitted grid (grown as indices appear).
+    model_counts: Vec<u64>,
 }
 
 /// Per-cell summaries built row by row, in trial order within each cell, so that memory grows
@@ -105,6 +112,7 @@ impl Accumulator {
             seconds: 0.0,
             trial_seconds: Vec::new(),
             weight_set_seconds: 0.0,
+            model_counts: Vec::new(),
         };
         let mut cells = vec![cell; count];
         for c in &mut cells {
@@ -135,6 +143,12 @@ impl Accumulator {
         c.seconds += row.seconds;
         c.trial_seconds.push(row.seconds as f32);
         c.weight_set_seconds += row.weight_set_seconds;
+        if let Some(k) = row.model.map(usize::from) {
+            if c.model_counts.len() <= k {
+                c.model_counts.resize(k + 1, 0);
+            }
+            c.model_counts[k] += 1;
+        }
         match row.sd {
             Some((sd, dof)) if c.all_sd => {
                 c.sds.push(sd);
@@ -244,6 +258,7 @@ fn summarize_cell(
         mean_seconds: c.seconds / trials as f64,
         median_seconds: quantile_sorted(&seconds, 0.5),
         mean_weight_set_seconds: c.weight_set_seconds / trials as f64,
+        model_counts: c.model_counts.clone(),
     }
 }
 

@@ -230,8 +230,14 @@ pub fn open(
         };
         let k = pending.len();
         let (ni, t) = (u / plan.trials, u % plan.trials);
-        let (n, trial, values) =
+        let (n, trial, mut values, model) =
             parse_row(line.trim_end()).map_err(|m| refuse(format!("line {line_no} {m}")))?;
+        if let Some(label) = model {
+            values.model = Some(
+                super::rows::model_index(plan, k % plan.estimators.len(), label)
+                    .map_err(|m| refuse(format!("line {line_no} {m}")))?,
+            );
+        }
         if (n, trial) != (plan.samples[ni], t) {
             return Err(refuse(format!(
                 "line {line_no} is N = {n}, trial {trial}, where N = {}, trial {t} was expected",

@@ -183,6 +183,15 @@ impl SpdWorkspace {
         }
         lower_inverse_diagonal(&self.factor, self.n)
     }
+
+    /// `log det Q` of the last factorisation (jitter included), for the marginal likelihood
+    /// (math.md §9): `2 Σ log L_ii` (dense) or the sum over the ring factor's blocks.
+    pub fn log_det(&self) -> f64 {
+        if let Some(f) = &self.rings {
+            return f.log_det();
+        }
+        super::lower_log_det((0..self.n).map(|i| self.factor[(i, i)]))
+    }
 }
 
 /// The Cholesky factor `L` of an `n × n` symmetric positive-definite `Q` (jitter included, as
@@ -216,6 +225,11 @@ impl CholeskyFactor {
     /// for the leave-one-out amplitude.
     pub fn inverse_diagonal(&self) -> Vec<f64> {
         lower_inverse_diagonal(&self.l, self.n())
+    }
+
+    /// `log det Q = 2 Σ log L_ii`.
+    pub fn log_det(&self) -> f64 {
+        super::lower_log_det((0..self.n()).map(|i| self.l[(i, i)]))
     }
 }
 

@@ -127,6 +127,21 @@ impl Factor {
             Factor::Rings(f) => f.inverse_diagonal(),
         }
     }
+
+    /// `log det Q` of the factored `Q` (jitter included), for the marginal likelihood (math.md §9).
+    pub fn log_det(&self) -> f64 {
+        match self {
+            Factor::Dense(f) => f.log_det(),
+            Factor::Nested(f) => lower_log_det((0..f.n()).map(|i| f.entry(i, i))),
+            Factor::Rings(f) => f.log_det(),
+        }
+    }
+}
+
+/// `log det Q = 2 Σ log L_ii` from the diagonal of a Cholesky factor `Q = L Lᵀ`, summed in
+/// index order.
+pub fn lower_log_det(diagonal: impl IntoIterator<Item = f64>) -> f64 {
+    2.0 * diagonal.into_iter().map(f64::ln).sum::<f64>()
 }
 
 /// `diag(Q⁻¹)` from the lower Cholesky factor `L` of `Q = L Lᵀ` held in the leading `n × n`

@@ -350,6 +350,20 @@ impl RingFactor {
         self.layout.rings * self.layout.per_ring
     }
 
+    /// `log det Q = Σ_{f < M} log det B_f` (the blocks are `Q` in a unitary basis), with the
+    /// stored blocks `f ≤ M/2` counted twice where `B_f = B_{M−f}` is a distinct frequency.
+    pub fn log_det(&self) -> f64 {
+        let per_ring = self.layout.per_ring;
+        self.factors
+            .iter()
+            .enumerate()
+            .map(|(f, l)| {
+                let multiplicity = if f == 0 || 2 * f == per_ring { 1.0 } else { 2.0 };
+                multiplicity * super::lower_log_det((0..self.layout.rings).map(|i| l[(i, i)]))
+            })
+            .sum()
+    }
+
     /// `diag(Q⁻¹)`: per block, `(B_f⁻¹)_aa` by forward substitution, summed over the
     /// frequencies with their multiplicities; the same on every point of a ring.
     pub fn inverse_diagonal(&self) -> Vec<f64> {

@@ -172,7 +172,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         variants.push(variant);
     }
 
-    let model_spec = spec.model.unwrap_or_default();
+    let model_spec = spec.model.clone().unwrap_or_default();
     let model = model_spec
         .resolve()
         .map_err(|m| err(format!("model.{}", m.field.json()), m.message))?;

@@ -3,6 +3,7 @@ mod conformance;
 mod designs;
 mod estimators;
 mod exact;
+mod fitted;
 mod integrands;
 mod kernel_mean;
 mod mc_kernel_means;

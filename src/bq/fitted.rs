@@ -1,0 +1,96 @@
+//! The fitted model (math.md §9): among a grid of models, per weight set and integrand values,
+//! the one with the largest profiled log marginal likelihood gives the estimate, the weights and
+//! the `ml` interval.
+//!
+//! With the amplitude `λ` at its `ml` value `λ̂ = rᵀQ⁻¹r / d` (`r` the residuals of §7, `d` the
+//! `ml` degrees of freedom: `N`, or `N − 1` for Bayes–Sard),
+//!
+//! `ℓ = −(d/2) log(rᵀQ⁻¹r / d) − ½ log det Q`, and for Bayes–Sard (restricted likelihood)
+//! additionally `− ½ log(1ᵀQ⁻¹1)`.
+//!
+//! The constant `−(d/2)(1 + log 2π)` is the same for every model and left out. The weights now
+//! depend on the values: the estimator is no longer linear in `Y`, so a caller keeps every
+//! candidate's factor (or weights and solves) and chooses per integrand, pixel or channel.
+
+use crate::bq::estimator::Method;
+use crate::bq::weights::{BmcWeights, Scale, Solved};
+
+/// `ℓ` of one candidate for `method` on values `y` with prior constant `prior` (BMCP), given the
+/// candidate's weights (for `u = Q⁻¹1`), `Q⁻¹Y` and `log det Q`; `+∞` when every residual is 0
+/// (every candidate then ties), None for MC.
+pub fn log_marginal_likelihood(
+    method: Method,
+    y: &[f64],
+    values_solve: &[f64],
+    weights: &BmcWeights,
+    prior: f64,
+    log_det: f64,
+) -> Option<f64> {
+    let dof = method.ml_dof(y.len());
+    let amplitude = method.amplitude(
+        Scale::Ml,
+        y,
+        Solved::Full(values_solve),
+        Some(weights),
+        prior,
+        None,
+    )?;
+    let mut ell = -0.5 * dof as f64 * amplitude.ln() - 0.5 * log_det;
+    if method == Method::Bsq {
+        ell -= 0.5 * weights.ones_solve.iter().sum::<f64>().ln();
+    }
+    Some(ell)
+}
+
+/// The index of the largest log likelihood, the first on ties; NaNs never win (all NaN: the
+/// first).
+pub fn best(log_likelihoods: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, &l) in log_likelihoods.iter().enumerate() {
+        if l > log_likelihoods[best] || (log_likelihoods[best].is_nan() && !l.is_nan()) {
+            best = i;
+        }
+    }
+    best
+}
+
+/// One candidate of a fitted model on a point set: its weights, `Q⁻¹Y` for each values vector
+/// (integrand or colour channel) and `log det Q`.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    pub weights: BmcWeights,
+    pub values_solves: Vec<Vec<f64>>,
+    pub log_det: f64,
+}
+
+/// The candidate chosen for `method` on values vector `k` (`y`), with every candidate's `ℓ`.
+pub fn choose(
+    method: Method,
+    y: &[f64],
+    k: usize,
+    prior: f64,
+    candidates: &[Candidate],
+) -> (usize, Vec<f64>) {
+    let ells: Vec<f64> = candidates
+        .iter()
+        .map(|c| {
+            log_marginal_likelihood(method, y, &c.values_solves[k], &c.weights, prior, c.log_det)
+                .unwrap_or(f64::NAN)
+        })
+        .collect();
+    (best(&ells), ells)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_best_is_the_first_largest_and_never_a_nan() {
+        assert_eq!(best(&[1.0, 3.0, 3.0, 2.0]), 1);
+        assert_eq!(best(&[f64::NAN, -5.0, -7.0]), 1);
+        assert_eq!(best(&[f64::INFINITY, f64::INFINITY]), 0);
+        assert_eq!(best(&[f64::NAN, f64::NAN]), 0);
+        assert_eq!(best(&[-1.0, f64::NAN, 0.5]), 2);
+    }
+}
