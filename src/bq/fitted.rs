@@ -13,7 +13,11 @@
 //! candidate's factor (or weights and solves) and chooses per integrand, pixel or channel.
 
 use crate::bq::estimator::Method;
+use crate::bq::factor::{NotPositiveDefinite, SpdWorkspace};
+use crate::bq::model::BmcModel;
 use crate::bq::weights::{BmcWeights, Scale, Solved};
+use crate::sampling::Design;
+use crate::util::geometry::Vec3;
 
 /// `ℓ` of one candidate for `method` on values `y` with prior constant `prior` (BMCP), given the
 /// candidate's weights (for `u = Q⁻¹1`), `Q⁻¹Y` and `log det Q`; `+∞` when every residual is 0
@@ -79,6 +83,52 @@ pub fn choose(
         })
         .collect();
     (best(&ells), ells)
+}
+
+/// A fitted model's choice on one point set and one values vector.
+#[derive(Clone, Debug)]
+pub struct Choice {
+    /// The index of the chosen model in [`BmcModel::candidates`].
+    pub chosen: usize,
+    /// Every candidate's `ℓ`, in grid order.
+    pub log_likelihoods: Vec<f64>,
+    /// The chosen model's BMC weights (Bayes–Sard's follow with [`BmcWeights::bayes_sard`]).
+    pub weights: BmcWeights,
+}
+
+/// Chooses among a fitted `model`'s grid for `method` on `points` (drawn with `design`: the ring
+/// solver on ring sets) with values `y` and prior constant `prior`: one factorisation per
+/// candidate, each solving `Q⁻¹Y` and giving `log det Q`. `rng` as in
+/// [`BmcModel::weights_for_design`] (unused: a fitted model has exact kernel means).
+pub fn choose_on_points<R: rand::Rng + ?Sized>(
+    model: &BmcModel,
+    points: &[Vec3],
+    design: Design,
+    method: Method,
+    y: &[f64],
+    prior: f64,
+    rng: &mut R,
+) -> Result<Choice, NotPositiveDefinite> {
+    assert!(model.is_fitted(), "a fitted model");
+    assert_eq!(points.len(), y.len(), "one value per point");
+    let mut workspace = SpdWorkspace::new();
+    let mut candidates = Vec::with_capacity(model.candidates().len());
+    for m in model.candidates() {
+        let weights = m.weights_for_design(points, design, rng, &mut workspace)?;
+        let mut solve = y.to_vec();
+        workspace.solve_in_place(&mut solve);
+        candidates.push(Candidate {
+            weights,
+            values_solves: vec![solve],
+            log_det: workspace.log_det(),
+        });
+    }
+    let (chosen, log_likelihoods) = choose(method, y, 0, prior, &candidates);
+    Ok(Choice {
+        chosen,
+        log_likelihoods,
+        weights: candidates.swap_remove(chosen).weights,
+    })
 }
 
 #[cfg(test)]

@@ -13,9 +13,16 @@ use workbench::error::InputError;
 /// rather than silently ignored; defaults are [`ModelSpec::resolve`]'s.
 #[derive(clap::Args, Debug, Clone)]
 pub struct ModelArgs {
-    /// Covariance kernel [default: sobolev].
-    #[arg(long, value_parser = ["sobolev", "se"])]
+    /// Covariance kernel [default: sobolev]; `fitted` chooses among a grid of Sobolev kernels
+    /// and noises by the marginal likelihood of the values (math.md §9).
+    #[arg(long, value_parser = ["sobolev", "se", "fitted"])]
     kernel: Option<String>,
+    /// The fitted kernel's smoothnesses, comma-separated [default: 1.2,1.6,2.75,3.75].
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    grid_s: Option<Vec<f64>>,
+    /// The fitted kernel's noises σ_n², comma-separated [default: 1e-2,1e-8].
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    grid_noise: Option<Vec<f64>>,
     /// Sobolev smoothness s, in (1, 2), (2, 3) or (3, 4) (math.md §9) [default: 1.4].
     #[arg(long, allow_negative_numbers = true)]
     s: Option<f64>,
@@ -50,7 +57,40 @@ impl ModelArgs {
 
     /// The options as a [`ModelSpec`]; kernel parameters of the other kernel are errors.
     pub fn spec(&self) -> anyhow::Result<ModelSpec> {
+        let fitted = self.kernel.as_deref() == Some("fitted");
+        if !fitted
+            && let Some(flag) = self
+                .grid_s
+                .as_ref()
+                .map(|_| "--grid-s")
+                .or(self.grid_noise.as_ref().map(|_| "--grid-noise"))
+        {
+            bail!(InputError::new(format!(
+                "{flag}: applies to --kernel fitted only"
+            )));
+        }
         let kernel = match self.kernel.as_deref().unwrap_or("sobolev") {
+            "fitted" => {
+                if let Some(flag) = [
+                    ("--s", self.s.is_some()),
+                    ("--sigma", self.sigma.is_some()),
+                    ("--length", self.length.is_some()),
+                ]
+                .into_iter()
+                .find_map(|(f, given)| given.then_some(f))
+                {
+                    bail!(InputError::new(format!(
+                        "{flag}: not used with --kernel fitted (its kernels are --grid-s)"
+                    )));
+                }
+                let grid = (self.grid_s.is_some() || self.grid_noise.is_some()).then(|| {
+                    workbench::bq::model::GridSpec {
+                        s: self.grid_s.clone(),
+                        noise: self.grid_noise.clone(),
+                    }
+                });
+                Some(KernelSpec::Fitted { grid })
+            }
             "se" => {
                 if self.s.is_some() {
                     bail!(InputError::new("--s: applies to --kernel sobolev, not se"));
@@ -88,7 +128,17 @@ impl ModelArgs {
     pub fn resolve(&self) -> anyhow::Result<ResolvedModel> {
         let spec = self.spec()?;
         let model = spec.resolve().map_err(|e| {
+            let fitted = self.kernel.as_deref() == Some("fitted");
             let message = match e.field {
+                ModelField::Kernel if fitted && e.message.starts_with("grid.") => {
+                    // "grid.s: …" / "grid.noise …": the flag of that list.
+                    let rest = &e.message["grid.".len()..];
+                    let (list, tail) = rest.split_at(rest.find([':', ' ']).unwrap_or(rest.len()));
+                    format!("--grid-{list}{tail}")
+                }
+                ModelField::Noise if fitted => {
+                    "--noise: not used with --kernel fitted (its noises are --grid-noise)".to_string()
+                }
                 ModelField::Kernel => format!(
                     "{} {}: {}",
                     Self::flag(e.field),
@@ -120,6 +170,8 @@ impl ModelArgs {
     pub fn given(&self) -> Option<&'static str> {
         [
             ("--kernel", self.kernel.is_some()),
+            ("--grid-s", self.grid_s.is_some()),
+            ("--grid-noise", self.grid_noise.is_some()),
             ("--s", self.s.is_some()),
             ("--sigma", self.sigma.is_some()),
             ("--length", self.length.is_some()),

@@ -197,6 +197,13 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
 
 fn single(args: &RenderArgs) -> anyhow::Result<()> {
     if args.target_sd.is_some() || args.max_spp.is_some() {
+        // The stage walker keeps one nested factor per pixel; a fitted model would need one
+        // per grid model and a choice per stage.
+        if args.model.resolve()?.is_fitted() {
+            anyhow::bail!(workbench::error::InputError::new(
+                "--kernel fitted: cannot be used with --target-sd or --max-spp yet; give a fixed kernel"
+            ));
+        }
         return super::render_adaptive::single(&super::render_adaptive::AdaptiveArgs {
             target_sd: args.target_sd,
             max_spp: args.max_spp,

@@ -41,6 +41,11 @@ pub struct RuleArgs {
     scale: String,
     #[command(flatten)]
     model: ModelArgs,
+    /// The integrand's values at the rule's points (CSV with header `value`, one row per point
+    /// in the rule's order), for `--kernel fitted`: the model with the largest marginal
+    /// likelihood of these values gives the weights (math.md §9).
+    #[arg(long)]
+    values: Option<PathBuf>,
     /// Write the rule (CSV `x,y,z,weight`) here instead of to stdout.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -61,11 +66,9 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         .into_iter()
         .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
         .collect();
-    let inputs: Vec<(&str, &Path)> = args
-        .points
-        .as_deref()
-        .map(|p| ("--points", p))
+    let inputs: Vec<(&str, &Path)> = [("--points", &args.points), ("--values", &args.values)]
         .into_iter()
+        .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
         .collect();
     workbench::files::atomic::check_distinct(&outputs, &inputs)?;
     let n = args.n.unwrap_or(DEFAULT_N);
@@ -95,16 +98,49 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         )));
     }
     let resolved = args.model.resolve()?;
+    let values = match (&args.values, resolved.is_fitted()) {
+        (Some(path), true) => Some(read_values_csv(path, points.len())?),
+        (None, true) => anyhow::bail!(workbench::error::InputError::new(
+            "--kernel fitted: needs --values FILE (the model is chosen by the marginal likelihood of the \
+             integrand's values at the rule's points)"
+        )),
+        (Some(_), false) => anyhow::bail!(workbench::error::InputError::new(
+            "--values: only used with --kernel fitted (a fixed kernel's weights do not depend on the values)"
+        )),
+        (None, false) => None,
+    };
     let model = args.model.build()?;
     // The rule and its summary are one set: both are written in full before either replaces an
     // earlier file, and no other command may write them meanwhile. Taken once the input is
     // known to be good, so that bad input leaves no trace.
     let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
-    let weights = match &args.points {
-        Some(_) => workbench::bq::rule::compute_rule(&points, &model, args.seed)?,
-        None => workbench::bq::rule::compute_rule_for_design(&points, design, &model, args.seed)?,
+    // A fitted model: each grid model's weights on the points, and the one whose marginal
+    // likelihood of the values is largest (for bsq the restricted one).
+    let choice = match &values {
+        Some(y) => {
+            let design = if args.points.is_some() {
+                Design::Iid(workbench::sampling::Density::Uniform)
+            } else {
+                design
+            };
+            let mut rng = workbench::util::rng::stream(args.seed, &[1]);
+            Some(workbench::bq::fitted::choose_on_points(
+                &model, &points, design, method, y, 0.0, &mut rng,
+            )?)
+        }
+        None => None,
+    };
+    let weights = match (&choice, &args.points) {
+        (Some(c), _) => c.weights.clone(),
+        (None, Some(_)) => workbench::bq::rule::compute_rule(&points, &model, args.seed)?,
+        (None, None) => workbench::bq::rule::compute_rule_for_design(&points, design, &model, args.seed)?,
     };
     let weights = if bsq { weights.bayes_sard() } else { weights };
+    // The model the weights are of: the chosen one of a fitted grid.
+    let model = match &choice {
+        Some(c) => model.candidates()[c.chosen].clone(),
+        None => model,
+    };
     for w in &weights.diagnostics.warnings {
         status!("warning: {}", w.message());
     }
@@ -145,6 +181,21 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         if let Some(m) = resolved.samples() {
             summary["kernel_mean_samples"] = serde_json::json!(m);
         }
+        if let Some(c) = &choice {
+            // Which grid model won and every candidate's ℓ, so the choice can be checked.
+            summary["fitted"] = serde_json::json!({
+                "values": args.values.as_ref().map(|p| p.display().to_string()),
+                "chosen": c.chosen,
+                "criterion": if bsq {
+                    "restricted profiled log marginal likelihood (math.md §9)"
+                } else {
+                    "profiled log marginal likelihood (math.md §9)"
+                },
+                "grid": resolved_grid(&resolved).iter().zip(&c.log_likelihoods).map(|((s, noise), l)| {
+                    serde_json::json!({"s": s, "noise": noise, "log_marginal_likelihood": l})
+                }).collect::<Vec<_>>(),
+            });
+        }
         let mut bytes = serde_json::to_vec_pretty(&summary)?;
         bytes.push(b'\n');
         files.stage(path, &bytes)?;
@@ -152,6 +203,13 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     files.commit()?;
     if args.out.is_none() {
         stdout(std::str::from_utf8(&csv).expect("the CSV is ASCII"))?;
+    }
+    if let Some(c) = &choice {
+        status!(
+            "rule: fitted model {} (of {})",
+            model.label(),
+            c.log_likelihoods.len()
+        );
     }
     let d = &weights.diagnostics;
     status!(
@@ -163,6 +221,57 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         d.negative_weights
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// A fitted model's grid as `(s, noise)` pairs, in grid order.
+fn resolved_grid(model: &workbench::bq::model::ResolvedModel) -> Vec<(f64, f64)> {
+    model
+        .grid
+        .iter()
+        .flatten()
+        .map(|(k, noise)| match k {
+            workbench::bq::kernel::Kernel::Sobolev(k) => (k.s(), *noise),
+            other => unreachable!("a fitted grid holds Sobolev kernels, not {other}"),
+        })
+        .collect()
+}
+
+/// Reads a values CSV (header `value`, one finite number per row) with exactly `n` rows; errors
+/// name the file, the line and the value.
+fn read_values_csv(path: &Path, n: usize) -> Result<Vec<f64>, workbench::error::InputError> {
+    let name = path.display();
+    let in_file = |m: String| workbench::error::InputError::new(format!("{name}: {m}"));
+    let text = workbench::files::spec_json::read_text(path, MAX_POINTS_FILE_BYTES, "values files")
+        .map_err(in_file)?;
+    let values = parse_values_csv(&text).map_err(in_file)?;
+    if values.len() != n {
+        return Err(in_file(format!(
+            "{} values for {n} points (one value per point, in the rule's order)",
+            values.len()
+        )));
+    }
+    Ok(values)
+}
+
+/// Parses the text of a values CSV; errors name the line and the value.
+fn parse_values_csv(text: &str) -> Result<Vec<f64>, String> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, header)) if header.trim() == "value" => {}
+        Some((_, header)) => return Err(format!("line 1: header must be `value`, got `{}`", header.trim())),
+        None => return Err("empty file (need a `value` header and one row per point)".into()),
+    }
+    lines
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            l.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("line {}: value = `{}` is not a finite number", i + 1, l.trim()))
+        })
+        .collect()
 }
 
 /// Largest points file read: [`workbench::bq::rule::MAX_POINTS`] rows of four shortest round-trip

@@ -398,6 +398,9 @@ impl Integrator {
             }
         }
         let method = self.kind.method;
+        if let Some(set) = set.filter(|s| !s.fitted.is_empty()) {
+            return self.estimate_fitted(set, &points, &values, prior);
+        }
         let rule = Rule {
             density: self.kind.density,
             points: &points,
@@ -437,6 +440,66 @@ impl Integrator {
         let out = estimates.map(|e| e.uncertainty);
         match out {
             [Some(r), Some(g), Some(b)] => (estimate, Some([r, g, b])),
+            _ => (estimate, None),
+        }
+    }
+
+    /// A fitted model's estimate on a set (math.md §9): the three channels' `Q⁻¹Y` with every
+    /// grid model's kept factor, and per channel the model of largest marginal likelihood gives
+    /// the estimate and (with [`Integrator::with_uncertainty`]) the sd at the integrator's scale.
+    fn estimate_fitted(
+        &self,
+        set: &SampleSet,
+        points: &[Vec3],
+        values: &[Vec<f64>; 3],
+        prior: Rgb,
+    ) -> (Rgb, Option<[Uncertainty; 3]>) {
+        let n = points.len();
+        let method = self.kind.method;
+        let solves: Vec<Vec<f64>> = set
+            .fitted
+            .iter()
+            .map(|c| {
+                let mut rhs: Vec<f64> = values.iter().flatten().copied().collect();
+                c.solver.factor.solve_columns_in_place(&mut rhs, 3);
+                rhs
+            })
+            .collect();
+        let scale = self.uncertainty.unwrap_or(Scale::Unit);
+        let estimates = [0, 1, 2].map(|c| {
+            let ells: Vec<f64> = set
+                .fitted
+                .iter()
+                .zip(&solves)
+                .map(|(m, solve)| {
+                    crate::bq::fitted::log_marginal_likelihood(
+                        method,
+                        &values[c],
+                        &solve[c * n..(c + 1) * n],
+                        &m.weights,
+                        prior[c],
+                        m.log_det,
+                    )
+                    .unwrap_or(f64::NAN)
+                })
+                .collect();
+            let k = crate::bq::fitted::best(&ells);
+            let chosen = &set.fitted[k];
+            let rule = Rule {
+                density: self.kind.density,
+                points,
+                weights: Some(&chosen.weights),
+                inverse_diagonal: chosen.solver.inverse_diagonal.as_deref(),
+            };
+            let values = Values {
+                y: &values[c],
+                solved: Some(Solved::Full(&solves[k][c * n..(c + 1) * n])),
+            };
+            rule.estimate(method, values, prior[c], scale)
+        });
+        let estimate = estimates.map(|e| e.value);
+        match (self.uncertainty, estimates.map(|e| e.uncertainty)) {
+            (Some(_), [Some(r), Some(g), Some(b)]) => (estimate, Some([r, g, b])),
             _ => (estimate, None),
         }
     }

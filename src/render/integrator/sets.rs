@@ -25,7 +25,12 @@ const SET_KERNEL_MEANS: u64 = 0x5e8;
 #[derive(Clone, Debug)]
 pub struct SampleSet {
     pub points: Vec<Vec3>,
+    /// The weights (a fitted model: its first candidate's; the estimate uses the chosen one's).
     pub weights: BmcWeights,
+    /// A fitted model's grid on this set (math.md §9), each model with its weights and kept
+    /// factor: a pixel solves its values with every one and uses, per channel, the model of
+    /// largest marginal likelihood. Empty for a fixed model.
+    pub fitted: Vec<FittedCandidate>,
     /// What a pixel's fitted amplitude needs (math.md §7), kept only when per-pixel posterior
     /// sds are asked for ([`BmcSets::keep_solvers`]): 8 N² bytes per uniform set, about
     /// `4 N J` bytes per ring set.
@@ -39,6 +44,15 @@ pub struct SampleSet {
 pub struct SetSolver {
     pub factor: Factor,
     pub inverse_diagonal: Option<Vec<f64>>,
+}
+
+/// One model of a fitted grid on a sample set: its weights, the factor of its `Q`, `log det Q`
+/// and, for the `loo` amplitude, `diag(Q⁻¹)`.
+#[derive(Clone, Debug)]
+pub struct FittedCandidate {
+    pub weights: BmcWeights,
+    pub solver: SetSolver,
+    pub log_det: f64,
 }
 
 /// The sets ("GPs") of a BMC integrator.
@@ -96,10 +110,30 @@ impl BmcSets {
             .enumerate()
             .map(|(s, points)| {
                 let mut rng = stream(seed, &[SET_KERNEL_MEANS, s as u64]);
-                let weights = model.weights_for_design(&points, design, &mut rng, &mut ws)?;
+                // A fitted model: every grid model's weights and factor, kept (one per model).
+                let fitted = model
+                    .candidates()
+                    .iter()
+                    .map(|m| {
+                        let weights = m.weights_for_design(&points, design, &mut rng, &mut ws)?;
+                        Ok(FittedCandidate {
+                            weights,
+                            solver: SetSolver {
+                                factor: ws.keep_factor(),
+                                inverse_diagonal: None,
+                            },
+                            log_det: ws.log_det(),
+                        })
+                    })
+                    .collect::<Result<Vec<_>, NotPositiveDefinite>>()?;
+                let weights = match fitted.first() {
+                    Some(first) => first.weights.clone(),
+                    None => model.weights_for_design(&points, design, &mut rng, &mut ws)?,
+                };
                 Ok(SampleSet {
                     points,
                     weights,
+                    fitted,
                     solver: None,
                 })
             })
@@ -114,6 +148,14 @@ impl BmcSets {
     pub fn keep_solvers(&mut self, model: &BmcModel, scale: Scale) -> Result<(), NotPositiveDefinite> {
         let mut ws = SpdWorkspace::new();
         for set in &mut self.sets {
+            if !set.fitted.is_empty() {
+                // A fitted model's sets keep every model's factor already.
+                for c in &mut set.fitted {
+                    c.solver.inverse_diagonal =
+                        (scale == Scale::Loo).then(|| c.solver.factor.inverse_diagonal());
+                }
+                continue;
+            }
             let factor = match self.design.structure() {
                 Structure::Rings => Factor::Rings(RingFactor::new(
                     &set.points,

@@ -62,6 +62,9 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
             } else {
                 "the standard error of the mean, Student-t with spp − 1 degrees of freedom".into()
             };
+            if let Some(model) = &v.model {
+                j["model"] = model.json.clone();
+            }
             j
         })
         .collect();

@@ -24,6 +24,29 @@ pub struct VariantPlan {
     /// Amplitude of the posterior sd (integrators with weights only; MC's sd is its standard
     /// error whatever this says, and it is [`Scale::DEFAULT`] there).
     pub scale: Scale,
+    /// The row's own model replacing the table's (integrators with weights only), with its
+    /// resolved parameters for the manifest.
+    pub model: Option<VariantModel>,
+}
+
+/// A variant's own model, built, with its resolved parameters (what it is compared by).
+#[derive(Clone, Debug)]
+pub struct VariantModel {
+    pub model: std::sync::Arc<BmcModel>,
+    pub json: serde_json::Value,
+}
+
+impl PartialEq for VariantModel {
+    fn eq(&self, other: &Self) -> bool {
+        self.json == other.json
+    }
+}
+
+impl TablePlan {
+    /// The model variant `v` renders with: its own, else the table's.
+    pub fn model_of<'a>(&'a self, v: &'a VariantPlan) -> Option<&'a BmcModel> {
+        v.model.as_ref().map(|m| m.model.as_ref()).or(self.model.as_ref())
+    }
 }
 
 /// How the reference image is made.
@@ -176,6 +199,24 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     let model = model_spec
         .resolve()
         .map_err(|m| err(format!("model.{}", m.field.json()), m.message))?;
+    // The stage walker keeps one nested factor per pixel; a fitted model would need one per
+    // grid model and a choice per stage, which adaptive tables do not do yet.
+    if adaptive.is_some() {
+        for (k, v) in variants.iter().enumerate() {
+            let own = v.model.as_ref().map(|m| m.model.is_fitted());
+            if v.kind.uses_sets() && own.unwrap_or(model.is_fitted()) {
+                let at = if own.is_some() {
+                    format!("variants[{k}].model.kernel")
+                } else {
+                    "model.kernel".into()
+                };
+                return Err(err(
+                    at,
+                    "a fitted kernel cannot be used with \"adaptive\" yet; give a fixed kernel".to_string(),
+                ));
+            }
+        }
+    }
     let needed = variants.iter().any(|v| v.kind.uses_sets());
     Ok(TablePlan {
         file: path.to_path_buf(),
@@ -389,23 +430,43 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
                 ),
             ));
         }
+        if let Some((field, value)) = v.model.as_ref().and_then(|m| m.given_fields().into_iter().next()) {
+            return Err(err(
+                format!("{at}.model.{}", field.json()),
+                format!("{value} is not used by integrator {kind}"),
+            ));
+        }
         return Ok(VariantPlan {
             label,
             kind,
             gps: 0,
             rotate: false,
             scale: Scale::DEFAULT,
+            model: None,
         });
     }
     let gps = v.gps.unwrap_or(DEFAULT_GPS as u64);
     let gps = usize::try_from(gps).unwrap_or(usize::MAX);
     check_gps(gps, "gps").map_err(|e| err(format!("{at}.gps"), e.0.trim_start_matches("gps: ")))?;
+    let model = match &v.model {
+        Some(spec) => {
+            let resolved = spec
+                .resolve()
+                .map_err(|m| err(format!("{at}.model.{}", m.field.json()), m.message))?;
+            Some(VariantModel {
+                model: std::sync::Arc::new(resolved.build()),
+                json: resolved.to_json(),
+            })
+        }
+        None => None,
+    };
     Ok(VariantPlan {
         label,
         kind,
         gps,
         rotate: v.rotate.unwrap_or(true),
         scale: v.scale.unwrap_or(Scale::DEFAULT),
+        model,
     })
 }
 
@@ -487,7 +548,8 @@ mod tests {
                 kind: IntegratorKind::MC,
                 gps: 0,
                 rotate: false,
-                scale: Scale::Ml
+                scale: Scale::Ml,
+                model: None
             }
         );
         assert_eq!(
@@ -497,7 +559,8 @@ mod tests {
                 kind: IntegratorKind::BMC,
                 gps: 4,
                 rotate: true,
-                scale: Scale::Ml
+                scale: Scale::Ml,
+                model: None
             }
         );
         assert!(p.model.is_some());

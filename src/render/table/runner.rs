@@ -65,10 +65,10 @@ pub fn run(
                     spp,
                     variant.gps,
                     variant.rotate,
-                    plan.model.as_ref(),
+                    plan.model_of(variant),
                     seed,
                 )?
-                .with_uncertainty(variant.scale, plan.model.as_ref())?;
+                .with_uncertainty(variant.scale, plan.model_of(variant))?;
                 if rep == 0 {
                     for line in numerical_warnings(&integrator) {
                         reporter.note(&format!("warning: {} {spp} spp: {line}", variant.label));

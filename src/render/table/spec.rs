@@ -75,6 +75,11 @@ pub struct VariantSpec {
     /// weights only): `unit`, `ml` or `loo` (math.md §7); default `ml`.
     #[serde(default)]
     pub scale: Option<crate::bq::weights::Scale>,
+    /// This row's own BMC model (integrators with weights only), replacing the table's
+    /// `model`: e.g. `{"kernel": {"type": "fitted"}}` for a model fitted per pixel and channel
+    /// (math.md §9).
+    #[serde(default)]
+    pub model: Option<ModelSpec>,
 }
 
 /// `{"target_sd": [0.08, 0.04, 0.02], "max_spp": 512, "first_spp": 16}`: each pixel doubles its

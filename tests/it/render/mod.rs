@@ -2,5 +2,6 @@ mod analytic;
 mod image_read;
 mod render_adaptive;
 mod render_cli;
+mod render_fitted;
 mod render_table;
 mod render_table_adaptive;

@@ -65,7 +65,7 @@ pub fn run(
             for (v, variant) in plan.variants.iter().enumerate() {
                 reporter.working_on(&format!("{} target sd {target} #{rep}", variant.label));
                 let start = Instant::now();
-                let model = plan.model.as_ref().filter(|_| variant.kind.uses_sets());
+                let model = plan.model_of(variant).filter(|_| variant.kind.uses_sets());
                 let (sampler, jitter) =
                     AdaptiveSampler::new(variant.kind, &settings, variant.gps, variant.rotate, model, seed)?;
                 if jitter > 0.0 && rep == 0 {
