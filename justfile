@@ -17,6 +17,7 @@ figures:
     cargo run --release -- run experiments/calibration.json -q
     cargo run --release -- run experiments/adaptive.json -q
     cargo run --release -- run experiments/rings.json -q
+    cargo run --release -- run experiments/learned-kernel.json -q
     cargo run --release -- render experiments/render-table.json -q
     cargo run --release -- render experiments/render-adaptive.json -q
 
@@ -37,3 +38,4 @@ bench:
     cargo bench --bench core
     cargo bench --bench phases
     cargo bench --bench render
+    cargo bench --bench fitted
