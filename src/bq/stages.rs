@@ -1,23 +1,31 @@
 //! Sequential estimation: grow a nested sample set by doubling until the estimator's own
 //! uncertainty (math.md §7) meets a [`Target`]; README, "Stopping at a tolerance" and "Adaptive
-//! sampling". One walker ([`walk`]) serves the experiments' tolerance estimators (a 95%
-//! half-width per integrand) and the renderer's adaptive pixels (an sd per colour channel); the
-//! weights of every stage come from one nested factor ([`NestedStages`]), and every stage's
-//! estimate from [`Rule::estimate`], so any estimator with an interval can be staged.
+//! sampling". One walker ([`walk`]) serves the experiments' tolerance estimators (a half-width
+//! per integrand) and the renderer's adaptive pixels (an sd per colour channel); the weights of
+//! every stage come from one nested factor ([`NestedWeights`]), and every stage's estimate from
+//! [`Rule::estimate`], so any estimator with an interval can be staged.
 //!
 //! Stages `N₀, 2N₀, 4N₀, …` up to `max_n` (the last stage is the largest of these not above
-//! `max_n`). After each stage the estimator states its interval `Î ± q·sd` (the same law as a
-//! fixed-N run: Student-t for MC and for the `ml` amplitude, normal otherwise) and stops when the
-//! half-width `q₀.₉₇₅ · sd ≤ abs`, or at the last stage. The rule looks at the interval only,
-//! never at the truth. For MC this is the classical sequential CLT rule (stop when
-//! `t_{0.975, N−1} s/√N ≤ abs`; cf. QMCPy's `CubMCCLT`, which fixes the sample count after a
-//! pilot instead of doubling). For BMC, BMCP and Bayes–Sard the point set is nested, so each
-//! stage's factor extends the previous one by blocks ([`crate::bq::factor::nested`]) and the
-//! weights, `Var₁` and the fitted amplitude `λ̂ = rᵀQ⁻¹r/N` are recomputed from it.
+//! `max_n`); a tolerance's first stage is the larger of the caller's first size and its pilot
+//! `min_n` ([`Tolerance::stages`]). After each stage the estimator states its interval
+//! `Î ± q·sd` (the same law as a fixed-N run: Student-t for MC and for the `ml` amplitude, normal
+//! otherwise) and stops when the half-width `inflate · q_level · sd ≤ abs` (by default `level`
+//! 0.95 and `inflate` 1, as QMCPy's `CubMCCLT` states its rule), or at the last stage. The rule
+//! looks at the interval only, never at the truth. For MC this is the classical sequential CLT
+//! rule (stop when `t_{0.975, N−1} s/√N ≤ abs`; `CubMCCLT` fixes the sample count after a pilot
+//! instead of doubling). For BMC, BMCP and Bayes–Sard the point set is nested, so each stage's
+//! factor extends the previous one by blocks ([`crate::bq::factor::nested`]) and the weights,
+//! `Var₁` and the fitted amplitude `λ̂ = rᵀQ⁻¹r/N` are recomputed from it.
+//!
+//! **The guard** (math.md §9, "Stopping with a guard"): a stage whose fitted amplitude is exactly
+//! 0 (every residual 0) or whose MC sample sd is exactly 0 states a zero-width interval from no
+//! evidence of variation at all — typically a small feature none of its samples saw — so it
+//! never meets a target ([`Verdict::ZeroEvidence`]); the walk doubles on and counts the stage.
+//! An integrand that really is constant on the samples therefore runs to the last stage.
 //!
 //! Caveat, as for every interval built from the samples (math.md §7): when the samples miss a
-//! small feature the interval is too narrow, and the rule stops too early; a fitted amplitude
-//! of 0 (every residual 0) stops at the first stage.
+//! small feature but see some variation elsewhere, the interval is too narrow and the rule can
+//! still stop too early; the pilot `min_n` is the remedy there.
 
 use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::factor::NotPositiveDefinite;
@@ -29,85 +37,187 @@ use crate::bq::weights::{BmcWeights, Diagnostics, Scale};
 use crate::sampling::Density;
 use crate::util::geometry::Vec3;
 
-/// The interval level whose half-width is compared with the tolerance.
-pub const LEVEL: f64 = 0.95;
+/// The pilot when a tolerance names none: a feature covering a share `p` of the hemisphere is
+/// seen by one of `N` uniform points with probability `1 − (1 − p)^N`, so 64 points see a share
+/// of 4.6% with 95% (math.md §9).
+pub const DEFAULT_MIN_N: usize = 64;
+/// The interval level of a tolerance's half-width when it names none.
+pub const DEFAULT_LEVEL: f64 = 0.95;
+/// The factor on a tolerance's half-width when it names none.
+pub const DEFAULT_INFLATE: f64 = 1.0;
 
-/// Stop when the 95% half-width is at most `abs`, or at `max_n` points.
+/// Stop when `inflate ×` the half-width of the interval at `level` is at most `abs`, or at
+/// `max_n` points; never before `min_n` points.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Tolerance {
-    /// The absolute tolerance on the 95% half-width (> 0).
+    /// The absolute tolerance on the (inflated) half-width (> 0).
     pub abs: f64,
-    /// The most points a trial may use (≥ the first stage).
+    /// The most points a trial may use (≥ the first stage and ≥ `min_n`).
     pub max_n: usize,
+    /// The pilot: the fewest points a stage may have (1 ≤ `min_n` ≤ `max_n`).
+    pub min_n: usize,
+    /// The level of the interval whose half-width is compared with `abs` (in (0, 1)).
+    pub level: f64,
+    /// The factor on that half-width (≥ 1).
+    pub inflate: f64,
 }
 
 impl Tolerance {
-    /// The stage sizes from the first stage `first`: `first · 2^k ≤ max_n`.
+    /// `abs` and `max_n` with the default pilot ([`DEFAULT_MIN_N`]; [`Tolerance::stages`]
+    /// panics if `max_n` is below it), level and inflation.
+    pub fn new(abs: f64, max_n: usize) -> Self {
+        Tolerance {
+            abs,
+            max_n,
+            min_n: DEFAULT_MIN_N,
+            level: DEFAULT_LEVEL,
+            inflate: DEFAULT_INFLATE,
+        }
+    }
+
+    /// The stage sizes from the first stage `first` or the pilot `min_n`, whichever is larger:
+    /// [`doubling`] from there up to `max_n`.
     ///
     /// # Panics
-    /// If `first` is 0 or above `max_n`.
+    /// If `first` is 0 or either start is above `max_n`.
     pub fn stages(&self, first: usize) -> Vec<usize> {
-        assert!(
-            first >= 1 && first <= self.max_n,
-            "first stage {first}, max_n {}",
-            self.max_n
-        );
-        let mut out = vec![first];
-        while let Some(next) = out.last().unwrap().checked_mul(2).filter(|&m| m <= self.max_n) {
-            out.push(next);
-        }
-        out
+        assert!(first <= self.max_n, "first stage {first}, max_n {}", self.max_n);
+        doubling(first.max(self.min_n), self.max_n)
+    }
+
+    /// The half-width the rule compares with `abs`: `inflate · q_level · sd`.
+    pub fn half_width(&self, u: &Uncertainty) -> f64 {
+        self.inflate * u.quantile(self.level) * u.sd
+    }
+
+    /// The target of every stage.
+    pub fn target(&self) -> Target {
+        Target::HalfWidth(*self)
     }
 }
 
-/// The half-width `q · sd` of the interval at [`LEVEL`].
+/// Stage sizes `first · 2^k ≤ max_n`.
+///
+/// # Panics
+/// If `first` is 0 or above `max_n`.
+pub fn doubling(first: usize, max_n: usize) -> Vec<usize> {
+    assert!(first >= 1 && first <= max_n, "first stage {first}, max_n {max_n}");
+    let mut out = vec![first];
+    while let Some(next) = out.last().unwrap().checked_mul(2).filter(|&m| m <= max_n) {
+        out.push(next);
+    }
+    out
+}
+
+/// The half-width `q₀.₉₇₅ · sd` of the 95% interval, whatever a tolerance's level and
+/// inflation (`stopping_trials.csv`'s `half_width95`).
 pub fn half_width(u: &Uncertainty) -> f64 {
-    u.quantile(LEVEL) * u.sd
+    u.quantile(0.95) * u.sd
+}
+
+/// Whether `u` comes from zero evidence: a fitted amplitude of exactly 0 (every residual 0), or
+/// an MC sample sd of exactly 0 (every term equal). A unit amplitude is never zero evidence.
+pub fn zero_evidence(u: &Uncertainty) -> bool {
+    match u.amplitude {
+        Some(amplitude) => amplitude == 0.0,
+        None => u.sd == 0.0,
+    }
 }
 
 /// What a stage's stated uncertainty must meet for the walk to stop there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Target {
-    /// The half-width of the 95% interval ([`half_width`]) at most this (a tolerance estimator).
-    HalfWidth(f64),
+    /// The tolerance's half-width ([`Tolerance::half_width`]) at most its `abs` (a tolerance
+    /// estimator; its stages are not part of the target).
+    HalfWidth(Tolerance),
     /// The stated sd at most this (an adaptive pixel's `--target-sd`, per channel).
     Sd(f64),
 }
 
-impl Target {
-    /// Whether `u` meets the target; an estimator that states no uncertainty never does.
-    pub fn met(&self, u: Option<&Uncertainty>) -> bool {
-        u.is_some_and(|u| match *self {
-            Target::HalfWidth(abs) => half_width(u) <= abs,
-            Target::Sd(t) => u.sd <= t,
-        })
+/// What a stage's stated uncertainty says about a [`Target`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// The target is met: the walk stops here.
+    Met,
+    /// Not met: the walk goes on (an estimator that states no uncertainty is never met).
+    Short,
+    /// A zero-width interval from zero evidence ([`zero_evidence`]): not met, and counted.
+    ZeroEvidence,
+}
+
+impl Verdict {
+    /// The verdict on quantities judged together (an adaptive pixel's colour channels): zero
+    /// evidence if any has zero evidence, met if every one is met, short otherwise.
+    pub fn all(verdicts: impl IntoIterator<Item = Verdict>) -> Verdict {
+        let mut out = Verdict::Met;
+        for v in verdicts {
+            match v {
+                Verdict::ZeroEvidence => return Verdict::ZeroEvidence,
+                Verdict::Short => out = Verdict::Short,
+                Verdict::Met => {}
+            }
+        }
+        out
     }
 }
 
-/// Where a walk stopped: what the last stage used gave, its size, and whether the target was met
-/// there (rather than the stages running out).
+impl Target {
+    /// The verdict on `u`: zero evidence never meets the target, whatever its width.
+    pub fn judge(&self, u: Option<&Uncertainty>) -> Verdict {
+        let Some(u) = u else {
+            return Verdict::Short;
+        };
+        if zero_evidence(u) {
+            return Verdict::ZeroEvidence;
+        }
+        let met = match self {
+            Target::HalfWidth(t) => t.half_width(u) <= t.abs,
+            Target::Sd(t) => u.sd <= *t,
+        };
+        if met { Verdict::Met } else { Verdict::Short }
+    }
+
+    /// Whether `u` meets the target ([`Target::judge`] says [`Verdict::Met`]).
+    pub fn met(&self, u: Option<&Uncertainty>) -> bool {
+        self.judge(u) == Verdict::Met
+    }
+}
+
+/// Where a walk stopped: what the last stage used gave, its size, whether the target was met
+/// there (rather than the stages running out), and how many of the stages walked had zero
+/// evidence.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stop<T> {
     pub at: T,
     pub n_used: usize,
     pub met: bool,
+    pub zero_evidence: usize,
 }
 
 /// The one stopping rule: through `stages` (increasing sizes), `stage(m)` gives the stage's
-/// result and whether it meets the target; the walk stops at the first stage that does, or at
-/// the last. The rule looks at the stated uncertainty only, never at the truth.
+/// result and its [`Verdict`]; the walk stops at the first stage that is met, or at the last.
+/// Zero-evidence stages are never met, only counted. The rule looks at the stated uncertainty
+/// only, never at the truth.
 ///
 /// # Panics
 /// If `stages` is empty.
 pub fn walk<T, E>(
     stages: &[usize],
-    mut stage: impl FnMut(usize) -> Result<(T, bool), E>,
+    mut stage: impl FnMut(usize) -> Result<(T, Verdict), E>,
 ) -> Result<Stop<T>, E> {
     let (&last, _) = stages.split_last().expect("at least one stage");
+    let mut zero_evidence = 0;
     for &m in stages {
-        let (at, met) = stage(m)?;
+        let (at, verdict) = stage(m)?;
+        zero_evidence += usize::from(verdict == Verdict::ZeroEvidence);
+        let met = verdict == Verdict::Met;
         if met || m == last {
-            return Ok(Stop { at, n_used: m, met });
+            return Ok(Stop {
+                at,
+                n_used: m,
+                met,
+                zero_evidence,
+            });
         }
     }
     unreachable!("the last stage returns")
@@ -122,16 +232,17 @@ pub struct Outcome {
     pub uncertainty: Option<Uncertainty>,
     /// The points used: the size of the last stage.
     pub n_used: usize,
-    /// Whether the rule stopped it (half-width ≤ abs) rather than `max_n`.
+    /// Whether the rule stopped it (half-width ≤ abs, with evidence) rather than `max_n`.
     pub met: bool,
+    /// The stages walked whose interval came from zero evidence (each one doubled on).
+    pub zero_evidence: usize,
 }
 
 /// Sequential MC on the nested set `points` (the largest stage; each point drawn from
 /// `density`) with integrand values `values` (same length): the estimate and standard error of
 /// each stage are [`Method::Mc`]'s on the stage's first points, so a trial that stops at `N` is
 /// the fixed-N estimate at `N` exactly.
-pub fn mc(density: Density, points: &[Vec3], values: &[f64], stages: &[usize], abs: f64) -> Outcome {
-    let target = Target::HalfWidth(abs);
+pub fn mc(density: Density, points: &[Vec3], values: &[f64], stages: &[usize], target: Target) -> Outcome {
     let stop = walk(stages, |m| {
         let rule = Rule {
             density,
@@ -144,7 +255,7 @@ pub fn mc(density: Density, points: &[Vec3], values: &[f64], stages: &[usize], a
             solved: None,
         };
         let e = rule.estimate(Method::Mc, values, 0.0, Scale::Unit);
-        Ok::<_, std::convert::Infallible>((e, target.met(e.uncertainty.as_ref())))
+        Ok::<_, std::convert::Infallible>((e, target.judge(e.uncertainty.as_ref())))
     });
     let Ok(stop) = stop;
     Outcome::from(stop)
@@ -157,6 +268,7 @@ impl From<Stop<Estimate>> for Outcome {
             uncertainty: stop.at.uncertainty,
             n_used: stop.n_used,
             met: stop.met,
+            zero_evidence: stop.zero_evidence,
         }
     }
 }
@@ -274,13 +386,13 @@ impl<'a> NestedWeights<'a> {
 }
 
 /// One sequential weighted estimator on a [`NestedWeights`]: its method and amplitude, the
-/// prior constant per integrand (BMCP), its stages and its tolerance.
+/// prior constant per integrand (BMCP), its stages and the target every stage is judged by.
 #[derive(Clone, Debug)]
 pub struct Walker {
     pub estimator: WeightedEstimator,
     pub priors: Vec<f64>,
     pub stages: Vec<usize>,
-    pub abs: f64,
+    pub target: Target,
 }
 
 /// Sequential BMC / BMCP / Bayes–Sard on the weight sets of `nested`, one run per walker and one
@@ -294,7 +406,7 @@ pub fn weighted_together(
     let mut runs = Vec::with_capacity(walkers.len());
     for walker in walkers {
         let WeightedEstimator { method, scale } = walker.estimator;
-        let target = Target::HalfWidth(walker.abs);
+        let target = walker.target;
         let mut outcomes = Vec::with_capacity(nested.values.len());
         for fi in 0..nested.values.len() {
             let stop = walk(&walker.stages, |m| {
@@ -318,7 +430,7 @@ pub fn weighted_together(
                     solved: solved.map(Solved::Full),
                 };
                 let e = rule.estimate(method, values, walker.priors[fi], scale);
-                Ok((e, target.met(e.uncertainty.as_ref())))
+                Ok((e, target.judge(e.uncertainty.as_ref())))
             })?;
             outcomes.push(Outcome::from(stop));
         }

@@ -42,6 +42,7 @@ pub struct RenderArgs {
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
     pub integrator: RenderIntegrator,
     /// Samples per pixel (hemisphere directions per estimate) [default: 40]; not with `exact`.
+    /// With --target-sd: the first stage, the pilot [default: 64].
     #[arg(long)]
     pub spp: Option<usize>,
     /// `--integrator exact` only: absolute tolerance per pixel and channel of the certified
@@ -98,8 +99,10 @@ pub struct RenderArgs {
     #[arg(long, value_parser = ["unit", "ml", "loo"])]
     pub scale: Option<String>,
     /// Adaptive sampling: each pixel doubles its samples from --spp (the first stage) until every
-    /// channel's stated standard deviation is at most this, or --max-spp is reached; `mc`,
-    /// `mc-cos` and `bmc` only. Writes <out>-spp.png (the samples each pixel took).
+    /// channel's stated standard deviation is at most this — never on a stage with zero evidence
+    /// (a channel's MC sample sd or fitted amplitude exactly 0) — or --max-spp is reached; `mc`,
+    /// `mc-cos` and the integrators with weights on uniform sets. Writes <out>-spp.png (the
+    /// samples each pixel took).
     #[arg(long)]
     pub target_sd: Option<f64>,
     /// With --target-sd: the most samples a pixel may take (stages spp, 2 spp, … ≤ this).

@@ -9,14 +9,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 use workbench::error::InputError;
 use workbench::files::file_set::FileSet;
-use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
+use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings, DEFAULT_FIRST_SPP};
 use workbench::render::image::{ColourMap, ErrorScale};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::{Environment, Renderer, check_size};
 use workbench::util::report::Reporter;
-
-/// The first stage when `--spp` is not given.
-const DEFAULT_FIRST_SPP: usize = 16;
 
 /// The options of `render` that an adaptive single image reads (built by `render`'s `single`).
 pub struct AdaptiveArgs<'a> {
@@ -88,7 +85,12 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     }
     if max_spp < first {
         return Err(InputError::new(format!(
-            "--max-spp {max_spp}: is below the first stage --spp {first}"
+            "--max-spp {max_spp}: is below the first stage --spp {first}{}",
+            if args.spp.is_none() {
+                " (the default pilot; give a smaller --spp)"
+            } else {
+                ""
+            }
         ))
         .into());
     }
@@ -187,6 +189,13 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         png.display(),
         spp_png.display()
     );
+    if result.zero_evidence.contains(&true) {
+        status!(
+            "note: {:.2}% of the pixels had a stage with zero evidence (a channel's samples all alike, e.g. all 0: \
+             MC sample sd or fitted amplitude exactly 0); such a stage never stops a pixel, so they doubled on",
+            100.0 * result.share_zero_evidence()
+        );
+    }
     stdout(&format!(
         "mean spp = {:.2}\nshare of pixels meeting the target = {:.4}\nseconds = {seconds:.3}\n",
         result.mean_spp(),

@@ -117,7 +117,7 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
     let used: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
     let (x0, x1) = style::padded_log_range(&tolerances, 1.4);
     let (y0, y1) = style::padded_log_range(&used, 1.4);
-    let x = Axis::log_values((x0, x1), "tolerance on the 95% half-width");
+    let x = Axis::log_values((x0, x1), "tolerance on the half-width");
     let used_axis = Axis {
         range: (y0, y1),
         ticks: style::log_ticks(y0, y1),
@@ -140,15 +140,16 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<String> {
         Swatch::Band,
         format!(
             "grey band (below): 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}); \
-             the within_tolerance check passes at or above its lower end",
+             the within_tolerance check judges the share among the trials the rule stopped (stopping_summary.csv)",
             plan.trials
         ),
     ));
     legend.push(LegendEntry::wide(
         Swatch::Text,
         format!(
-            "each trial starts at N₀ = {} and doubles N (keeping its points) until its 95% half-width \
-             is at most the tolerance or N would pass max_n; the rule sees the interval, never the truth",
+            "each trial starts at N₀ = {} (or its pilot min_n if larger) and doubles N (keeping its points) until \
+             its half-width is at most the tolerance, never on zero evidence, or N would pass max_n; the rule sees \
+             the interval, never the truth",
             plan.samples
                 .iter()
                 .map(|n| n.to_string())

@@ -22,7 +22,8 @@ pub struct UnitRun {
 /// A unit's nested set for one (design, max_n), and every integrand's values on it.
 type NestedSetValues = ((Design, usize), Vec<Vec3>, Vec<Vec<f64>>);
 
-/// Runs every tolerance estimator of the plan in the unit with first stage `n`; `draw(design,
+/// Runs every tolerance estimator of the plan in the unit of sample count `n` (the first stage,
+/// or the estimator's pilot `min_n` if larger; [`stages::Tolerance::stages`]); `draw(design,
 /// count)` gives the unit's nested set for a design (the first `n` points are the unit's own).
 /// Estimators with the same design, `max_n` and model share one nested set and its weight
 /// sets. None for estimators without a tolerance.
@@ -56,11 +57,11 @@ pub fn run_unit(
             if !of_set(&e) || e.model.is_some() {
                 continue;
             }
-            let abs = e.tolerance.expect("a tolerance estimator").abs;
+            let target = e.tolerance.expect("a tolerance estimator").target();
             out[ei] = Some(UnitRun {
                 outcomes: values
                     .iter()
-                    .map(|v| stages::mc(e.design.density(), points, v, &stages_of(e), abs))
+                    .map(|v| stages::mc(e.design.density(), points, v, &stages_of(e), target))
                     .collect(),
                 diagnostics: None,
                 fitted: false,
@@ -102,7 +103,7 @@ pub fn run_unit(
                                 .map(|f| e.prior.map_or(0.0, |p| p.resolve(f.constant_prior())))
                                 .collect(),
                             stages: stages_of(e),
-                            abs: e.tolerance.expect("a tolerance estimator").abs,
+                            target: e.tolerance.expect("a tolerance estimator").target(),
                         }
                     })
                     .collect::<Vec<_>>(),
@@ -110,7 +111,7 @@ pub fn run_unit(
             )
             .map_err(|source| crate::Error::Numerical {
                 what: format!(
-                    "tolerance estimator {:?}, first stage N = {n}, trial {trial}",
+                    "tolerance estimator {:?}, N₀ = {n}, trial {trial}",
                     plan.estimators[users[0]].label
                 ),
                 source,

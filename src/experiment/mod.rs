@@ -216,12 +216,12 @@ pub fn run_plan(
     if !stopping.is_empty() {
         folder.write(
             "stopping_trials.csv",
-            "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance",
+            "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance, the rule's half-width, zero-evidence stages",
             &adaptive::trials_csv(plan, &results),
         )?;
         folder.write(
             "stopping_summary.csv",
-            "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance",
+            "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance, share met, share within among those met, share with a zero-evidence stage",
             &adaptive::summary_csv(plan, &stopping),
         )?;
         for (fi, f) in plan.integrands.iter().enumerate() {

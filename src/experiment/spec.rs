@@ -81,19 +81,32 @@ pub struct EstimatorSpec {
     #[serde(default)]
     pub scale: Option<crate::bq::weights::Scale>,
     /// Stop at a target uncertainty ([`crate::bq::stages`]; intervals of math.md §7):
-    /// `{"abs": A, "max_n": M}`. The experiment's
+    /// `{"abs": A, "max_n": M}`, optionally `min_n`, `level`, `inflate`. The experiment's
     /// sample counts are then this estimator's first stages; see [`super::adaptive`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<ToleranceSpec>,
 }
 
-/// `"tolerance": {"abs": 1e-3, "max_n": 1024}`: double N (keeping the earlier points) until the
-/// 95% half-width is at most `abs`, or `max_n` is reached.
+/// `"tolerance": {"abs": 1e-3, "max_n": 1024}`: double N (keeping the earlier points) from the
+/// larger of the sample count and `min_n` until `inflate ×` the half-width of the interval at
+/// `level` is at most `abs`, or `max_n` is reached. A stage with zero evidence (a fitted
+/// amplitude or MC sample sd of exactly 0) never stops the rule.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ToleranceSpec {
+    /// The absolute tolerance on the half-width (> 0).
     pub abs: f64,
+    /// The most points a trial may use (≥ every sample count and ≥ `min_n`).
     pub max_n: u64,
+    /// The pilot: no stage has fewer points (1 ≤ `min_n` ≤ `max_n`); default 64.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_n: Option<u64>,
+    /// The level of the interval whose half-width is compared with `abs`, in (0, 1); default 0.95.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<f64>,
+    /// The factor on that half-width (≥ 1, as QMCPy's `inflate`); default 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inflate: Option<f64>,
 }
 
 /// `"analytic"` or a number.

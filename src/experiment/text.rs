@@ -42,8 +42,8 @@ pub fn describe(plan: &plan::Plan) -> String {
     let tolerant: Vec<_> = plan.estimators.iter().filter_map(|e| e.tolerance).collect();
     if let Some(largest) = tolerant.iter().map(|t| t.max_n).max() {
         s += &format!(
-            "tolerance estimators: {} (each trial doubles N from its first stage until its 95% half-width \
-             meets the tolerance; nested sets up to N = {largest})\n",
+            "tolerance estimators: {} (each trial doubles N from its sample count or its pilot min_n, whichever is \
+             larger, until its half-width meets the tolerance, never on zero evidence; nested sets up to N = {largest})\n",
             tolerant.len()
         );
     }

@@ -3,7 +3,7 @@
 
 use super::spec::{CheckSpec, EstimatorSpec, ExperimentSpec, KernelMeanName};
 use crate::bq::estimator::Method;
-use crate::bq::stages::Tolerance;
+use crate::bq::stages::{self, Tolerance};
 use crate::sampling::Design;
 use serde::Serialize;
 
@@ -28,6 +28,20 @@ pub fn resolve_tolerance(
             t.abs
         ));
     }
+    let level = t.level.unwrap_or(stages::DEFAULT_LEVEL);
+    if !(level > 0.0 && level < 1.0) {
+        return Err(format!(
+            "{}: must be in (0, 1), got {level}",
+            at("tolerance.level")
+        ));
+    }
+    let inflate = t.inflate.unwrap_or(stages::DEFAULT_INFLATE);
+    if !(inflate.is_finite() && inflate >= 1.0) {
+        return Err(format!(
+            "{}: must be a finite number ≥ 1 (it widens the half-width), got {inflate}",
+            at("tolerance.inflate")
+        ));
+    }
     if let Some((i, &n)) = samples
         .iter()
         .enumerate()
@@ -38,6 +52,23 @@ pub fn resolve_tolerance(
             "{}: {} is below the first stage N = {n} (samples[{i}]); a tolerance estimator starts at each \
              sample count and doubles up to max_n, so max_n must be at least the largest sample count",
             at("tolerance.max_n"),
+            t.max_n
+        ));
+    }
+    let min_n = t.min_n.unwrap_or(stages::DEFAULT_MIN_N as u64);
+    if min_n == 0 {
+        return Err(format!("{}: must be at least 1, got 0", at("tolerance.min_n")));
+    }
+    if min_n > t.max_n {
+        return Err(format!(
+            "{}: {min_n}{} is above max_n = {}; no stage may have fewer than min_n points, so give a \
+             smaller min_n or a larger max_n",
+            at("tolerance.min_n"),
+            if t.min_n.is_none() {
+                " (the default pilot)"
+            } else {
+                ""
+            },
             t.max_n
         ));
     }
@@ -73,25 +104,32 @@ pub fn resolve_tolerance(
     if let Some((i, &n)) = samples
         .iter()
         .enumerate()
-        .find(|&(_, &n)| !method.has_interval(n as usize))
+        .find(|&(_, &n)| !method.has_interval(n.max(min_n) as usize))
     {
         return Err(format!(
-            "{}: method {} has no interval at the first stage N = {n} (samples[{i}]), so it cannot stop on \
-             its interval; start from N ≥ 2",
+            "{}: method {} has no interval at the first stage N = {} (samples[{i}], min_n {min_n}), so it \
+             cannot stop on its interval; start from N ≥ 2 or give min_n ≥ 2",
             at("tolerance"),
-            method
+            method,
+            n.max(min_n)
         ));
     }
     Ok(Some(Tolerance {
         abs: t.abs,
         max_n: t.max_n as usize,
+        min_n: min_n as usize,
+        level,
+        inflate,
     }))
 }
 
-/// A resolved `{"within_tolerance": A, "level": 0.95, "from_n": n0}` check: in every (integrand,
-/// first stage ≥ `from_n`) cell, the share of A's trials whose actual error is within A's
-/// tolerance is at least the lower end of the binomial 99% band around `level`
-/// ([`super::summary::binomial_band`]), i.e. within binomial noise of the level or above.
+/// A resolved `{"within_tolerance": A, "level": 0.95, "from_n": n0}` check, judged in every
+/// (integrand, N₀ ≥ `from_n`) cell of A ([`super::adaptive::evaluate_check`]) on two counts, each
+/// against the lower end of the binomial 99% band around `level`
+/// ([`super::summary::binomial_band`]), i.e. within binomial noise of the level or above: among
+/// the trials the rule stopped (`met`), the share whose actual error is within A's tolerance
+/// (`within_given_met`); and the share of trials the rule stopped at all (`met`), which fails on
+/// its own.
 #[derive(Debug, Clone, Serialize)]
 pub struct ToleranceCheck {
     pub within_tolerance: String,

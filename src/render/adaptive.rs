@@ -18,9 +18,12 @@
 //!
 //! What is compared with `T` is the stated sd, not an interval half-width: a calibrated sd `T`
 //! puts 95% of errors within `1.96 T`, which is what [`AdaptiveImage::within`] measures against a
-//! reference. Like Cycles' adaptive sampler this needs a first stage large enough not to miss
-//! features: a pixel whose first samples all see 0 (a small light missed, a full shadow) states
-//! sd 0 and stops there.
+//! reference. The walker's guard holds here too (math.md §9): a stage at which some channel's
+//! stated sd comes from zero evidence (MC terms all equal, or a fitted amplitude of exactly 0 —
+//! typically every sample 0: a small light missed, a full shadow) never stops the pixel, which
+//! doubles on; the pixel is counted ([`AdaptiveImage::share_zero_evidence`]). Like Cycles'
+//! adaptive sampler the rule still needs a first stage (the pilot, `--spp`) large enough not to
+//! miss features where the samples see some variation.
 
 use super::env::Environment;
 use super::image::Image;
@@ -33,7 +36,7 @@ use crate::bq::factor::NotPositiveDefinite;
 use crate::bq::factor::nested::NestedCholesky;
 use crate::bq::model::BmcModel;
 use crate::bq::rule::{Estimate, Rule, Values};
-use crate::bq::stages::{Target, Tolerance, stage_weights, walk};
+use crate::bq::stages::{Target, Verdict, doubling, stage_weights, walk};
 use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::sampling::Density;
@@ -50,6 +53,10 @@ const ADAPTIVE_PIXELS: u64 = 0xada;
 /// Stream of the points of nested set `s`: `stream(seed, [NESTED_SET_POINTS, s])`.
 const NESTED_SET_POINTS: u64 = 0xada5e7;
 
+/// The first stage (the pilot) when none is given: `render --target-sd` without `--spp`, a
+/// table's `adaptive.first_spp`; the experiments' default `min_n` ([`crate::bq::stages::DEFAULT_MIN_N`]).
+pub const DEFAULT_FIRST_SPP: usize = crate::bq::stages::DEFAULT_MIN_N;
+
 /// The stopping rule: target sd per channel, the stages.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AdaptiveSettings {
@@ -64,11 +71,7 @@ impl AdaptiveSettings {
     pub fn new(target_sd: f64, first_spp: usize, max_spp: usize) -> Self {
         AdaptiveSettings {
             target_sd,
-            stages: Tolerance {
-                abs: target_sd,
-                max_n: max_spp,
-            }
-            .stages(first_spp),
+            stages: doubling(first_spp, max_spp),
         }
     }
 
@@ -226,6 +229,8 @@ pub struct PixelEstimate {
     pub spp: usize,
     /// Whether every channel met the target (rather than stopping at `max_spp`).
     pub met: bool,
+    /// Whether a stage it walked had zero evidence in some channel (and so did not stop it).
+    pub zero_evidence: bool,
 }
 
 /// An adaptive render: the image, each pixel's samples (0 for the background) and stated sd.
@@ -238,6 +243,8 @@ pub struct AdaptiveImage {
     pub sd: Vec<Rgb>,
     /// Per pixel: did the rule stop it (None for the background)?
     pub met: Vec<Option<bool>>,
+    /// Per pixel: did a stage have zero evidence (false for the background)?
+    pub zero_evidence: Vec<bool>,
     pub target_sd: f64,
 }
 
@@ -258,6 +265,12 @@ impl AdaptiveImage {
     pub fn share_met(&self) -> f64 {
         let hit: Vec<bool> = self.met.iter().flatten().copied().collect();
         hit.iter().filter(|&&m| m).count() as f64 / hit.len().max(1) as f64
+    }
+
+    /// Share of hit pixels at least one of whose stages had zero evidence in some channel.
+    pub fn share_zero_evidence(&self) -> f64 {
+        let hit = self.met.iter().filter(|m| m.is_some()).count();
+        self.zero_evidence.iter().filter(|&&z| z).count() as f64 / hit.max(1) as f64
     }
 
     /// Share of (hit pixel, channel) whose error against `reference` is within `1.96 T`, the 95%
@@ -370,6 +383,10 @@ pub fn render(
         spp: estimates.iter().map(|e| e.map_or(0, |e| e.spp)).collect(),
         sd: estimates.iter().map(|e| e.map_or([0.0; 3], |e| e.sd)).collect(),
         met: estimates.iter().map(|e| e.map(|e| e.met)).collect(),
+        zero_evidence: estimates
+            .iter()
+            .map(|e| e.is_some_and(|e| e.zero_evidence))
+            .collect(),
         target_sd: settings.target_sd,
     }
 }
@@ -439,14 +456,15 @@ fn mc_pixel(
                 f64::INFINITY
             }
         });
-        let met = sd.iter().all(|&sd| {
-            target.met(Some(&Uncertainty {
+        // With one sample the sd is infinite (no interval), not zero evidence.
+        let verdict = Verdict::all(sd.map(|sd| {
+            target.judge(Some(&Uncertainty {
                 sd,
                 dof: Some(n - 1),
                 amplitude: None,
             }))
-        });
-        Ok::<_, std::convert::Infallible>(((mean, sd), met))
+        }));
+        Ok::<_, std::convert::Infallible>(((mean, sd), verdict))
     });
     let Ok(stop) = stop;
     PixelEstimate {
@@ -454,6 +472,7 @@ fn mc_pixel(
         sd: stop.at.1,
         spp: stop.n_used,
         met: stop.met,
+        zero_evidence: stop.zero_evidence > 0,
     }
 }
 
@@ -513,8 +532,8 @@ fn weighted_pixel(
             };
             rule.estimate(method, values, prior[c], Scale::Ml)
         });
-        let met = estimates.iter().all(|e| target.met(e.uncertainty.as_ref()));
-        Ok::<_, std::convert::Infallible>((estimates, met))
+        let verdict = Verdict::all(estimates.iter().map(|e| target.judge(e.uncertainty.as_ref())));
+        Ok::<_, std::convert::Infallible>((estimates, verdict))
     });
     let Ok(stop) = stop;
     PixelEstimate {
@@ -522,5 +541,6 @@ fn weighted_pixel(
         sd: stop.at.map(|e| e.uncertainty.map_or(f64::INFINITY, |u| u.sd)),
         spp: stop.n_used,
         met: stop.met,
+        zero_evidence: stop.zero_evidence > 0,
     }
 }

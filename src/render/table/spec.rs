@@ -92,7 +92,7 @@ pub struct AdaptiveSpec {
     pub target_sd: Vec<f64>,
     /// The most samples a pixel may take (≥ `first_spp`).
     pub max_spp: u64,
-    /// The first stage; default 16 (MC needs at least 2).
+    /// The first stage (the pilot); default 64, as an experiment's `min_n` (MC needs at least 2).
     #[serde(default)]
     pub first_spp: Option<u64>,
 }

@@ -350,3 +350,82 @@ fn mc_interval_covers_at_its_level() {
             .is_none()
     );
 }
+
+/// Issue 20 item 4: an interval of width 0 (a fitted amplitude of 0, or an MC sample sd of 0,
+/// when no sample saw the light) counts as a miss in `summary.csv`'s coverage unless its
+/// estimate is exact. A 25° cap light 45° off the zenith, × cos θ, at N = 8: about half the
+/// trials see no light. The coverage95 of each estimator is recounted from `trials.csv`, the
+/// zero-width trials apart. A light below the horizon is 0 on every sample and in truth: each
+/// zero-width interval holds the exact estimate, and covers.
+#[test]
+fn zero_width_intervals_count_as_misses_unless_exact() {
+    use crate::common::{read_csv, stderr, workbench};
+    let dir = tempfile::tempdir().unwrap();
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let spec = format!(
+        r#"{{"name": "zero", "integrands": [{{"type": "cap", "axis": [{s}, 0, {s}], "half_angle": 25, "cosine": true}},
+                                             {{"type": "cap", "axis": [0, 0, -1], "half_angle": 10}}],
+            "estimators": [{{"label": "BMC", "method": "bmc"}}, {{"label": "MC", "method": "mc"}}],
+            "samples": [8], "trials": 80, "seed": 4}}"#
+    );
+    std::fs::write(dir.path().join("z.json"), spec).unwrap();
+    let o = workbench(dir.path(), &["run", "z.json", "-q", "--out", "o"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (th, trials) = read_csv(&dir.path().join("o/trials.csv"));
+    let (sh, summary) = read_csv(&dir.path().join("o/summary.csv"));
+    let t = |name: &str| th.iter().position(|c| c == name).unwrap();
+    let c = |name: &str| sh.iter().position(|c| c == name).unwrap();
+    for label in ["BMC", "MC"] {
+        let below = |r: &&Vec<String>| r[0] == "cap10-tilt180" && r[t("estimator")] == label;
+        assert!(
+            trials
+                .iter()
+                .filter(below)
+                .all(|r| r[t("posterior_sd")] == "0.0" && r[t("abs_error")] == "0.0")
+        );
+        let row = summary.iter().find(below).unwrap();
+        assert_eq!(
+            row[c("coverage95")],
+            "1.0",
+            "{label}: exact estimates with zero width cover"
+        );
+
+        let mine: Vec<_> = trials
+            .iter()
+            .filter(|r| r[0] == "cap25-tilt45-cos" && r[t("estimator")] == label)
+            .collect();
+        let (mut zero, mut hits) = (0, 0);
+        for r in &mine {
+            let sd: f64 = r[t("posterior_sd")].parse().unwrap();
+            let err: f64 = r[t("abs_error")].parse().unwrap();
+            if sd == 0.0 {
+                zero += 1;
+                assert!(
+                    err > 0.0,
+                    "{label}: the light was missed, so the estimate is not exact"
+                );
+                if label == "BMC" {
+                    assert_eq!(r[t("amplitude")], "0.0", "{label}: {r:?}");
+                }
+            } else {
+                let dof: usize = r[t("dof")].parse().unwrap();
+                let q = workbench::util::stats::interval_quantile(Some(dof), 0.95);
+                hits += usize::from(err <= q * sd);
+            }
+        }
+        assert!(
+            zero >= 10,
+            "{label}: the scenario needs zero-width intervals ({zero})"
+        );
+        let row = summary
+            .iter()
+            .find(|r| r[0] == "cap25-tilt45-cos" && r[c("estimator")] == label)
+            .unwrap();
+        let coverage: f64 = row[c("coverage95")].parse().unwrap();
+        assert!(
+            (coverage - hits as f64 / mine.len() as f64).abs() < 1e-12,
+            "{label}: coverage95 {coverage}, {hits} hits of {} with {zero} zero-width misses",
+            mine.len()
+        );
+    }
+}

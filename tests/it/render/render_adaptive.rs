@@ -7,6 +7,7 @@ use workbench::bq::kernel::{Kernel, Sobolev};
 use workbench::bq::kernel_mean::KernelMeanMode;
 use workbench::bq::model::BmcModel;
 use workbench::render::adaptive::{self, AdaptiveSampler, AdaptiveSettings};
+use workbench::render::env::EnvMap;
 use workbench::render::{Environment, IntegratorKind, Renderer};
 use workbench::sampling::Density;
 use workbench::util::report::Silent;
@@ -65,6 +66,100 @@ fn pixels_stop_at_a_stage_when_every_channel_meets_the_target() {
         assert_eq!(again.image, r.image);
         assert_eq!(again.spp, r.spp);
     }
+}
+
+/// The guard (math.md §9) in adaptive pixels: under a black environment every sample of every
+/// pixel is 0, so MC's sample sd and BMC's fitted amplitude are exactly 0 at every stage — a
+/// zero-width interval that meets any target. No pixel stops on it: each doubles to `max_spp`,
+/// is not met, and is counted as having seen zero evidence.
+#[test]
+fn no_pixel_stops_on_zero_evidence() {
+    let black = Environment::Map(EnvMap::from_texels(8, 4, vec![[0.0; 3]; 32]));
+    let settings = AdaptiveSettings::new(0.03, 8, 32);
+    let (bmc, _) = AdaptiveSampler::new(IntegratorKind::BMC, &settings, 2, true, Some(&model()), 3).unwrap();
+    for sampler in [
+        AdaptiveSampler::Mc(Density::Uniform),
+        AdaptiveSampler::Mc(Density::Cosine),
+        bmc,
+    ] {
+        let r = adaptive::render(
+            &Renderer::new(12, 8, black.clone()),
+            &sampler,
+            &settings,
+            5,
+            &Silent,
+        );
+        let hit: Vec<usize> = (0..r.spp.len()).filter(|&k| r.met[k].is_some()).collect();
+        assert!(!hit.is_empty());
+        for &k in &hit {
+            assert_eq!(
+                (r.spp[k], r.met[k], r.zero_evidence[k], r.sd[k]),
+                (32, Some(false), true, [0.0; 3]),
+                "{sampler:?}: pixel {k}"
+            );
+        }
+        assert_eq!((r.share_met(), r.share_zero_evidence()), (0.0, 1.0));
+        // Under the sky only pixels whose samples all hit occluders (the sphere's underside,
+        // facing the ground) see nothing; the rule stops others, never on a zero sd.
+        let sky = adaptive::render(
+            &Renderer::new(12, 8, Environment::Sky),
+            &sampler,
+            &settings,
+            5,
+            &Silent,
+        );
+        assert!(sky.share_zero_evidence() < 0.1, "{sampler:?}");
+        assert!(sky.share_met() > 0.0, "{sampler:?}");
+        for k in 0..sky.spp.len() {
+            if sky.met[k] == Some(true) {
+                assert!(sky.sd[k].iter().all(|&s| s > 0.0), "{sampler:?}: pixel {k}");
+            }
+        }
+    }
+}
+
+/// The binary says how many pixels had zero evidence (stderr) when some did.
+#[test]
+fn the_command_notes_zero_evidence_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let black = image::Rgb32FImage::from_pixel(8, 4, image::Rgb([0.0, 0.0, 0.0]));
+    image::DynamicImage::ImageRgb32F(black)
+        .save_with_format(dir.path().join("black.exr"), image::ImageFormat::OpenExr)
+        .unwrap();
+    let o = workbench(
+        dir.path(),
+        &[
+            "render",
+            "--integrator",
+            "mc",
+            "--target-sd",
+            "0.05",
+            "--max-spp",
+            "16",
+            "--spp",
+            "8",
+            "--env",
+            "black.exr",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--out",
+            "a.exr",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("share of pixels meeting the target = 0.0000"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(
+        stderr(&o).contains("note: 100.00% of the pixels had a stage with zero evidence"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// A nested set's stage weights and Var₁ equal a fresh factorisation of that stage's points.
@@ -223,7 +318,7 @@ fn an_adaptive_render_refuses_a_reference_of_another_size() {
 #[test]
 fn bad_adaptive_options_are_exit_2() {
     let dir = tempfile::tempdir().unwrap();
-    let cases: [(&[&str], &str); 8] = [
+    let cases: [(&[&str], &str); 9] = [
         (&["--target-sd", "0.01"], "--target-sd: needs --max-spp"),
         (&["--max-spp", "64"], "--max-spp: applies to adaptive sampling"),
         (
@@ -233,6 +328,10 @@ fn bad_adaptive_options_are_exit_2() {
         (
             &["--target-sd", "0.01", "--max-spp", "8", "--spp", "16"],
             "--max-spp 8: is below the first stage --spp 16",
+        ),
+        (
+            &["--target-sd", "0.01", "--max-spp", "32"],
+            "--max-spp 32: is below the first stage --spp 64 (the default pilot; give a smaller --spp)",
         ),
         (
             &[

@@ -265,8 +265,10 @@ fn adaptive_fields_resolve_with_defaults() {
     assert_eq!(plan.repetitions, vec![10, 10]);
     assert_eq!(
         plan.adaptive.as_ref().unwrap().settings(0.05).stages,
-        vec![16, 32, 64, 128, 256]
+        vec![64, 128, 256],
+        "the default pilot is an experiment's default min_n"
     );
+    assert_eq!(DEFAULT_FIRST_SPP, workbench::bq::stages::DEFAULT_MIN_N);
     // A fixed-spp table has no adaptive plan.
     let fixed = workbench::render::table::plan::parse(
         r#"{"name": "t", "variants": [{"integrator": "mc"}]}"#,

@@ -6,7 +6,7 @@ use crate::render::integrator::{IntegratorKind, check_spp};
 use crate::render::table::spec::AdaptiveSpec;
 
 /// The first stage when `first_spp` is not given (as `render --target-sd`'s default `--spp`).
-pub const DEFAULT_FIRST_SPP: usize = 16;
+pub use crate::render::adaptive::DEFAULT_FIRST_SPP;
 
 /// A validated `"adaptive"` object: the table's columns are `targets`.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,7 +30,7 @@ impl AdaptivePlan {
             "first_spp": self.first_spp,
             "max_spp": self.max_spp,
             "stages": self.settings(1.0).stages,
-            "rule": "each pixel doubles its samples from first_spp until the sd it states for every channel is ≤ target_sd, or max_spp",
+            "rule": "each pixel doubles its samples from first_spp until the sd it states for every channel is ≤ target_sd, never on a stage with zero evidence (a channel's MC sample sd or fitted amplitude exactly 0), or max_spp",
         })
     }
 }
@@ -81,7 +81,14 @@ pub fn resolve(a: &AdaptiveSpec, spp_given: Option<&[u64]>) -> Result<AdaptivePl
     if max_spp < first_spp {
         return Err(err(
             "adaptive.max_spp",
-            format!("{max_spp} is below the first stage adaptive.first_spp = {first_spp}"),
+            format!(
+                "{max_spp} is below the first stage adaptive.first_spp = {first_spp}{}",
+                if a.first_spp.is_none() {
+                    " (the default pilot; give a smaller first_spp)"
+                } else {
+                    ""
+                }
+            ),
         ));
     }
     Ok(AdaptivePlan {
