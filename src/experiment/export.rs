@@ -126,12 +126,12 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
     v
 }
 
-/// `manifest.json`: the plan and how the run went.
+/// `manifest.json`: the plan and how the run went (the folder adds the files and the build:
+/// [`crate::files::result_folder::ResultFolder::commit`]).
 pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[CalibrationOutcome]) -> Vec<u8> {
     let v = serde_json::json!({
         "plan": plan_json(plan),
         "seed": plan.seed,
-        "workbench_version": env!("CARGO_PKG_VERSION"),
         "checks": checks.iter().map(|c| serde_json::json!({
             "better": c.check.better,
             "than": c.check.than,
@@ -161,43 +161,45 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[Calibr
                 "passed": x.passed,
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
-        "files": {
-            "trials.csv": "one row per (integrand, estimator, n, trial)",
-            "summary.csv": "one row per (integrand, estimator, n)",
-            "timings.json": "wall-clock seconds and threads of the run (machine-dependent; not committed)",
-        },
     });
     let mut bytes = serde_json::to_vec_pretty(&v).expect("manifest serializes");
     bytes.push(b'\n');
     bytes
 }
 
-/// The files an experiment's `manifest.json` written before manifests listed their files
-/// accounts for, or `None` if it is not one: its plan names the integrands (one SVG each).
-/// Passed to [`crate::files::result_folder::ResultFolder::prepare`].
+/// The names an experiment's `manifest.json` accounts for beyond its `files`, or `None` if it is
+/// not one (see [`crate::files::result_folder::LegacyManifest`]): the machine-dependent files
+/// (`timings*`, one `<integrand>-cost.svg` each), and for a manifest written before manifests
+/// listed their files every file of its run (one `<integrand>.svg` each). Passed to
+/// [`crate::files::result_folder::ResultFolder::prepare`].
 pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
-    use crate::files::result_folder::MANIFEST;
-    if manifest.get("workbench_version").is_some()
-        && let Some(integrands) = manifest.pointer("/plan/integrands").and_then(|i| i.as_array())
-    {
-        let mut names: Vec<String> = ["trials.csv", "summary.csv", "timings.json", MANIFEST]
-            .map(String::from)
-            .into();
-        for f in integrands {
-            names.push(format!("{}.svg", f.get("name")?.as_str()?));
-        }
-        return Some(names);
+    use crate::files::result_folder::{MANIFEST, TIMINGS};
+    manifest.get("workbench_version")?;
+    let integrands = manifest.pointer("/plan/integrands")?.as_array()?;
+    let lists = manifest.pointer(&format!("/files/{MANIFEST}")).is_some();
+    let mut names: Vec<String> = vec![
+        TIMINGS.into(),
+        "timings-trials.csv".into(),
+        "timings-summary.csv".into(),
+    ];
+    if !lists {
+        names.extend(["trials.csv", "summary.csv", MANIFEST].map(String::from));
     }
-    None
+    for f in integrands {
+        let name = f.get("name")?.as_str()?;
+        names.push(format!("{name}-cost.svg"));
+        if !lists {
+            names.push(format!("{name}.svg"));
+        }
+    }
+    Some(names)
 }
 
-/// `timings.json`: how long the run took on how many threads. Machine-dependent, so it stays
-/// out of the manifest and out of the committed results.
-pub fn timings_json(threads: usize, wall_seconds: f64) -> Vec<u8> {
-    let v = serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds });
-    let mut bytes = serde_json::to_vec_pretty(&v).expect("timings serialize");
-    bytes.push(b'\n');
-    bytes
+/// `timings.json`: how long the run took on how many threads (the folder adds the list of
+/// machine-dependent files). Machine-dependent, so it stays out of the manifest and out of the
+/// committed results.
+pub fn timings_json(threads: usize, wall_seconds: f64) -> serde_json::Value {
+    serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds })
 }
 
 /// `fits.csv`: per (integrand, estimator), the least-squares slope of ln(mean |Î − I|) against
@@ -256,13 +258,38 @@ mod tests {
         assert_eq!(
             names,
             [
+                "cos3-cost.svg",
                 "cos3.svg",
                 "manifest.json",
                 "summary.csv",
+                "timings-summary.csv",
+                "timings-trials.csv",
                 "timings.json",
                 "trials.csv"
             ]
         );
         assert!(legacy_manifest_files(&serde_json::json!({"files": {"a": "b"}})).is_none());
+    }
+
+    /// A manifest that lists its files accounts beyond them for its run's machine-dependent
+    /// files only (a folder whose manifest a checkout replaced keeps its timing files).
+    #[test]
+    fn committed_manifests_list_only_files_a_checkout_has_timing_files_stay_ours() {
+        let experiment = serde_json::json!({
+            "workbench_version": "0.1.0",
+            "plan": {"integrands": [{"name": "cos3"}]},
+            "files": {"trials.csv": "…", "manifest.json": "…"},
+        });
+        let mut names = legacy_manifest_files(&experiment).unwrap();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "cos3-cost.svg",
+                "timings-summary.csv",
+                "timings-trials.csv",
+                "timings.json"
+            ]
+        );
     }
 }

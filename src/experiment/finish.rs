@@ -89,7 +89,7 @@ pub fn write_set(
             )?;
         }
         let svg = cost_plot::cost_plot_svg(plan, &cells, fi)?;
-        folder.write(
+        folder.write_local(
             &format!("{}-cost.svg", f.name()),
             &format!(
                 "mean absolute error against median seconds per trial for {} (machine-dependent; not committed)",
@@ -99,7 +99,7 @@ pub fn write_set(
         )?;
     }
     let failed = |e: std::io::Error| Error::io("writing timings-trials.csv", e);
-    folder.write_stream(
+    folder.write_stream_local(
         "timings-trials.csv",
         "integrand evaluations and wall-clock seconds per (integrand, estimator, n, trial), in unit order (machine-dependent; not committed)",
         &mut |w| {
@@ -110,7 +110,7 @@ pub fn write_set(
             })
         },
     )?;
-    folder.write(
+    folder.write_local(
         "timings-summary.csv",
         "mean evaluations and wall-clock seconds per (integrand, estimator, n) (machine-dependent; not committed)",
         &export::timings_summary_csv(plan, &cells),

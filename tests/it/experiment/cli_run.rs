@@ -56,6 +56,7 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["seed"], 5);
     assert_eq!(manifest["plan"]["estimators"].as_array().unwrap().len(), 5);
+    assert_build_recorded(&manifest);
 
     let (th, trials) = read_csv(&out.join("trials.csv"));
     assert_eq!(
@@ -546,4 +547,24 @@ fn calibration_checks_pass_and_fail_with_exit_codes() {
         stdout(&o)
     );
     assert!(dir.path().join("f/summary.csv").is_file());
+}
+
+/// Issue 21 item 4: manifests recorded no commit of the tool. A run's manifest, and a shard's
+/// manifest and record, name the build (see [`assert_build_recorded`]).
+#[test]
+fn manifests_record_the_version_commit_and_dirty_tree_of_the_build() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "small.json", SMALL);
+    let o = workbench(dir.path(), &["run", "small.json", "-q", "--out", "o"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = workbench(
+        dir.path(),
+        &["run", "small.json", "-q", "--out", "s", "--shard", "1/2"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["o/manifest.json", "s/manifest.json", "s/shard.json"] {
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join(f)).unwrap()).unwrap();
+        assert_build_recorded(&v);
+    }
 }
