@@ -152,6 +152,7 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[Calibr
             "calibrated": c.check.calibrated,
             "level": c.check.level,
             "from_n": c.check.from_n,
+            "side": c.check.side,
             "band99": [c.band.0, c.band.1],
             "passed": c.passed(),
             "cells": c.cells.iter().map(|x| serde_json::json!({
