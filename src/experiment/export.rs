@@ -205,13 +205,16 @@ pub fn timings_json(threads: usize, wall_seconds: f64) -> serde_json::Value {
 
 /// `fits.csv`: per (integrand, estimator), the least-squares slope of ln(mean |Î − I|) against
 /// ln N over N ≥ `fit_from_n` (the rate the plot legends state), its 95% interval (Student t,
-/// empty with two points), the N range and number of points used, and `exact` for a series
-/// whose error is zero up to rounding (no slope then). Slopes in shortest round-trip form.
+/// empty with two points), the N range actually fitted (`from_n`, `to_n`: the smallest and
+/// largest N that entered; empty with no fit) and number of points used, `exact` for a series
+/// whose error is zero up to rounding (no slope then), and `slope_flag` — `plateau` or
+/// `wide_interval` ([`super::fit::SlopeFlag`]) — for a slope that is no rate to state (the
+/// legends say `slope n/a`). Slopes in shortest round-trip form.
 pub fn fits_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
     use super::fit::{SeriesFit, fit_series};
-    let mut out =
-        String::from("integrand,estimator,from_n,to_n,points,slope,slope_ci95_low,slope_ci95_high,exact\n");
-    let to_n = plan.samples.iter().max().copied().unwrap_or(0);
+    let mut out = String::from(
+        "integrand,estimator,from_n,to_n,points,slope,slope_ci95_low,slope_ci95_high,exact,slope_flag\n",
+    );
     for (fi, f) in plan.integrands.iter().enumerate() {
         for (ei, e) in plan.estimators.iter().enumerate() {
             let mut points: Vec<(usize, f64)> = cells
@@ -220,20 +223,22 @@ pub fn fits_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
                 .map(|c| (c.n, c.mean_abs_error))
                 .collect();
             points.sort_by_key(|p| p.0);
-            let head = format!(
-                "{},{},{},{to_n}",
-                csv_field(&f.name()),
-                csv_field(&e.label),
-                plan.fit_from_n
-            );
+            let head = format!("{},{}", csv_field(&f.name()), csv_field(&e.label));
             let row = match fit_series(&points, f.integral(), plan.fit_from_n) {
-                SeriesFit::Exact => format!("{head},0,,,,true"),
-                SeriesFit::TooFew { .. } => format!("{head},0,,,,false"),
+                SeriesFit::Exact => format!("{head},,,0,,,,true,"),
+                SeriesFit::TooFew { .. } => format!("{head},,,0,,,,false,"),
                 SeriesFit::Slope { fit, .. } => {
                     let (lo, hi) = fit.ci95.map_or((String::new(), String::new()), |(lo, hi)| {
                         (format!("{lo:?}"), format!("{hi:?}"))
                     });
-                    format!("{head},{},{:?},{lo},{hi},false", fit.points, fit.slope)
+                    format!(
+                        "{head},{},{},{},{:?},{lo},{hi},false,{}",
+                        fit.from_n,
+                        fit.to_n,
+                        fit.points,
+                        fit.slope,
+                        fit.flag.map_or("", |f| f.name())
+                    )
                 }
             };
             out.push_str(&row);

@@ -61,7 +61,7 @@ pub fn write_set(
     )?;
     folder.write(
         "fits.csv",
-        "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
+        "one row per (integrand, estimator): log-log slope of the mean error over the n fitted (n >= fit_from_n), its 95% interval, and why it is no rate where it is not (plateau, wide interval)",
         &export::fits_csv(plan, &cells),
     )?;
     // With only tolerance estimators every cell sits at its first stage, so error and coverage
