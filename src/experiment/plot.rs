@@ -168,9 +168,21 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         SeriesFit::Exact => true,
         SeriesFit::Slope { exact_at, .. } | SeriesFit::TooFew { exact_at, .. } => !exact_at.is_empty(),
     });
-    let any_flagged = fits
-        .iter()
-        .any(|f| matches!(f, SeriesFit::Slope { fit, .. } if fit.flag.is_some()));
+    // The reasons for "n/a" that this figure uses, each explained.
+    let flagged = |flag: SlopeFlag| {
+        fits.iter()
+            .any(|f| matches!(f, SeriesFit::Slope { fit, .. } if fit.flag == Some(flag)))
+    };
+    let mut reasons = Vec::new();
+    if flagged(SlopeFlag::Plateau) {
+        reasons.push(format!(
+            "plateau: the slope is above {}, the error has levelled off",
+            style::signed(PLATEAU_SLOPE, 1)
+        ));
+    }
+    if flagged(SlopeFlag::WideInterval) {
+        reasons.push("wide interval: the 95% interval is wider than the slope, so it holds 0".to_string());
+    }
     legend.push(LegendEntry::wide(
         Swatch::Text,
         format!(
@@ -180,14 +192,13 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
             } else {
                 " (fit_from_n)"
             },
-            if any_flagged {
-                format!(
-                    "; n/a: no rate to state — plateau: the slope is above {}, the error has levelled off; \
-                     wide interval: the interval is wider than the slope, so it holds 0 (numbers in fits.csv)",
-                    style::signed(PLATEAU_SLOPE, 1)
-                )
-            } else {
+            if reasons.is_empty() {
                 String::new()
+            } else {
+                format!(
+                    "; n/a: no rate to state ({}; numbers in fits.csv)",
+                    reasons.join("; ")
+                )
             },
             if any_exact {
                 "; exact: error 0 up to rounding (≤ 1e-12·I), not drawn"

@@ -48,6 +48,18 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
         assert!(svg.contains(&shown), "legend lacks {shown:?}");
         let wide = hi - slope >= slope.abs();
         assert_eq!(r[9] == "wide_interval", wide && slope <= -0.1, "{r:?}");
+        // The footnote explains each reason for "n/a" the legend uses.
+        for (flag, why) in [
+            (
+                "wide_interval",
+                "wide interval: the 95% interval is wider than the slope",
+            ),
+            ("plateau", "plateau: the slope is above −0.1"),
+        ] {
+            if r[9] == flag {
+                assert!(svg.contains(why), "legend lacks {why:?}");
+            }
+        }
     }
     // BMCP with the oracle prior integrates a constant exactly: no fit, so no range.
     let exact = rows.iter().find(|r| r[0] == "cos0" && r[1] == "BMCP").unwrap();
