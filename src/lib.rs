@@ -10,6 +10,7 @@ pub mod experiment;
 pub mod files;
 pub mod integrand;
 pub mod plot;
+pub mod provenance;
 pub mod render;
 pub mod sampling;
 pub mod schema;

@@ -160,12 +160,12 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
     v
 }
 
-/// `manifest.json`: the plan and how the run went.
+/// `manifest.json`: the plan and how the run went (the folder adds the files and the build:
+/// [`crate::files::result_folder::ResultFolder::commit`]).
 pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[CalibrationOutcome]) -> Vec<u8> {
     let v = serde_json::json!({
         "plan": plan_json(plan),
         "seed": plan.seed,
-        "workbench_version": env!("CARGO_PKG_VERSION"),
         "checks": checks.iter().map(|c| serde_json::json!({
             "better": c.check.better,
             "than": c.check.than,
@@ -186,6 +186,7 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[Calibr
             "calibrated": c.check.calibrated,
             "level": c.check.level,
             "from_n": c.check.from_n,
+            "side": c.check.side,
             "band99": [c.band.0, c.band.1],
             "passed": c.passed(),
             "cells": c.cells.iter().map(|x| serde_json::json!({
@@ -195,54 +196,59 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[Calibr
                 "passed": x.passed,
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
-        "files": {
-            "trials.csv": "one row per (integrand, estimator, n, trial)",
-            "summary.csv": "one row per (integrand, estimator, n)",
-            "timings.json": "wall-clock seconds and threads of the run (machine-dependent; not committed)",
-        },
     });
     let mut bytes = serde_json::to_vec_pretty(&v).expect("manifest serializes");
     bytes.push(b'\n');
     bytes
 }
 
-/// The files an experiment's `manifest.json` written before manifests listed their files
-/// accounts for, or `None` if it is not one: its plan names the integrands (one SVG each).
-/// Passed to [`crate::files::result_folder::ResultFolder::prepare`].
+/// The names an experiment's `manifest.json` accounts for beyond its `files`, or `None` if it is
+/// not one (see [`crate::files::result_folder::LegacyManifest`]): the machine-dependent files
+/// (`timings*`, one `<integrand>-cost.svg` each), and for a manifest written before manifests
+/// listed their files every file of its run (one `<integrand>.svg` each). Passed to
+/// [`crate::files::result_folder::ResultFolder::prepare`].
 pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
-    use crate::files::result_folder::MANIFEST;
-    if manifest.get("workbench_version").is_some()
-        && let Some(integrands) = manifest.pointer("/plan/integrands").and_then(|i| i.as_array())
-    {
-        let mut names: Vec<String> = ["trials.csv", "summary.csv", "timings.json", MANIFEST]
-            .map(String::from)
-            .into();
-        for f in integrands {
-            names.push(format!("{}.svg", f.get("name")?.as_str()?));
-        }
-        return Some(names);
+    use crate::files::result_folder::{MANIFEST, TIMINGS};
+    manifest.get("workbench_version")?;
+    let integrands = manifest.pointer("/plan/integrands")?.as_array()?;
+    let lists = manifest.pointer(&format!("/files/{MANIFEST}")).is_some();
+    let mut names: Vec<String> = vec![
+        TIMINGS.into(),
+        "timings-trials.csv".into(),
+        "timings-summary.csv".into(),
+    ];
+    if !lists {
+        names.extend(["trials.csv", "summary.csv", MANIFEST].map(String::from));
     }
-    None
+    for f in integrands {
+        let name = f.get("name")?.as_str()?;
+        names.push(format!("{name}-cost.svg"));
+        if !lists {
+            names.push(format!("{name}.svg"));
+        }
+    }
+    Some(names)
 }
 
-/// `timings.json`: how long the run took on how many threads. Machine-dependent, so it stays
-/// out of the manifest and out of the committed results.
-pub fn timings_json(threads: usize, wall_seconds: f64) -> Vec<u8> {
-    let v = serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds });
-    let mut bytes = serde_json::to_vec_pretty(&v).expect("timings serialize");
-    bytes.push(b'\n');
-    bytes
+/// `timings.json`: how long the run took on how many threads (the folder adds the list of
+/// machine-dependent files). Machine-dependent, so it stays out of the manifest and out of the
+/// committed results.
+pub fn timings_json(threads: usize, wall_seconds: f64) -> serde_json::Value {
+    serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds })
 }
 
 /// `fits.csv`: per (integrand, estimator), the least-squares slope of ln(mean |Î − I|) against
 /// ln N over N ≥ `fit_from_n` (the rate the plot legends state), its 95% interval (Student t,
-/// empty with two points), the N range and number of points used, and `exact` for a series
-/// whose error is zero up to rounding (no slope then). Slopes in shortest round-trip form.
+/// empty with two points), the N range actually fitted (`from_n`, `to_n`: the smallest and
+/// largest N that entered; empty with no fit) and number of points used, `exact` for a series
+/// whose error is zero up to rounding (no slope then), and `slope_flag` — `plateau` or
+/// `wide_interval` ([`super::fit::SlopeFlag`]) — for a slope that is no rate to state (the
+/// legends say `slope n/a`). Slopes in shortest round-trip form.
 pub fn fits_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
     use super::fit::{SeriesFit, fit_series};
-    let mut out =
-        String::from("integrand,estimator,from_n,to_n,points,slope,slope_ci95_low,slope_ci95_high,exact\n");
-    let to_n = plan.samples.iter().max().copied().unwrap_or(0);
+    let mut out = String::from(
+        "integrand,estimator,from_n,to_n,points,slope,slope_ci95_low,slope_ci95_high,exact,slope_flag\n",
+    );
     for (fi, f) in plan.integrands.iter().enumerate() {
         for (ei, e) in plan.estimators.iter().enumerate() {
             let mut points: Vec<(usize, f64)> = cells
@@ -251,20 +257,22 @@ pub fn fits_csv(plan: &Plan, cells: &[CellSummary]) -> Vec<u8> {
                 .map(|c| (c.n, c.mean_abs_error))
                 .collect();
             points.sort_by_key(|p| p.0);
-            let head = format!(
-                "{},{},{},{to_n}",
-                csv_field(&f.name()),
-                csv_field(&e.label),
-                plan.fit_from_n
-            );
+            let head = format!("{},{}", csv_field(&f.name()), csv_field(&e.label));
             let row = match fit_series(&points, f.integral(), plan.fit_from_n) {
-                SeriesFit::Exact => format!("{head},0,,,,true"),
-                SeriesFit::TooFew { .. } => format!("{head},0,,,,false"),
+                SeriesFit::Exact => format!("{head},,,0,,,,true,"),
+                SeriesFit::TooFew { .. } => format!("{head},,,0,,,,false,"),
                 SeriesFit::Slope { fit, .. } => {
                     let (lo, hi) = fit.ci95.map_or((String::new(), String::new()), |(lo, hi)| {
                         (format!("{lo:?}"), format!("{hi:?}"))
                     });
-                    format!("{head},{},{:?},{lo},{hi},false", fit.points, fit.slope)
+                    format!(
+                        "{head},{},{},{},{:?},{lo},{hi},false,{}",
+                        fit.from_n,
+                        fit.to_n,
+                        fit.points,
+                        fit.slope,
+                        fit.flag.map_or("", |f| f.name())
+                    )
                 }
             };
             out.push_str(&row);
@@ -290,13 +298,38 @@ mod tests {
         assert_eq!(
             names,
             [
+                "cos3-cost.svg",
                 "cos3.svg",
                 "manifest.json",
                 "summary.csv",
+                "timings-summary.csv",
+                "timings-trials.csv",
                 "timings.json",
                 "trials.csv"
             ]
         );
         assert!(legacy_manifest_files(&serde_json::json!({"files": {"a": "b"}})).is_none());
+    }
+
+    /// A manifest that lists its files accounts beyond them for its run's machine-dependent
+    /// files only (a folder whose manifest a checkout replaced keeps its timing files).
+    #[test]
+    fn committed_manifests_list_only_files_a_checkout_has_timing_files_stay_ours() {
+        let experiment = serde_json::json!({
+            "workbench_version": "0.1.0",
+            "plan": {"integrands": [{"name": "cos3"}]},
+            "files": {"trials.csv": "…", "manifest.json": "…"},
+        });
+        let mut names = legacy_manifest_files(&experiment).unwrap();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "cos3-cost.svg",
+                "timings-summary.csv",
+                "timings-trials.csv",
+                "timings.json"
+            ]
+        );
     }
 }

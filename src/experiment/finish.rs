@@ -62,7 +62,7 @@ pub fn write_set(
     )?;
     folder.write(
         "fits.csv",
-        "one row per (integrand, estimator): log-log slope of the mean error over n >= fit_from_n, with its 95% interval",
+        "one row per (integrand, estimator): log-log slope of the mean error over the n fitted (n >= fit_from_n), its 95% interval, and why it is no rate where it is not (plateau, wide interval)",
         &export::fits_csv(plan, &cells),
     )?;
     // With only tolerance estimators every cell sits at its first stage, so error and coverage
@@ -90,7 +90,7 @@ pub fn write_set(
             )?;
         }
         let svg = cost_plot::cost_plot_svg(plan, &cells, fi)?;
-        folder.write(
+        folder.write_local(
             &format!("{}-cost.svg", f.name()),
             &format!(
                 "mean absolute error against median seconds per trial for {} (machine-dependent; not committed)",
@@ -100,7 +100,7 @@ pub fn write_set(
         )?;
     }
     let failed = |e: std::io::Error| Error::io("writing timings-trials.csv", e);
-    folder.write_stream(
+    folder.write_stream_local(
         "timings-trials.csv",
         "integrand evaluations and wall-clock seconds per (integrand, estimator, n, trial), in unit order (machine-dependent; not committed)",
         &mut |w| {
@@ -111,7 +111,7 @@ pub fn write_set(
             })
         },
     )?;
-    folder.write(
+    folder.write_local(
         "timings-summary.csv",
         "mean evaluations and wall-clock seconds per (integrand, estimator, n) (machine-dependent; not committed)",
         &export::timings_summary_csv(plan, &cells),

@@ -46,6 +46,42 @@ pub fn fit_from(samples: &[usize]) -> usize {
         .expect("the largest N is at least the median")
 }
 
+/// A fitted slope above this is a plateau ([`SlopeFlag::Plateau`]): error ∝ N^(−0.1) falls by
+/// under 7% per doubling of N, far slower than any estimator here converges (MC: N^(−1/2)).
+pub const PLATEAU_SLOPE: f64 = -0.1;
+
+/// Why a fitted slope is no convergence rate to state (the plots say `slope n/a`, `fits.csv`
+/// names the flag).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlopeFlag {
+    /// The slope is above [`PLATEAU_SLOPE`]: over the range the mean error has levelled off
+    /// (or rises), so the slope measures no rate of convergence.
+    Plateau,
+    /// The 95% interval is wider than the slope (half-width ≥ |slope|, so it holds 0): the fit
+    /// cannot even tell whether the error falls — the points do not follow one power law over
+    /// the range (a staircase, a bend), or are too noisy.
+    WideInterval,
+}
+
+impl SlopeFlag {
+    /// The name in `fits.csv`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SlopeFlag::Plateau => "plateau",
+            SlopeFlag::WideInterval => "wide_interval",
+        }
+    }
+
+    /// The flag of a slope with its interval, if it has one: plateau first.
+    pub fn of(slope: f64, ci95: Option<(f64, f64)>) -> Option<SlopeFlag> {
+        if slope > PLATEAU_SLOPE {
+            return Some(SlopeFlag::Plateau);
+        }
+        let (lo, hi) = ci95?;
+        (0.5 * (hi - lo) >= slope.abs()).then_some(SlopeFlag::WideInterval)
+    }
+}
+
 /// A least-squares slope of `ln error` against `ln N`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SlopeFit {
@@ -56,10 +92,15 @@ pub struct SlopeFit {
     /// The residuals are the points' departures from a straight line, so the interval says how
     /// well one power law describes the range, not only the trials' noise.
     pub ci95: Option<(f64, f64)>,
-    /// The smallest N of the range ([`fit_from`]).
+    /// The smallest N that entered the fit: at or above the range's start ([`fit_from`]),
+    /// above it where that N is not on the grid or its mean is exact or not finite.
     pub from_n: usize,
+    /// The largest N that entered the fit.
+    pub to_n: usize,
     /// How many points entered the fit.
     pub points: usize,
+    /// Why the slope is no rate to state, if it is not ([`SlopeFlag::of`]).
+    pub flag: Option<SlopeFlag>,
 }
 
 /// What can be said about one series' convergence.
@@ -85,11 +126,11 @@ pub fn fit_series(points: &[(usize, f64)], truth: f64, from_n: usize) -> SeriesF
     if !points.is_empty() && exact_at.len() == points.len() {
         return SeriesFit::Exact;
     }
-    let used: Vec<(f64, f64)> = points
+    let fitted: Vec<&(usize, f64)> = points
         .iter()
         .filter(|p| p.0 >= from_n && is_fittable(p.1, truth))
-        .map(|p| ((p.0 as f64).ln(), p.1.ln()))
         .collect();
+    let used: Vec<(f64, f64)> = fitted.iter().map(|p| ((p.0 as f64).ln(), p.1.ln())).collect();
     if used.len() < 2 {
         return SeriesFit::TooFew { from_n, exact_at };
     }
@@ -111,8 +152,10 @@ pub fn fit_series(points: &[(usize, f64)], truth: f64, from_n: usize) -> SeriesF
         fit: SlopeFit {
             slope,
             ci95,
-            from_n,
+            from_n: fitted.iter().map(|p| p.0).min().expect("two points"),
+            to_n: fitted.iter().map(|p| p.0).max().expect("two points"),
             points: used.len(),
+            flag: SlopeFlag::of(slope, ci95),
         },
         exact_at,
     }
@@ -143,7 +186,8 @@ mod tests {
         match fit_series(&pts, 1.0, fit_from(&grid)) {
             SeriesFit::Slope { fit, exact_at } => {
                 assert!((fit.slope + 0.5).abs() < 1e-12, "{fit:?}");
-                assert_eq!((fit.from_n, fit.points), (64, 4));
+                assert_eq!((fit.from_n, fit.to_n, fit.points), (64, 512, 4));
+                assert_eq!(fit.flag, None);
                 let (lo, hi) = fit.ci95.unwrap();
                 assert!(lo <= fit.slope && fit.slope <= hi && hi - lo < 1e-9);
                 assert!(exact_at.is_empty());
@@ -183,6 +227,53 @@ mod tests {
         let half = 4.302_652_729_911_275 * (rss / 2.0 / sxx).sqrt();
         let (lo, hi) = fit.ci95.unwrap();
         assert!((lo - (fit.slope - half)).abs() < 1e-9 && (hi - (fit.slope + half)).abs() < 1e-9);
+    }
+
+    /// Issue 21 item 5: `fits.csv`'s `from_n` echoed the requested start of the range, not the
+    /// smallest N fitted, and a slope on a plateau or with an interval wider than itself was
+    /// reported like any other.
+    #[test]
+    fn fits_report_the_range_fitted_and_flag_plateaus_and_wide_intervals() {
+        // The range starts at 50, the grid's first N above it is 64, and 64 is exact.
+        let pts = [
+            (16, 0.5),
+            (32, 0.3),
+            (64, 0.0),
+            (128, 0.1),
+            (256, 0.05),
+            (512, 0.025),
+        ];
+        let SeriesFit::Slope { fit, .. } = fit_series(&pts, 1.0, 50) else {
+            panic!()
+        };
+        assert_eq!((fit.from_n, fit.to_n, fit.points), (128, 512, 3));
+        assert_eq!(fit.flag, None);
+        // Levelled off: the slope is about 0 (the thesis's shared-direction kernel means).
+        let flat = [(128, 1.70e-2), (256, 1.35e-2), (512, 1.36e-2)];
+        let SeriesFit::Slope { fit, .. } = fit_series(&flat, 1.0, 256) else {
+            panic!()
+        };
+        assert_eq!(
+            (fit.points, fit.ci95, fit.flag),
+            (2, None, Some(SlopeFlag::Plateau))
+        );
+        // A staircase (rings at N that are not squares): the interval holds 0.
+        let stairs = [(128, 1.86e-2), (256, 3.16e-3), (512, 5.35e-3), (1024, 6.06e-4)];
+        let SeriesFit::Slope { fit, .. } = fit_series(&stairs, 1.0, 128) else {
+            panic!()
+        };
+        let (lo, hi) = fit.ci95.unwrap();
+        assert!(fit.slope < -1.0 && lo < 0.0 && hi > 0.0, "{fit:?}");
+        assert_eq!(fit.flag, Some(SlopeFlag::WideInterval));
+        // The rules at their edges.
+        assert_eq!(SlopeFlag::of(-0.1, None), None);
+        assert_eq!(SlopeFlag::of(-0.099, None), Some(SlopeFlag::Plateau));
+        assert_eq!(SlopeFlag::of(0.3, Some((0.2, 0.4))), Some(SlopeFlag::Plateau));
+        assert_eq!(
+            SlopeFlag::of(-1.0, Some((-2.0, 0.0))),
+            Some(SlopeFlag::WideInterval)
+        );
+        assert_eq!(SlopeFlag::of(-1.0, Some((-1.9, -0.1))), None);
     }
 
     #[test]

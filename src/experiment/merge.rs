@@ -4,7 +4,7 @@
 //! `units.csv` (its unit log: rows in unit order, with the cost columns), `shard.json` (the
 //! experiment as run, and the [`Identity`] the merge checks), `timings.json` and a manifest.
 //! `merge` checks that the folders are the shards 1…n of one run (same plan, seed, trials and
-//! tool version, each shard once), reads their rows in unit order and writes the run's files
+//! tool build — version, commit and uncommitted changes —, each shard once), reads their rows in unit order and writes the run's files
 //! with the code a single run uses ([`super::finish`]) — so they are the same bytes as one run
 //! of the whole file, the wall-clock `timings*` files and `*-cost.svg` aside.
 
@@ -17,6 +17,7 @@ use super::summary::Accumulator;
 use super::unit_log::{Identity, LogSet, SHARD_UNITS, Shard};
 use crate::error::{Error, InputError};
 use crate::files::result_folder::ResultFolder;
+use crate::provenance::Build;
 use crate::util::report::Reporter;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -41,14 +42,14 @@ pub fn write_shard(
             Ok(())
         },
     )?;
-    let record = serde_json::json!({
+    let mut record = serde_json::json!({
         "shard": identity.shard.to_string(),
         "plan_hash": identity.plan_hash,
         "seed": identity.seed,
         "trials": identity.trials,
-        "workbench_version": identity.version,
         "experiment": spec,
     });
+    crate::provenance::manifest_fields(&mut record, &identity.build);
     let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
     bytes.push(b'\n');
     folder.write(
@@ -58,12 +59,12 @@ pub fn write_shard(
     )
 }
 
-/// A shard folder's manifest: the plan and the shard.
+/// A shard folder's manifest: the plan and the shard (the build is added on commit, as to
+/// every manifest).
 pub fn shard_manifest(plan: &Plan, identity: &Identity) -> Vec<u8> {
     let v = serde_json::json!({
         "plan": export::plan_json(plan),
         "seed": plan.seed,
-        "workbench_version": identity.version,
         "shard": identity.shard.to_string(),
     });
     serde_json::to_vec_pretty(&v).expect("the manifest serializes")
@@ -99,11 +100,15 @@ fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
             .ok_or_else(|| bad(&format!("\"{k}\" is not a whole number")))
     };
     let shard = Shard::parse(&string("shard")?).map_err(|m| bad(&format!("\"shard\": {m}")))?;
+    string("workbench_version")?;
+    let build = Build::from_json(&v).ok_or_else(|| {
+        bad("\"workbench_commit\", \"workbench_dirty\" and \"workbench_changes\" do not describe a build")
+    })?;
     let identity = Identity {
         plan_hash: string("plan_hash")?,
         seed: number("seed")?,
         trials: number("trials")? as usize,
-        version: string("workbench_version")?,
+        build,
         shard,
     };
     // The log must be this shard's, and complete (checked while reading it).
@@ -137,8 +142,10 @@ fn check_set(mut shards: Vec<ShardFolder>) -> Result<Vec<ShardFolder>, InputErro
                 "merge: {d0} and {d} are shards of different runs ({what} {x} and {y}); merge the shards of one run"
             ))
         };
-        if a.version != b.version {
-            return Err(differ("workbench versions", a.version.clone(), b.version.clone()));
+        // Rows of two builds are never merged: another version, another commit, or the same
+        // commit with other (or no) uncommitted changes may compute other numbers.
+        if a.build != b.build {
+            return Err(differ("workbench builds", a.build.describe(), b.build.describe()));
         }
         if a.seed != b.seed {
             return Err(differ("seeds", a.seed.to_string(), b.seed.to_string()));
@@ -261,18 +268,13 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     reporter.finish();
     let findings = finish::write_set(&plan, &mut folder, &summary, &logs)?;
     let wall_seconds = start.elapsed().as_secs_f64();
-    folder.write(
-        "timings.json",
-        "wall-clock seconds and threads of the run (machine-dependent; not committed)",
-        &export::timings_json(1, wall_seconds),
-    )?;
     let manifest: serde_json::Value = serde_json::from_slice(&export::manifest_json(
         &plan,
         &findings.checks,
         &findings.calibration,
     ))
     .expect("the manifest is JSON");
-    folder.commit(manifest)?;
+    folder.commit(manifest, export::timings_json(1, wall_seconds))?;
     Ok((
         plan,
         MergeReport {

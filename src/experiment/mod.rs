@@ -237,17 +237,12 @@ pub fn run_plan(
             }
         }
     }
-    folder.write(
-        "timings.json",
-        "wall-clock seconds and threads of the run (machine-dependent; not committed)",
-        &export::timings_json(threads, wall_seconds),
-    )?;
     let mut manifest: serde_json::Value = serde_json::from_slice(&manifest).expect("the manifest is JSON");
     if !plan.tolerance_checks.is_empty() && overrides.shard.is_none() {
         manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
         manifest["tolerance_checks"] = adaptive::checks_json(plan, &tolerance_checks);
     }
-    folder.commit(manifest)?;
+    folder.commit(manifest, export::timings_json(threads, wall_seconds))?;
     let findings = findings.unwrap_or(finish::Findings {
         cells: Vec::new(),
         checks: Vec::new(),

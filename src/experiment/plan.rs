@@ -125,13 +125,14 @@ pub struct Check {
 }
 
 /// A resolved calibration check: estimator `label`'s coverage at `level` lies in the binomial
-/// 99% band around `level` ([`super::summary::binomial_band`]) for every integrand and N ≥
-/// `from_n`.
+/// 99% band around `level` ([`super::summary::binomial_band`]), or for [`CheckSide::Lower`] at
+/// or above its lower edge, for every integrand and N ≥ `from_n`.
 #[derive(Debug, Clone, Serialize)]
 pub struct CalibrationCheck {
     pub calibrated: String,
     pub level: f64,
     pub from_n: usize,
+    pub side: CheckSide,
     #[serde(skip)]
     pub index: usize,
 }
@@ -176,6 +177,12 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
     let mut tolerance_checks = Vec::new();
     for (i, c) in spec.checks.iter().enumerate() {
         if c.within_tolerance.is_some() {
+            if c.side.is_some() && c.calibrated.is_none() {
+                return Err(err(
+                    format!("checks[{i}].side"),
+                    "is used only by a calibration check (\"calibrated\": LABEL)",
+                ));
+            }
             let labels: Vec<(&str, bool)> = estimators
                 .iter()
                 .map(|e| (e.label.as_str(), e.tolerance.is_some()))
@@ -539,14 +546,17 @@ fn resolve_check(
             calibrated: label.clone(),
             level,
             from_n: from_n as usize,
+            side: c.side.unwrap_or(CheckSide::TwoSided),
             index,
         }));
     }
-    if c.level.is_some() {
-        return Err(err(
-            at("level"),
-            "is used only by a calibration check (\"calibrated\": LABEL)",
-        ));
+    for (field, given) in [("level", c.level.is_some()), ("side", c.side.is_some())] {
+        if given {
+            return Err(err(
+                at(field),
+                "is used only by a calibration check (\"calibrated\": LABEL)",
+            ));
+        }
     }
     let (Some(better), Some(than)) = (&c.better, &c.than) else {
         return Err(err(

@@ -3,7 +3,7 @@
 //! dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]), or
 //! says that it is exact; a dashed N^(−1/2) guide goes through the MC series.
 
-use super::fit::{SeriesFit, fit_series, is_fittable};
+use super::fit::{PLATEAU_SLOPE, SeriesFit, SlopeFlag, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
 use crate::plot::{self as style, Axis, LegendEntry, Swatch};
@@ -29,7 +29,8 @@ pub fn guide_estimator(plan: &Plan) -> Option<usize> {
 }
 
 /// The legend text of a series labelled `label` with fit `fit`, e.g.
-/// `BMC: slope −1.52 ± 0.11 (N ≥ 64)` or `MC cosine: exact at every N`.
+/// `BMC: slope −1.52 ± 0.11 (N ≥ 64)`, `BMC rings: slope n/a (wide interval, N ≥ 128)` or
+/// `MC cosine: exact at every N`. The range starts at the smallest N fitted.
 pub fn fit_label(label: &str, fit: &SeriesFit) -> String {
     let exact_note = |exact_at: &[usize]| match exact_at.len() {
         0 => String::new(),
@@ -47,13 +48,23 @@ pub fn fit_label(label: &str, fit: &SeriesFit) -> String {
         SeriesFit::Exact => format!("{label}: exact at every N"),
         SeriesFit::Slope { fit, exact_at } => {
             let slope = style::signed(fit.slope, 2);
-            let body = match fit.ci95 {
-                Some((lo, hi)) => format!(
-                    "slope {slope} ± {} (N ≥ {})",
-                    style::signed(0.5 * (hi - lo), 2),
+            let body = match (fit.flag, fit.ci95) {
+                (Some(flag), _) => format!(
+                    "slope n/a ({}, N ≥ {})",
+                    match flag {
+                        SlopeFlag::Plateau => "plateau",
+                        SlopeFlag::WideInterval => "wide interval",
+                    },
                     fit.from_n
                 ),
-                None => format!("slope {slope} (N ≥ {}, {} points)", fit.from_n, fit.points),
+                (None, ci95) => match ci95 {
+                    Some((lo, hi)) => format!(
+                        "slope {slope} ± {} (N ≥ {})",
+                        style::signed(0.5 * (hi - lo), 2),
+                        fit.from_n
+                    ),
+                    None => format!("slope {slope} (N ≥ {}, {} points)", fit.from_n, fit.points),
+                },
             };
             format!("{label}: {body}{}", exact_note(exact_at))
         }
@@ -157,10 +168,38 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         SeriesFit::Exact => true,
         SeriesFit::Slope { exact_at, .. } | SeriesFit::TooFew { exact_at, .. } => !exact_at.is_empty(),
     });
+    // The reasons for "n/a" that this figure uses, each explained.
+    let flagged = |flag: SlopeFlag| {
+        fits.iter()
+            .any(|f| matches!(f, SeriesFit::Slope { fit, .. } if fit.flag == Some(flag)))
+    };
+    let mut reasons = Vec::new();
+    if flagged(SlopeFlag::Plateau) {
+        reasons.push(format!(
+            "plateau: the slope is above {}, the error has levelled off",
+            style::signed(PLATEAU_SLOPE, 1)
+        ));
+    }
+    if flagged(SlopeFlag::WideInterval) {
+        reasons.push("wide interval: the 95% interval is wider than the slope, so it holds 0".to_string());
+    }
     legend.push(LegendEntry::wide(
         Swatch::Text,
         format!(
-            "slope: least-squares fit of ln(mean error) on ln N over N ≥ {from_n} (the upper half of the N grid), ± its 95% interval{}",
+            "slope: least-squares fit of ln(mean error) on ln N over N ≥ {from_n}{}, ± its 95% interval{}{}",
+            if from_n == super::fit::fit_from(&plan.samples) {
+                " (the upper half of the N grid)"
+            } else {
+                " (fit_from_n)"
+            },
+            if reasons.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; n/a: no rate to state ({}; numbers in fits.csv)",
+                    reasons.join("; ")
+                )
+            },
             if any_exact {
                 "; exact: error 0 up to rounding (≤ 1e-12·I), not drawn"
             } else {
@@ -278,7 +317,9 @@ mod tests {
             slope: -1.5234,
             ci95: Some((-1.6, -1.4)),
             from_n: 64,
+            to_n: 512,
             points: 4,
+            flag: None,
         };
         assert_eq!(
             fit_label(
@@ -301,6 +342,31 @@ mod tests {
             "BMC: slope −1.52 ± 0.10 (N ≥ 64); exact at N = 4, 8"
         );
         assert_eq!(fit_label("MC cos", &SeriesFit::Exact), "MC cos: exact at every N");
+        // Issue 21 item 5: a slope on a plateau or with an interval wider than itself was shown
+        // as a rate (`slope −1.41 ± 2.23`); it is flagged instead.
+        let flagged = |slope: f64, ci95: Option<(f64, f64)>| SeriesFit::Slope {
+            fit: SlopeFit {
+                slope,
+                ci95,
+                from_n: 128,
+                to_n: 1024,
+                points: 4,
+                flag: crate::experiment::fit::SlopeFlag::of(slope, ci95),
+            },
+            exact_at: vec![],
+        };
+        assert_eq!(
+            fit_label("BMC rings", &flagged(-1.405, Some((-3.637, 0.826)))),
+            "BMC rings: slope n/a (wide interval, N ≥ 128)"
+        );
+        assert_eq!(
+            fit_label("BMC (MC z)", &flagged(-0.04, None)),
+            "BMC (MC z): slope n/a (plateau, N ≥ 128)"
+        );
+        assert_eq!(
+            fit_label("MC", &flagged(-0.5, Some((-0.51, -0.49)))),
+            "MC: slope −0.50 ± 0.01 (N ≥ 128)"
+        );
         assert!(
             fit_label(
                 "X",

@@ -167,8 +167,9 @@ impl EstimatorSpec {
 
 /// A check: a comparison (`better`, `than`, `from_n`, `alpha`: `better` has lower error than
 /// `than` for every integrand and every N ≥ `from_n`) or a calibration check (`calibrated`,
-/// `level`, `from_n`: the estimator's coverage at `level` lies in the binomial 99% band around
-/// `level` in every cell with N ≥ `from_n`).
+/// `level`, `from_n`, `side`: the estimator's coverage at `level` lies in the binomial 99% band
+/// around `level`, or with `"side": "lower"` at or above its lower edge, in every cell with N ≥
+/// `from_n`).
 #[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CheckSpec {
@@ -187,10 +188,26 @@ pub struct CheckSpec {
     /// The interval level of a calibration check; default 0.95.
     #[serde(default)]
     pub level: Option<f64>,
+    /// Which coverage a calibration check accepts: `"two-sided"` (default) within the binomial
+    /// 99% band around `level`, `"lower"` at or above its lower edge (no worse than the level:
+    /// conservative intervals pass).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub side: Option<CheckSide>,
     /// The label of a tolerance estimator whose share of trials within its tolerance is
     /// checked against `level` ([`super::adaptive`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub within_tolerance: Option<String>,
+}
+
+/// Which coverage a calibration check accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+pub enum CheckSide {
+    /// Within the binomial 99% band around the level: intervals neither too narrow nor too wide.
+    #[serde(rename = "two-sided")]
+    TwoSided,
+    /// At or above the band's lower edge: no worse than the level (too wide intervals pass).
+    #[serde(rename = "lower")]
+    Lower,
 }
 
 /// An integrand: a name (`"cos3"`) or a family object (`{"type": "lobe", …}`).

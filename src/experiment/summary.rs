@@ -1,6 +1,7 @@
 //! Per-cell summaries and the evaluation of checks.
 
 use super::plan::{CalibrationCheck, Check, Plan};
+use super::spec::CheckSide;
 use crate::util::stats::{PairedTest, mean, mean_ci95, paired_t_less, quantile_sorted};
 
 /// The levels at which `summary.csv` reports coverage (math.md §7).
@@ -348,8 +349,17 @@ impl CalibrationOutcome {
     }
 }
 
+/// Whether `coverage` passes a check on `side` of `band`.
+pub fn accepts(side: CheckSide, band: (f64, f64), coverage: f64) -> bool {
+    match side {
+        CheckSide::TwoSided => band.0 <= coverage && coverage <= band.1,
+        CheckSide::Lower => band.0 <= coverage,
+    }
+}
+
 /// Evaluates a calibration check: in every (integrand, N ≥ from_n) cell the estimator's
-/// coverage at the level lies within [`binomial_band`] around it.
+/// coverage at the level lies within [`binomial_band`] around it, or for
+/// [`CheckSide::Lower`] at or above its lower edge.
 pub fn evaluate_calibration(
     plan: &Plan,
     summary: &Accumulator,
@@ -369,7 +379,7 @@ pub fn evaluate_calibration(
                 integrand: fi,
                 n,
                 coverage,
-                passed: band.0 <= coverage && coverage <= band.1,
+                passed: accepts(check.side, band, coverage),
             });
         }
     }

@@ -2,8 +2,19 @@
 //! Pure functions; the binary prints them.
 
 use super::plan;
+use super::spec::CheckSide;
 use super::summary;
 use super::{RunReport, export};
+
+/// `x` with `digits` significant digits, trailing zeros kept (`0.9897`, `1.000`, `0.05000`).
+pub fn significant(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let magnitude = x.abs().log10().floor() as i64;
+    let decimals = (digits as i64 - 1 - magnitude).max(0) as usize;
+    format!("{x:.decimals$}")
+}
 
 /// A human-readable account of a plan (for `validate`), followed by the resolved JSON.
 pub fn describe(plan: &plan::Plan) -> String {
@@ -102,10 +113,20 @@ pub fn format_report(plan: &plan::Plan, report: &RunReport) -> String {
 
 fn calibration_line(plan: &plan::Plan, o: &summary::CalibrationOutcome) -> String {
     let c = &o.check;
-    let head = format!(
-        "check {} calibrated at {} for N ≥ {} (coverage in the binomial 99% band {:.3}–{:.3})",
-        c.calibrated, c.level, c.from_n, o.band.0, o.band.1
-    );
+    // Four significant digits: a band edge of 0.9897 shown as 0.990 would seem to admit a
+    // coverage of 0.990 that fails.
+    let (lo, hi) = (significant(o.band.0, 4), significant(o.band.1, 4));
+    let head = match c.side {
+        CheckSide::TwoSided => format!(
+            "check {} calibrated at {} for N ≥ {} (coverage in the binomial 99% band {lo}–{hi})",
+            c.calibrated, c.level, c.from_n
+        ),
+        CheckSide::Lower => format!(
+            "check {} calibrated at {}, lower side, for N ≥ {} (coverage no worse than the level: at least \
+             {lo}, the lower edge of the binomial 99% band)",
+            c.calibrated, c.level, c.from_n
+        ),
+    };
     if o.passed() {
         let (lo, hi) = o
             .cells
@@ -113,7 +134,12 @@ fn calibration_line(plan: &plan::Plan, o: &summary::CalibrationOutcome) -> Strin
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
                 (l.min(x.coverage), h.max(x.coverage))
             });
-        format!("PASS {head}: {} cells, coverage {lo:.3}–{hi:.3}", o.cells.len())
+        format!(
+            "PASS {head}: {} cells, coverage {}–{}",
+            o.cells.len(),
+            significant(lo, 4),
+            significant(hi, 4)
+        )
     } else {
         let fails: Vec<String> = o
             .cells
@@ -121,10 +147,10 @@ fn calibration_line(plan: &plan::Plan, o: &summary::CalibrationOutcome) -> Strin
             .filter(|x| !x.passed)
             .map(|x| {
                 format!(
-                    "{} N={}: coverage {:.3}",
+                    "{} N={}: coverage {}",
                     plan.integrands[x.integrand].name(),
                     x.n,
-                    x.coverage
+                    significant(x.coverage, 4)
                 )
             })
             .collect();

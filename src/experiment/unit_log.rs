@@ -14,6 +14,7 @@ use super::plan::Plan;
 use super::rows::{COST_HEADER, TRIALS_HEADER, parse_row};
 use super::summary::RowValues;
 use crate::error::{Error, InputError, Result};
+use crate::provenance::Build;
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -71,13 +72,14 @@ impl std::fmt::Display for Shard {
 }
 
 /// What a log was made from: the resolved plan (as a hash of its JSON, which holds the seed and
-/// the number of trials), the tool's version, and the share of units.
+/// the number of trials), the tool's build (version, commit and uncommitted changes: rows of
+/// two builds are never combined), and the share of units.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Identity {
     pub plan_hash: String,
     pub seed: u64,
     pub trials: usize,
-    pub version: String,
+    pub build: Build,
     pub shard: Shard,
 }
 
@@ -87,7 +89,7 @@ impl Identity {
             plan_hash: plan_hash(plan),
             seed: plan.seed,
             trials: plan.trials,
-            version: env!("CARGO_PKG_VERSION").to_string(),
+            build: Build::current(),
             shard,
         }
     }
@@ -95,8 +97,13 @@ impl Identity {
     /// The log's first line.
     pub fn header(&self) -> String {
         format!(
-            "# workbench unit log: plan={} seed={} trials={} version={} shard={}",
-            self.plan_hash, self.seed, self.trials, self.version, self.shard
+            "# workbench unit log: plan={} seed={} trials={} version={} build={} shard={}",
+            self.plan_hash,
+            self.seed,
+            self.trials,
+            self.build.version,
+            self.build.token(),
+            self.shard
         )
     }
 
@@ -108,11 +115,16 @@ impl Identity {
             Some(Some((k, v))) if k == key => Some(v.to_string()),
             _ => None,
         };
+        let plan_hash = next("plan")?;
+        let seed = next("seed")?.parse().ok()?;
+        let trials = next("trials")?.parse().ok()?;
+        let version = next("version")?;
+        let build = Build::from_token(&version, &next("build")?)?;
         Some(Identity {
-            plan_hash: next("plan")?,
-            seed: next("seed")?.parse().ok()?,
-            trials: next("trials")?.parse().ok()?,
-            version: next("version")?,
+            plan_hash,
+            seed,
+            trials,
+            build,
             shard: Shard::parse(&next("shard")?).ok()?,
         })
     }
@@ -162,7 +174,7 @@ impl LogWriter {
 
 /// Opens the log at `path` for a run of `identity`'s units. Fresh (`resume` false, or no log
 /// there): writes its two header lines. Resuming: checks that the log was made from the same
-/// plan, seed, trials, version and shard, hands every row of its complete units to `each`
+/// plan, seed, trials, build and shard, hands every row of its complete units to `each`
 /// (`unit, integrand, estimator, n_index, values`), cuts off a half-written last unit, and
 /// returns how many units are done.
 pub fn open(
@@ -276,7 +288,11 @@ pub fn open(
 fn describe(id: &Identity) -> String {
     format!(
         "plan {}, seed {}, {} trials, workbench {}, shard {}",
-        id.plan_hash, id.seed, id.trials, id.version, id.shard
+        id.plan_hash,
+        id.seed,
+        id.trials,
+        id.build.describe(),
+        id.shard
     )
 }
 
@@ -381,11 +397,30 @@ mod tests {
             plan_hash: "0123456789abcdef".into(),
             seed: 42,
             trials: 300,
-            version: "0.1.0".into(),
+            build: Build {
+                version: "0.1.0".into(),
+                commit: Some("d9ea8fe".into()),
+                changes: Some("0123456789abcdef".into()),
+            },
             shard: Shard { index: 2, count: 5 },
         };
         assert_eq!(Identity::from_header(&id.header()), Some(id.clone()));
-        assert_eq!(Identity::from_header(&format!("{}\n", id.header())), Some(id));
+        assert_eq!(
+            Identity::from_header(&format!("{}\n", id.header())),
+            Some(id.clone())
+        );
         assert_eq!(Identity::from_header("integrand,estimator"), None);
+        // Outside git, and clean.
+        for (commit, changes) in [(None, None), (Some("d9ea8fe".to_string()), None)] {
+            let other = Identity {
+                build: Build {
+                    commit,
+                    changes,
+                    ..id.build.clone()
+                },
+                ..id.clone()
+            };
+            assert_eq!(Identity::from_header(&other.header()), Some(other));
+        }
     }
 }

@@ -4,7 +4,8 @@
 //! (`renameat2(RENAME_EXCHANGE)` on Linux; elsewhere two renames, between which the folder is
 //! briefly absent). A reader sees the old set or the new one, never a mix; a command that fails
 //! or is killed leaves the old set as it was. So a folder holds exactly one run's files, listed
-//! in its `manifest.json`.
+//! in its `manifest.json` — but for the machine-dependent ones (wall-clock seconds), which are
+//! not committed with the results and are listed in its `timings.json` instead.
 //!
 //! Outputs named one by one are written as a [`crate::files::file_set::FileSet`]. Both hold a
 //! [`Lock`] on what they write, so two commands writing the same outputs cannot interleave, and
@@ -22,17 +23,26 @@ use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The manifest of a result folder: the last file written, listing every file of the set.
+/// The manifest of a result folder: the last file written, listing every file of the set that
+/// is the same on every machine.
 pub const MANIFEST: &str = "manifest.json";
+
+/// The record of a result folder's machine-dependent files (wall-clock seconds), which lists
+/// them: they are not in the manifest, which is committed with the results while they are
+/// git-ignored, so that a checkout has every file its manifest lists.
+pub const TIMINGS: &str = "timings.json";
 
 /// Files a command may write into its result folder while it runs (outside the staging folder),
 /// so that an interrupted command keeps what it measured. They are never part of a finished
 /// set: the next successful run replaces the folder, and them with it.
 pub const PARTIAL_FILES: &[&str] = &["rmse.partial.csv", "trials.partial.csv"];
 
-/// Reads a manifest written before manifests listed their files: the names it accounts for,
-/// or `None` if it is not of the caller's kind. Each kind of result folder passes its own to
-/// [`ResultFolder::prepare`] (the rule lives with the kind that wrote those manifests).
+/// Reads a manifest of the caller's kind for the names it accounts for beyond its `files`, or
+/// `None` if it is not one: every file of its run, for manifests written before they listed
+/// their files; the machine-dependent files of its run (listed in [`TIMINGS`], before that in
+/// the manifest itself), for the others — so that a folder whose manifest was replaced by a
+/// newer committed one still counts its run's timing files as ours. Each kind of result folder
+/// passes its own to [`ResultFolder::prepare`] (the rule lives with the kind that wrote them).
 pub type LegacyManifest = fn(&serde_json::Value) -> Option<Vec<String>>;
 
 /// A result folder being rebuilt: see the module documentation. Dropped without
@@ -46,6 +56,8 @@ pub struct ResultFolder {
     staging: PathBuf,
     /// Every file written so far, with what it holds (the manifest's `files`).
     files: BTreeMap<String, String>,
+    /// The machine-dependent files written so far, with what they hold ([`TIMINGS`]'s `files`).
+    local: BTreeMap<String, String>,
     lock: Option<Lock>,
     /// Reads the folder's manifest if it predates the file list.
     legacy: LegacyManifest,
@@ -126,6 +138,7 @@ impl ResultFolder {
             staging: parent.join(staged_name("staging", name, &writer(std::process::id()))),
             target: target.clone(),
             files: BTreeMap::new(),
+            local: BTreeMap::new(),
             lock: None,
             legacy,
             created,
@@ -163,6 +176,20 @@ impl ResultFolder {
     /// Writes one file of the set (into the staging folder), and what it holds for the
     /// manifest.
     pub fn write(&mut self, name: &str, description: &str, bytes: &[u8]) -> Result<()> {
+        self.write_bytes(name, bytes)?;
+        self.files.insert(name.into(), description.into());
+        Ok(())
+    }
+
+    /// Writes one machine-dependent file of the set (wall-clock seconds), listed in
+    /// [`TIMINGS`] rather than in the manifest.
+    pub fn write_local(&mut self, name: &str, description: &str, bytes: &[u8]) -> Result<()> {
+        self.write_bytes(name, bytes)?;
+        self.local.insert(name.into(), description.into());
+        Ok(())
+    }
+
+    fn write_bytes(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
         assert!(is_plain_name(name), "{name:?} is not a plain file name");
         let path = self.staging.join(name);
         let written = File::create(&path).and_then(|mut f| {
@@ -178,9 +205,7 @@ impl ResultFolder {
                 ),
                 e,
             )
-        })?;
-        self.files.insert(name.into(), description.into());
-        Ok(())
+        })
     }
 
     /// Writes one file of the set (into the staging folder) by streaming it: `fill` writes
@@ -191,6 +216,24 @@ impl ResultFolder {
         description: &str,
         fill: &mut dyn FnMut(&mut dyn Write) -> Result<()>,
     ) -> Result<()> {
+        self.stream(name, fill)?;
+        self.files.insert(name.into(), description.into());
+        Ok(())
+    }
+
+    /// [`ResultFolder::write_stream`] for a machine-dependent file ([`ResultFolder::write_local`]).
+    pub fn write_stream_local(
+        &mut self,
+        name: &str,
+        description: &str,
+        fill: &mut dyn FnMut(&mut dyn Write) -> Result<()>,
+    ) -> Result<()> {
+        self.stream(name, fill)?;
+        self.local.insert(name.into(), description.into());
+        Ok(())
+    }
+
+    fn stream(&mut self, name: &str, fill: &mut dyn FnMut(&mut dyn Write) -> Result<()>) -> Result<()> {
         assert!(is_plain_name(name), "{name:?} is not a plain file name");
         let path = self.staging.join(name);
         let failed = |e: std::io::Error| {
@@ -208,9 +251,7 @@ impl ResultFolder {
         fill(&mut writer)?;
         crate::files::atomic::injected_failure(&path).map_err(failed)?;
         let file = writer.into_inner().map_err(|e| failed(e.into_error()))?;
-        file.sync_all().map_err(failed)?;
-        self.files.insert(name.into(), description.into());
-        Ok(())
+        file.sync_all().map_err(failed)
     }
 
     /// Where one of [`PARTIAL_FILES`] goes: straight in the folder (created if need be), so
@@ -230,22 +271,34 @@ impl ResultFolder {
         crate::files::atomic::write_atomic(&self.target.join(name), bytes)
     }
 
-    /// Writes the manifest, its `files` listing every file of the set (itself included), and
-    /// puts the set in the folder's place.
-    pub fn commit(mut self, mut manifest: serde_json::Value) -> Result<()> {
-        let mut files: serde_json::Map<String, serde_json::Value> = self
-            .files
-            .iter()
-            .map(|(k, v)| (k.clone(), serde_json::Value::from(v.as_str())))
-            .collect();
-        files.insert(
-            MANIFEST.into(),
-            "this file: what was run, and every file of the set".into(),
+    /// Writes [`TIMINGS`] — `timings` (an object: wall-clock seconds, threads) with `files`
+    /// listing the machine-dependent files (itself included) — and the manifest — `manifest` with
+    /// `files` listing every other file of the set (itself included) and the build that wrote it
+    /// ([`crate::provenance::manifest_fields`]) — and puts the set in the folder's place.
+    pub fn commit(mut self, mut manifest: serde_json::Value, mut timings: serde_json::Value) -> Result<()> {
+        let listing = |files: &BTreeMap<String, String>, this: &str, what: &str| {
+            let mut list: serde_json::Map<String, serde_json::Value> = files
+                .iter()
+                .map(|(k, v)| (k.clone(), serde_json::Value::from(v.as_str())))
+                .collect();
+            list.insert(this.into(), what.into());
+            serde_json::Value::Object(list)
+        };
+        timings["files"] = listing(
+            &self.local,
+            TIMINGS,
+            "this file: the run's wall-clock record, and its files that differ from machine to machine \
+             (not committed)",
         );
-        manifest["files"] = serde_json::Value::Object(files);
-        let mut bytes = serde_json::to_vec_pretty(&manifest).expect("a JSON value serialises");
-        bytes.push(b'\n');
-        self.write(MANIFEST, "", &bytes)?;
+        self.write_bytes(TIMINGS, &pretty(&timings))?;
+        crate::provenance::manifest_fields(&mut manifest, &crate::provenance::Build::current());
+        manifest["files"] = listing(
+            &self.files,
+            MANIFEST,
+            "this file: what was run, by which build, and every file of the set but the \
+             machine-dependent ones (listed in timings.json)",
+        );
+        self.write_bytes(MANIFEST, &pretty(&manifest))?;
         let sync_dir = |dir: &Path| {
             File::open(dir)
                 .and_then(|d| d.sync_all())
@@ -304,6 +357,12 @@ impl Drop for ResultFolder {
     }
 }
 
+fn pretty(v: &serde_json::Value) -> Vec<u8> {
+    let mut bytes = serde_json::to_vec_pretty(v).expect("a JSON value serialises");
+    bytes.push(b'\n');
+    bytes
+}
+
 /// `.workbench-<writer>-<role>-<name>`: a staging folder, or the old set on its way out.
 fn staged_name(role: &str, name: &OsStr, writer: &str) -> OsString {
     hidden_name(&format!("{HIDDEN_PREFIX}{writer}-{role}-"), name)
@@ -356,25 +415,45 @@ fn exchange(_: &Path, _: &Path) -> std::io::Result<()> {
 /// Manifests written before they listed their files are read by what they describe
 /// (`legacy`, from the caller).
 fn manifest_files(manifest: &serde_json::Value, legacy: LegacyManifest) -> Option<Vec<String>> {
-    if let Some(files) = manifest.get("files").and_then(|f| f.as_object())
-        && files.contains_key(MANIFEST)
-    {
-        return Some(files.keys().cloned().collect());
+    match (listed_in(manifest, MANIFEST), legacy(manifest)) {
+        (None, None) => None,
+        (listed, more) => {
+            let mut names: Vec<String> = listed.into_iter().chain(more).flatten().collect();
+            names.sort();
+            names.dedup();
+            Some(names)
+        }
     }
-    legacy(manifest)
+}
+
+/// The names `record`'s `files` lists, if it lists `itself` among them (a record of ours).
+fn listed_in(record: &serde_json::Value, itself: &str) -> Option<Vec<String>> {
+    let files = record.get("files")?.as_object()?;
+    files
+        .contains_key(itself)
+        .then(|| files.keys().cloned().collect())
 }
 
 /// What in `dir` is not ours, for the message ("notes.txt", "notes.txt, data/ and 2 more"),
-/// or `None` if everything is. Ours: the files the manifest lists, [`PARTIAL_FILES`], and our
+/// or `None` if everything is. Ours: the files the manifest lists (and, beside a manifest of
+/// ours, those its [`TIMINGS`] lists), [`PARTIAL_FILES`], and our
 /// hidden files (`.workbench-…`).
 fn unexplained(dir: &Path, legacy: LegacyManifest) -> Option<String> {
     let entries = std::fs::read_dir(dir).ok()?;
-    let listed: BTreeSet<String> = std::fs::read(dir.join(MANIFEST))
-        .ok()
-        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-        .and_then(|v| manifest_files(&v, legacy))
-        .map(|names| names.into_iter().filter(|n| is_plain_name(n)).collect())
-        .unwrap_or_default();
+    let read = |name: &str| {
+        std::fs::read(dir.join(name))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+    };
+    let mut listed: BTreeSet<String> = BTreeSet::new();
+    if let Some(names) = read(MANIFEST).and_then(|v| manifest_files(&v, legacy)) {
+        listed.extend(names);
+        // Only beside a manifest of ours: the machine-dependent files its run wrote.
+        if let Some(names) = read(TIMINGS).and_then(|v| listed_in(&v, TIMINGS)) {
+            listed.extend(names);
+        }
+    }
+    listed.retain(|n| is_plain_name(n));
     let mut foreign: Vec<String> = Vec::new();
     for entry in entries.flatten() {
         let name = entry.file_name();
@@ -433,7 +512,10 @@ mod tests {
         let listed = serde_json::json!({"files": {"a.csv": "…", "manifest.json": "…"}});
         assert_eq!(manifest_files(&listed, none).unwrap(), ["a.csv", "manifest.json"]);
         let old: LegacyManifest = |_| Some(vec!["old.csv".into()]);
-        assert_eq!(manifest_files(&listed, old).unwrap(), ["a.csv", "manifest.json"]);
+        assert_eq!(
+            manifest_files(&listed, old).unwrap(),
+            ["a.csv", "manifest.json", "old.csv"]
+        );
         assert!(manifest_files(&serde_json::json!({"files": {"a": "b"}}), none).is_none());
         assert_eq!(
             manifest_files(&serde_json::json!({"files": {"a": "b"}}), old).unwrap(),

@@ -65,3 +65,45 @@ pub fn rkhs_norms_of_one_and_cos(kernel: &Kernel) -> (f64, f64) {
     let (l0, l1) = funk_hecke_0_1(kernel);
     ((4.0 * PI / l0).sqrt(), (4.0 * PI / 3.0 / l1).sqrt())
 }
+
+/// Issue 21 item 4: manifests recorded no commit of the tool. Every manifest records the package
+/// version and, built from a git checkout (as the tests are, unless from a tarball), the commit
+/// and whether the sources (`src/`, `build.rs`, `Cargo.toml`, `Cargo.lock`) had uncommitted
+/// changes — as git sees them now.
+pub fn assert_build_recorded(manifest: &serde_json::Value) {
+    assert_eq!(manifest["workbench_version"], env!("CARGO_PKG_VERSION"));
+    let root = env!("CARGO_MANIFEST_DIR");
+    let git = |args: &[&str]| {
+        Command::new("git")
+            .args(args)
+            .current_dir(root)
+            .env("GIT_OPTIONAL_LOCKS", "0")
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8(o.stdout).unwrap())
+    };
+    if git(&["ls-files", "--error-unmatch", "Cargo.toml"]).is_none() {
+        assert!(
+            manifest.get("workbench_commit").is_none(),
+            "not built from git: {manifest}"
+        );
+        return;
+    }
+    let head = git(&["rev-parse", "HEAD"]).unwrap();
+    assert_eq!(manifest["workbench_commit"], head.trim(), "the commit built");
+    let status = git(&[
+        "status",
+        "--porcelain",
+        "--untracked-files=all",
+        "--",
+        "src",
+        "build.rs",
+        "Cargo.toml",
+        "Cargo.lock",
+    ])
+    .unwrap();
+    let dirty = !status.trim().is_empty();
+    assert_eq!(manifest["workbench_dirty"], dirty, "{status}");
+    assert_eq!(manifest.get("workbench_changes").is_some(), dirty);
+}

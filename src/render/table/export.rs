@@ -15,38 +15,40 @@ use std::path::Path;
 /// Writing CSV into a `Vec` cannot fail.
 const IN_MEMORY: &str = "writing CSV to memory";
 
-/// The files a table's `manifest.json` written before manifests listed their files accounts
-/// for, or `None` if it is not one: its variants and spp values (one PNG per pair).
-/// Passed to [`crate::files::result_folder::ResultFolder::prepare`].
+/// The names a table's `manifest.json` accounts for beyond its `files`, or `None` if it is not
+/// one (see [`crate::files::result_folder::LegacyManifest`]): the machine-dependent files
+/// (`timings.*`), and for a manifest written before manifests listed their files every file of
+/// its table (one PNG per variant and spp). Passed to
+/// [`crate::files::result_folder::ResultFolder::prepare`].
 pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
-    use crate::files::result_folder::MANIFEST;
-    if manifest.get("scene").is_some()
+    use crate::files::result_folder::{MANIFEST, TIMINGS};
+    manifest.get("scene")?;
+    let mut names: Vec<String> = ["timings.csv", "timings.md", TIMINGS].map(String::from).into();
+    if manifest.pointer(&format!("/files/{MANIFEST}")).is_none()
         && let (Some(variants), Some(spp)) = (
             manifest.get("variants").and_then(|v| v.as_array()),
             manifest.get("spp").and_then(|s| s.as_array()),
         )
     {
-        let mut names: Vec<String> = [
-            "reference.png",
-            "rmse.csv",
-            "table.csv",
-            "table.md",
-            "rmse_vs_spp.svg",
-            "timings.csv",
-            "timings.md",
-            MANIFEST,
-        ]
-        .map(String::from)
-        .into();
+        names.extend(
+            [
+                "reference.png",
+                "rmse.csv",
+                "table.csv",
+                "table.md",
+                "rmse_vs_spp.svg",
+                MANIFEST,
+            ]
+            .map(String::from),
+        );
         for v in variants {
             let label = v.get("label")?.as_str()?;
             for s in spp {
                 names.push(super::plan::png_name(label, s.as_u64()? as usize));
             }
         }
-        return Some(names);
     }
-    None
+    Some(names)
 }
 
 /// `manifest.json`: the resolved plan, with the reference and how render seeds are derived.

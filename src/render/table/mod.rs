@@ -97,7 +97,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         let report = adaptive::run(plan, adaptive_plan, &renderer, &reference, &mut folder, reporter)?;
         let manifest: serde_json::Value =
             serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
-        folder.commit(manifest)?;
+        folder.commit(manifest, serde_json::json!({}))?;
         return Ok(TableReport {
             out_dir: out,
             cells: Vec::new(),
@@ -134,19 +134,19 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         plot::plot_svg(plan, &cells)?.as_bytes(),
     )?;
     let times_md = export::times_md(plan, &cells);
-    folder.write(
+    folder.write_local(
         "timings.csv",
         "wall-clock seconds per render (machine-dependent; not committed)",
         &export::timings_csv(plan, &rows),
     )?;
-    folder.write(
+    folder.write_local(
         "timings.md",
         "mean seconds per image (machine-dependent; not committed)",
         times_md.as_bytes(),
     )?;
     let manifest: serde_json::Value =
         serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
-    folder.commit(manifest)?;
+    folder.commit(manifest, serde_json::json!({}))?;
     Ok(TableReport {
         out_dir: out,
         cells,

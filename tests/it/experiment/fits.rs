@@ -27,7 +27,8 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
             "slope",
             "slope_ci95_low",
             "slope_ci95_high",
-            "exact"
+            "exact",
+            "slope_flag"
         ]
     );
     assert_eq!(rows.len(), 4);
@@ -38,12 +39,34 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
         let slope: f64 = r[5].parse().unwrap();
         let (lo, hi): (f64, f64) = (r[6].parse().unwrap(), r[7].parse().unwrap());
         assert!(lo < slope && slope < hi);
-        let shown = format!("{}: slope {}", r[1], format!("{slope:.2}").replace('-', "−"));
+        let shown = match r[9].as_str() {
+            "" => format!("{}: slope {}", r[1], format!("{slope:.2}").replace('-', "−")),
+            "wide_interval" => format!("{}: slope n/a (wide interval, N ≥ 32)", r[1]),
+            "plateau" => format!("{}: slope n/a (plateau, N ≥ 32)", r[1]),
+            other => panic!("flag {other:?}"),
+        };
         assert!(svg.contains(&shown), "legend lacks {shown:?}");
+        let wide = hi - slope >= slope.abs();
+        assert_eq!(r[9] == "wide_interval", wide && slope <= -0.1, "{r:?}");
+        // The footnote explains each reason for "n/a" the legend uses.
+        for (flag, why) in [
+            (
+                "wide_interval",
+                "wide interval: the 95% interval is wider than the slope",
+            ),
+            ("plateau", "plateau: the slope is above −0.1"),
+        ] {
+            if r[9] == flag {
+                assert!(svg.contains(why), "legend lacks {why:?}");
+            }
+        }
     }
-    // BMCP with the oracle prior integrates a constant exactly.
+    // BMCP with the oracle prior integrates a constant exactly: no fit, so no range.
     let exact = rows.iter().find(|r| r[0] == "cos0" && r[1] == "BMCP").unwrap();
-    assert_eq!((exact[5].as_str(), exact[8].as_str()), ("", "true"));
+    assert_eq!(
+        exact[2..].iter().map(String::as_str).collect::<Vec<_>>(),
+        ["", "", "0", "", "", "", "true", ""]
+    );
 
     std::fs::write(
         dir.path().join("f.json"),
@@ -54,6 +77,26 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
     assert!(o.status.success(), "{}", stderr(&o));
     let (_, rows) = read_csv(&dir.path().join("results/f/fits.csv"));
     assert_eq!((rows[0][2].as_str(), rows[0][4].as_str()), ("16", "4"));
+
+    // Issue 21 item 5: from_n echoed the requested start (here 20, not on the grid) rather
+    // than the smallest N fitted (32).
+    std::fs::write(
+        dir.path().join("f.json"),
+        SPEC.replace("FIT", r#", "fit_from_n": 20"#),
+    )
+    .unwrap();
+    let o = workbench(dir.path(), &["run", "f.json", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (_, rows) = read_csv(&dir.path().join("results/f/fits.csv"));
+    assert_eq!(
+        (rows[0][2].as_str(), rows[0][3].as_str(), rows[0][4].as_str()),
+        ("32", "128", "3")
+    );
+    let svg = std::fs::read_to_string(dir.path().join("results/f/cos3.svg")).unwrap();
+    assert!(
+        svg.contains("N ≥ 32)") && !svg.contains("N ≥ 20)"),
+        "the legend's range is the fitted one"
+    );
 
     std::fs::write(
         dir.path().join("f.json"),

@@ -479,6 +479,18 @@ mod calibration_inputs {
                 spec(bmc, "[8]", r#"{"from_n": 4}"#),
                 "Error: x.json: checks[0]: give \"better\" and \"than\"",
             ),
+            (
+                spec(bmc, "[8]", r#"{"calibrated": "BMC", "side": "upper"}"#),
+                "Error: x.json: checks[0].side: unknown variant `upper`, expected `two-sided` or `lower`",
+            ),
+            (
+                spec(
+                    &format!("{mc}, {bmc}"),
+                    "[8]",
+                    r#"{"better": "BMC", "than": "MC", "side": "lower"}"#,
+                ),
+                "Error: x.json: checks[0].side: is used only by a calibration check",
+            ),
         ];
         for (text, want) in cases {
             let got = validate_error("x.json", &text);

@@ -108,13 +108,28 @@ fn hidden(dir: &Path) -> Vec<String> {
         .collect()
 }
 
-/// The manifest's list of files, sorted.
-fn manifest_files(dir: &Path) -> Vec<String> {
-    let m: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap();
+/// The files `record` (a JSON file in `dir`) lists, sorted.
+fn files_of(dir: &Path, record: &str) -> Vec<String> {
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join(record)).unwrap()).unwrap();
     let mut v: Vec<String> = m["files"].as_object().unwrap().keys().cloned().collect();
     v.sort();
     v
+}
+
+/// Every file the folder's records list: its manifest (the files a checkout of committed results
+/// has) and its `timings.json` (the machine-dependent ones), sorted.
+fn manifest_files(dir: &Path) -> Vec<String> {
+    let mut v = files_of(dir, "manifest.json");
+    if dir.join("timings.json").exists() {
+        v.extend(files_of(dir, "timings.json"));
+    }
+    v.sort();
+    v
+}
+
+/// Whether `name` is one of the wall-clock files `.gitignore` keeps out of `results/`.
+fn git_ignored(name: &str) -> bool {
+    name.starts_with("timings") || name.ends_with("-cost.svg")
 }
 
 #[test]
@@ -147,11 +162,80 @@ fn results_folder_holds_one_run_after_another_experiment() {
         ]
     );
     assert_eq!(manifest_files(&d.join("o")), listing(&d.join("o")));
+    // The manifest lists what a checkout of committed results has; timings.json the rest.
+    let (committed, local): (Vec<String>, Vec<String>) =
+        listing(&d.join("o")).into_iter().partition(|n| !git_ignored(n));
+    assert_eq!(files_of(&d.join("o"), "manifest.json"), committed);
+    assert_eq!(files_of(&d.join("o"), "timings.json"), local);
     assert_eq!(
         listing(d),
         ["a.json", "b.json", "o"],
         "nothing hidden left beside it"
     );
+}
+
+/// Issue 21 item 4: committed manifests listed git-ignored files (`timings*`, `*-cost.svg`)
+/// that a checkout does not have. Every committed manifest lists only files the folder holds in
+/// a checkout, none of them wall-clock files, and records the version of the build that wrote it.
+#[test]
+fn committed_manifests_list_only_files_a_checkout_has() {
+    let results = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
+    let mut seen = 0;
+    for e in std::fs::read_dir(&results).unwrap() {
+        let dir = e.unwrap().path();
+        if !dir.join("manifest.json").is_file() {
+            continue;
+        }
+        seen += 1;
+        for f in files_of(&dir, "manifest.json") {
+            assert!(
+                !git_ignored(&f),
+                "{}: lists {f}, which is not committed",
+                dir.display()
+            );
+            assert!(
+                dir.join(&f).is_file(),
+                "{}: lists {f}, which it does not hold",
+                dir.display()
+            );
+        }
+        let m: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap();
+        assert_eq!(
+            m["workbench_version"],
+            env!("CARGO_PKG_VERSION"),
+            "{}: the version of the build that wrote it",
+            dir.display()
+        );
+    }
+    assert!(seen >= 10, "{seen} committed result folders");
+}
+
+/// A folder whose manifest a checkout replaced (the committed one lists no timing files) still
+/// counts the timing files of its earlier run as ours: re-running into it works.
+#[test]
+fn committed_manifests_list_only_files_a_checkout_has_and_local_timings_stay_ours() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("a.json"), COS3).unwrap();
+    ok(&workbench(d, &["run", "a.json", "-q", "--out", "o"]));
+    // What a checkout does to a regenerated folder: the manifest comes back, timings.json
+    // stays (a run of an older version wrote it without its list of files).
+    std::fs::write(
+        d.join("o/timings.json"),
+        "{\"threads\": 1, \"wall_seconds\": 1.0}\n",
+    )
+    .unwrap();
+    assert!(d.join("o/cos3-cost.svg").exists() && d.join("o/timings-trials.csv").exists());
+    ok(&workbench(d, &["run", "a.json", "-q", "--out", "o"]));
+    assert_eq!(listing(&d.join("o")), manifest_files(&d.join("o")));
+    // A table likewise.
+    std::fs::write(d.join("t.json"), TABLE).unwrap();
+    ok(&workbench(d, &["render", "t.json", "--results-dir", "out", "-q"]));
+    std::fs::remove_file(d.join("out/t/timings.json")).unwrap();
+    assert!(d.join("out/t/timings.md").exists());
+    ok(&workbench(d, &["render", "t.json", "--results-dir", "out", "-q"]));
+    assert_eq!(listing(&d.join("out/t")), manifest_files(&d.join("out/t")));
 }
 
 #[test]

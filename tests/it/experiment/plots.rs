@@ -184,7 +184,8 @@ fn error_plots_say_what_they_show() {
         assert!(!has(texts, "cos3") && !has(texts, "cos0"));
         // Never a fitted zero slope; the range is stated: N ≥ the median of 4 … 64.
         assert!(!has(texts, "slope 0.00") && !has(texts, "slope −0.00"));
-        assert!(has(texts, "(N ≥ 16)") && has(texts, "over N ≥ 16"), "{texts:#?}");
+        // (With 6 trials some slopes are `n/a (wide interval, N ≥ 16)`: still the range.)
+        assert!(has(texts, "N ≥ 16)") && has(texts, "over N ≥ 16"), "{texts:#?}");
         // The band is explained once.
         assert_eq!(texts.iter().filter(|t| t.text.contains("10–90%")).count(), 1);
         // No tick label at a fake floor: exact points are left out, not clamped.

@@ -189,6 +189,89 @@ fn merge_refuses_shards_of_other_runs_and_incomplete_sets_before_writing() {
     assert!(!d.join("out").exists(), "nothing written for refused input");
 }
 
+/// Issue 21 item 4: `merge` compared only the package version, so shards built from different
+/// commits, or from a clean tree and one with uncommitted changes, were merged as one run. Each
+/// shard records its build (version, commit, a fingerprint of the uncommitted changes); here
+/// shard 3 is made to look as if another build ran it, and every such set is refused.
+#[test]
+fn merge_refuses_shards_of_different_builds_a_dirty_tree_included() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("small.json"), SMALL).unwrap();
+    for i in 1..=3 {
+        let s = format!("{i}/3");
+        let out = format!("a{i}");
+        ok(&workbench(
+            d,
+            &["run", "small.json", "-q", "--shard", &s, "--out", &out],
+        ));
+    }
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("a1/shard.json")).unwrap()).unwrap();
+    assert_eq!(record["workbench_version"], env!("CARGO_PKG_VERSION"));
+    let commit = record.get("workbench_commit").and_then(|c| c.as_str());
+    let changes = record.get("workbench_changes").and_then(|c| c.as_str());
+    assert_eq!(
+        record.get("workbench_dirty").and_then(|c| c.as_bool()),
+        commit.map(|_| changes.is_some())
+    );
+    let token = |commit: Option<&str>, changes: Option<&str>| match (commit, changes) {
+        (None, _) => "unknown".to_string(),
+        (Some(c), None) => c.to_string(),
+        (Some(c), Some(f)) => format!("{c}+changes.{f}"),
+    };
+    let header = std::fs::read_to_string(d.join("a3/units.csv")).unwrap();
+    let shard = std::fs::read(d.join("a3/shard.json")).unwrap();
+    let here = format!(
+        "version={} build={}",
+        env!("CARGO_PKG_VERSION"),
+        token(commit, changes)
+    );
+    assert!(
+        header.lines().next().unwrap().contains(&here),
+        "{here} in {header:.200}"
+    );
+    // (version, commit, uncommitted changes) of another build.
+    let other_commit = "0123456789abcdef0123456789abcdef01234567";
+    let mut others: Vec<(&str, Option<&str>, Option<&str>)> = vec![
+        ("9.9.9", commit, changes),
+        (env!("CARGO_PKG_VERSION"), Some(other_commit), changes),
+    ];
+    if let Some(c) = commit {
+        // The same commit, with other or no uncommitted changes: a dirty tree is another build.
+        others.push((env!("CARGO_PKG_VERSION"), Some(c), Some("feedfacefeedface")));
+        if changes.is_some() {
+            others.push((env!("CARGO_PKG_VERSION"), Some(c), None));
+        }
+    }
+    for (version, commit, changes) in others {
+        let mut r = record.clone();
+        let o = r.as_object_mut().unwrap();
+        o.insert("shard".into(), "3/3".into());
+        o.insert("workbench_version".into(), version.into());
+        for k in ["workbench_commit", "workbench_dirty", "workbench_changes"] {
+            o.remove(k);
+        }
+        if let Some(c) = commit {
+            o.insert("workbench_commit".into(), c.into());
+            o.insert("workbench_dirty".into(), changes.is_some().into());
+        }
+        if let Some(f) = changes {
+            o.insert("workbench_changes".into(), f.into());
+        }
+        std::fs::write(d.join("a3/shard.json"), serde_json::to_vec_pretty(&r).unwrap()).unwrap();
+        let there = format!("version={version} build={}", token(commit, changes));
+        std::fs::write(d.join("a3/units.csv"), header.replacen(&here, &there, 1)).unwrap();
+        let o = workbench(d, &["merge", "out", "-q", "a1", "a2", "a3"]);
+        refused(&o, "are shards of different runs (workbench builds");
+        assert!(!d.join("out").exists(), "nothing written for refused input");
+    }
+    // Put back, the set merges.
+    std::fs::write(d.join("a3/shard.json"), shard).unwrap();
+    std::fs::write(d.join("a3/units.csv"), &header).unwrap();
+    ok(&workbench(d, &["merge", "out", "-q", "a1", "a2", "a3"]));
+}
+
 #[test]
 fn bad_shard_specs_are_refused_in_one_line() {
     let dir = tempfile::tempdir().unwrap();

@@ -83,12 +83,12 @@ pub fn run(
         plot::plot_svg(plan, targets, &cells)?.as_bytes(),
     )?;
     let times_md = export::times_md(plan, targets, &cells);
-    folder.write(
+    folder.write_local(
         "timings.csv",
         "wall-clock seconds per render (machine-dependent; not committed)",
         &export::timings_csv(plan, &rows),
     )?;
-    folder.write(
+    folder.write_local(
         "timings.md",
         "mean seconds per image (machine-dependent; not committed)",
         times_md.as_bytes(),
