@@ -1,6 +1,8 @@
 //! The command line (binary only): options → validated plan → run → export, and the one place
 //! that prints. Exit codes: 0 success, 1 a check failed (outputs still written), 2 any error.
 
+#[cfg(test)]
+mod docs_commands;
 mod image_files;
 mod merge;
 mod model_args;
