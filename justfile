@@ -4,22 +4,10 @@
 run:
     cargo run --release -- run experiments/cos3.json
 
-# Every shipped experiment (figures and tables under results/).
+# Every shipped experiment and render table (figures and tables under results/), in turn:
+# `cargo run --release -- reproduce --list` shows the order and the time estimate.
 figures:
-    cargo run --release -- run experiments/cos.json -q
-    cargo run --release -- run experiments/cos2.json -q
-    cargo run --release -- run experiments/cos3.json -q
-    cargo run --release -- run experiments/cos3-thesis-kernel-mean.json -q
-    cargo run --release -- run experiments/cos3-designs.json -q
-    cargo run --release -- run experiments/glossy.json -q
-    cargo run --release -- run experiments/lights.json -q
-    cargo run --release -- run experiments/pixels.json -q
-    cargo run --release -- run experiments/calibration.json -q
-    cargo run --release -- run experiments/adaptive.json -q
-    cargo run --release -- run experiments/rings.json -q
-    cargo run --release -- run experiments/learned-kernel.json -q
-    cargo run --release -- render experiments/render-table.json -q
-    cargo run --release -- render experiments/render-adaptive.json -q
+    cargo run --release -- reproduce
 
 # The default test suite (what CI runs).
 test:
@@ -33,7 +21,7 @@ test-long:
 ci:
     bash .ci/run
 
-# Benchmarks (figures go in the README).
+# Benchmarks (figures go in docs/guide/performance.md).
 bench:
     cargo bench --bench core
     cargo bench --bench phases

@@ -1,7 +1,8 @@
 //! Sequential estimation: grow a nested sample set by doubling until the estimator's own
-//! uncertainty (math.md §7) meets a [`Target`]; README, "Stopping at a tolerance" and "Adaptive
-//! sampling". One walker ([`walk`]) serves the experiments' tolerance estimators (a half-width
-//! per integrand) and the renderer's adaptive pixels (an sd per colour channel); the weights of
+//! uncertainty (math.md §7) meets a [`Target`]; docs/guide/run.md, "Stopping at a tolerance",
+//! and docs/guide/render.md, "Adaptive sampling". One walker ([`walk`]) serves the experiments'
+//! tolerance estimators (a half-width per integrand) and the renderer's adaptive pixels (an sd
+//! per colour channel); the weights of
 //! every stage come from one nested factor ([`NestedWeights`]), and every stage's estimate from
 //! [`Rule::estimate`], so any estimator with an interval can be staged.
 //!

@@ -36,7 +36,7 @@ pub enum Scale {
 
 impl Scale {
     pub const ALL: [Scale; 3] = [Scale::Unit, Scale::Ml, Scale::Loo];
-    /// What an estimator gets without a `"scale"`: see the README ("How far to trust the
+    /// What an estimator gets without a `"scale"`: see docs/guide/findings.md ("How far to trust the
     /// error bars").
     pub const DEFAULT: Scale = Scale::Ml;
 

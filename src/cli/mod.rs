@@ -1,6 +1,8 @@
 //! The command line (binary only): options → validated plan → run → export, and the one place
 //! that prints. Exit codes: 0 success, 1 a check failed (outputs still written), 2 any error.
 
+#[cfg(test)]
+mod docs_commands;
 mod image_files;
 mod merge;
 mod model_args;
@@ -8,6 +10,7 @@ mod output;
 mod progress;
 mod render;
 mod render_adaptive;
+mod reproduce;
 mod rule;
 mod run;
 mod schema;
@@ -47,6 +50,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Print the JSON Schema (draft 2020-12) of experiment files or render tables.
     Schema(schema::SchemaArgs),
+    /// Regenerate every figure and table: run each experiment file and render table of a
+    /// folder (default experiments/) in turn, with a time estimate and one summary.
+    Reproduce(reproduce::ReproduceArgs),
 }
 
 /// Entry point of the binary.
@@ -70,6 +76,7 @@ pub fn main() -> ExitCode {
         Command::Rule(args) => rule::rule(args),
         Command::Render(args) => render::render(args),
         Command::Schema(args) => schema::schema(args),
+        Command::Reproduce(args) => reproduce::reproduce(args),
     };
     match result {
         Ok(code) => code,

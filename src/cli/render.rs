@@ -28,7 +28,7 @@ use workbench::util::report::Reporter;
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr\n  \
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr --sd-out bmc-sd.exr\n  \
     workbench render experiments/render-table.json\n\n\
-    Render-table fields are documented in the README (\"Tables\"); the scene in docs/render-scene.md.\n\n\
+    Render-table fields are documented in docs/guide/render.md (\"Tables\"); the scene in docs/render-scene.md.\n\n\
     Exit codes: 0 success; 2 any error (bad input, I/O).")]
 pub struct RenderArgs {
     /// Render-table file (JSON): renders every variant × spp × repetition against a cached

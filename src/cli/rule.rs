@@ -13,7 +13,7 @@ use workbench::util::geometry::Vec3;
 #[command(after_help = "Examples:\n  \
     workbench rule --n 64 --seed 7 --out rule.csv --summary rule.json\n  \
     workbench rule --points my-points.csv --kernel se --length 0.3 > rule.csv\n\n\
-    The CSV and summary fields are documented in the README (\"workbench rule\").\n\n\
+    The CSV and summary fields are documented in docs/guide/rule.md.\n\n\
     Exit codes: 0 success; 2 any error (bad input, I/O).")]
 pub struct RuleArgs {
     /// Number of points to generate (not with --points) [default: 64].

@@ -13,7 +13,7 @@ use workbench::files::spec_json::SpecKind;
     workbench run experiments/cos3.json --trials 50 --out /tmp/cos3 -q\n  \
     workbench run experiments/cos3.json --shard 2/4 --out shards/2   (then: workbench merge OUT shards/*)\n  \
     workbench run experiments/cos3.json --resume                       (after an interrupted run)\n\n\
-    The fields of experiment files are documented in the README (\"Experiment files\").\n\n\
+    The fields of experiment files are documented in docs/guide/run.md (\"Experiment files\").\n\n\
     Exit codes: 0 every check passed; 1 a check failed (outputs are still written); 2 any error \
     (bad input, I/O), before anything is written for bad input.")]
 pub struct RunArgs {
@@ -70,23 +70,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         status!("warning: {w}");
     }
     let report = ex::run_plan(&plan, &overrides, &Bar::new(args.quiet))?;
-    if report.resumed > 0 {
-        status!(
-            "resumed: {} of {} units were done already",
-            report.resumed,
-            report.units
-        );
-    }
-    if report.resumed_row_warnings > 0 {
-        status!(
-            "warning: the resumed units' trial rows hold {} warning(s) from before the interruption \
-             (counted in summary.csv's warnings column; the interrupted run printed their messages)",
-            report.resumed_row_warnings
-        );
-    }
-    for (message, count) in &report.warnings {
-        status!("warning: {count} weight set(s): {message}");
-    }
+    print_run_warnings(&report);
     if shard.is_some() {
         status!(
             "wrote shard {} to {} ({:.2} s on {} thread{}); merge the shards with `workbench merge OUT DIR…`",
@@ -135,4 +119,26 @@ pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The status lines every run prints after its units: what a resume found, and the weight
+/// sets' numerical warnings.
+pub fn print_run_warnings(report: &ex::RunReport) {
+    if report.resumed > 0 {
+        status!(
+            "resumed: {} of {} units were done already",
+            report.resumed,
+            report.units
+        );
+    }
+    if report.resumed_row_warnings > 0 {
+        status!(
+            "warning: the resumed units' trial rows hold {} warning(s) from before the interruption \
+             (counted in summary.csv's warnings column; the interrupted run printed their messages)",
+            report.resumed_row_warnings
+        );
+    }
+    for (message, count) in &report.warnings {
+        status!("warning: {count} weight set(s): {message}");
+    }
 }

@@ -1,4 +1,4 @@
-//! Tolerance estimators in experiments ([`crate::bq::stages`]; README, "Stopping at a tolerance").
+//! Tolerance estimators in experiments ([`crate::bq::stages`]; docs/guide/run.md, "Stopping at a tolerance").
 //!
 //! An estimator with `"tolerance": {"abs": A, "max_n": M}` runs once per (N, trial) unit like
 //! any other, with the unit's N as its **first stage** (or its pilot `min_n`, default 64, if

@@ -9,7 +9,7 @@ use crate::sampling::Design;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-/// An experiment file. See the README ("Experiment files") for every field.
+/// An experiment file. See docs/guide/run.md ("Experiment files") for every field.
 #[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentSpec {

@@ -1,5 +1,5 @@
 //! Validation of tolerance estimators and `within_tolerance` checks ([`crate::bq::stages`];
-//! README, "Stopping at a tolerance"): what the plan asks before anything runs.
+//! docs/guide/run.md, "Stopping at a tolerance"): what the plan asks before anything runs.
 
 use super::spec::{CheckSpec, EstimatorSpec, ExperimentSpec, KernelMeanName};
 use crate::bq::estimator::Method;

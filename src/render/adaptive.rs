@@ -1,4 +1,4 @@
-//! Adaptive sampling (README, "Adaptive sampling"; intervals of math.md §7): every pixel takes
+//! Adaptive sampling (docs/guide/render.md, "Adaptive sampling"; intervals of math.md §7): every pixel takes
 //! samples in doubling stages `spp₀, 2spp₀, … ≤ max_spp` until the standard deviation its
 //! estimator states for **each** colour channel is at most the target `T` (`--target-sd`), or
 //! `max_spp` is reached. The stages are walked by [`crate::bq::stages::walk`], the walker the

@@ -2,7 +2,7 @@
 //! every estimator turns a sample set and the integrand's values on it into an estimate of
 //! `I = ∫_H f dω`. Experiments call it once per integrand; the renderer once per colour channel.
 //!
-//! Adding an estimator (see the README): one file here with its `estimate` function, one arm in
+//! Adding an estimator (see docs/guide/extending.md): one file here with its `estimate` function, one arm in
 //! [`Method`] and in [`Method::ALL`]; every `match` on `Method` is exhaustive, so the compiler
 //! lists every place that must decide what the new estimator does (its name, whether it needs
 //! BMC weights or a prior, how it estimates, its posterior). Experiments (`"method": "<name>"`)

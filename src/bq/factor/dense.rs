@@ -4,8 +4,9 @@
 //! set, one solve per pixel and channel for the fitted amplitude, math.md §7).
 //!
 //! faer's factorisation runs at ≈ 3× nalgebra's on this project's sizes (see `benches/core.rs`
-//! and the README). It always runs sequentially here: parallelism is over trials, pixels or
-//! sample sets, and a fixed operation order keeps results independent of the thread count.
+//! and docs/guide/performance.md). It always runs sequentially here: parallelism is over
+//! trials, pixels or sample sets, and a fixed operation order keeps results independent of the
+//! thread count.
 
 use super::rings::RingFactor;
 use super::{

@@ -15,7 +15,7 @@ use crate::render::integrator::IntegratorKind;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-/// A render table. See the README ("Tables") for every field.
+/// A render table. See docs/guide/render.md ("Tables") for every field.
 #[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TableSpec {
@@ -43,7 +43,7 @@ pub struct TableSpec {
     /// Renders per spp: one number, or one per `spp` entry; default 10.
     #[serde(default)]
     pub repetitions: Option<Repetitions>,
-    /// Adaptive sampling for every variant (README, "Adaptive sampling"): the table's columns
+    /// Adaptive sampling for every variant (docs/guide/render.md, "Adaptive sampling"): the table's columns
     /// are target sds instead of `spp`, which must then be absent.
     #[serde(default)]
     pub adaptive: Option<AdaptiveSpec>,

@@ -1,2 +1,3 @@
 mod cli_rule;
 mod docs_sync;
+mod reproduce;

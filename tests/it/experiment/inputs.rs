@@ -216,7 +216,7 @@ mod smaller_inconsistencies {
         );
     }
 
-    /// The README promises that a bad points file names the line; a non-UTF-8 byte did not.
+    /// docs/guide/rule.md promises that a bad points file names the line; a non-UTF-8 byte did not.
     #[test]
     fn a_non_utf8_byte_in_a_points_file_names_the_line() {
         let dir = tempfile::tempdir().unwrap();

@@ -407,7 +407,7 @@ fn render_with_sd_keeps_the_image() {
 /// The edge-aware prior's depth tolerance separates the default scene's surfaces at 256×256:
 /// every pair of 4-neighbours on the same surface (same albedo) is within it, and every pair
 /// across the sphere's silhouette gets weight 0 (a normal facing away or a depth jump).
-/// Prints the margins (`--nocapture`) behind the README's justification of the defaults.
+/// Prints the margins (`--nocapture`) behind docs/guide/render.md's justification of the defaults.
 #[test]
 fn edge_weights_separate_the_scene_surfaces() {
     use workbench::render::integrator::neighbours::{EDGE_DEPTH_TOLERANCE, edge_weight};

@@ -1,4 +1,4 @@
-//! `render --target-sd T --max-spp M` (README, "Adaptive sampling"): the per-pixel stopping rule on a tiny
+//! `render --target-sd T --max-spp M` (docs/guide/render.md, "Adaptive sampling"): the per-pixel stopping rule on a tiny
 //! image, the nested sets' stage weights against fresh ones, and bad input.
 
 use crate::common::*;

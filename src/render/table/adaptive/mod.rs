@@ -1,4 +1,4 @@
-//! Adaptive render tables (README, "Adaptive sampling"): with `"adaptive": {"target_sd": [...],
+//! Adaptive render tables (docs/guide/render.md, "Adaptive render tables"): with `"adaptive": {"target_sd": [...],
 //! "max_spp": M}` every variant (mc, mc-cos, bmc) renders each target `T` by
 //! [`crate::render::adaptive`], and the table reports per (variant, target) the mean RMSE with
 //! its interval, the mean spp, the share of pixels meeting `T` and the share of pixel-channels

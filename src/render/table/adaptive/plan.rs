@@ -1,4 +1,4 @@
-//! Validation of a table's `"adaptive"` object and of the variants it runs (README, "Adaptive
+//! Validation of a table's `"adaptive"` object and of the variants it runs (docs/guide/render.md, "Adaptive
 //! sampling"): targets, stages, and which integrators can stop at a target.
 
 use crate::bq::weights::Scale;

@@ -1,0 +1,483 @@
+//! `workbench reproduce`: every experiment file and render table of a folder (by default the
+//! shipped `experiments/`), one after another, into `results/` — the whole regeneration in one
+//! command, with a time estimate up front, a line per file and one summary at the end.
+//!
+//! Order: each path in the order given; a folder gives its experiment files by file name, then
+//! its render tables by file name (the tables take longest and share the reference cache).
+
+use super::output::{status, stdout};
+use super::progress::Bar;
+use super::run::print_run_warnings;
+use anyhow::Context;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+use workbench::error::InputError;
+use workbench::experiment as ex;
+use workbench::files::spec_json::{self, SpecKind};
+use workbench::render::table::{self, TablePlan};
+
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    workbench reproduce --list                      (the plan and its time estimate; runs nothing)\n  \
+    workbench reproduce                             (every file of experiments/ into results/)\n  \
+    workbench reproduce experiments/cos3.json experiments/render-table.json\n  \
+    workbench reproduce my-experiments/ --results-dir /tmp/results -q\n\n\
+    A folder gives its experiment files by file name, then its render tables by file name. Every \
+    file is validated before the first one runs. Estimates come from an earlier run's timings in \
+    the output folder where there is one, else from a table measured on a 2-core machine.\n\n\
+    Exit codes: 0 every file ran and every check passed; 1 a check failed (every file still ran \
+    and wrote its outputs); 2 any error (bad input before anything runs; a failure while running \
+    stops at that file, naming it, and keeps the outputs of the files before it).")]
+pub struct ReproduceArgs {
+    /// Experiment files, render-table files or folders of them [default: experiments].
+    paths: Vec<PathBuf>,
+    /// Where the outputs go: <dir>/<name>/ for every file, and the render tables' reference
+    /// cache <dir>/cache/ [default: results].
+    #[arg(long)]
+    results_dir: Option<PathBuf>,
+    /// Worker threads, 1 to 256 [default: one per core]. Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print the files in order with their outputs and time estimates, and run nothing.
+    #[arg(long)]
+    list: bool,
+    /// No progress bars (the line per file and the summary are still printed).
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+/// Wall-clock seconds each shipped file took on this project's 2-core machine on 2026-11-25
+/// while other builds and render tables shared it (load average 5–10, so they overstate an idle
+/// machine's times), by the name of its output folder: the estimate for a file whose output
+/// folder holds no timings of an earlier run.
+const MEASURED: &[(&str, f64)] = &[
+    ("adaptive", 210.0),
+    ("calibration", 13.0),
+    ("cos", 2.6),
+    ("cos2", 2.6),
+    ("cos3-designs", 8.9),
+    ("cos3-thesis-kernel-mean", 56.0),
+    ("cos3", 1.4),
+    ("glossy", 2.9),
+    ("learned-kernel", 87.0),
+    ("lights", 2.8),
+    ("pixels", 3.6),
+    ("render-adaptive", 174.0),
+    ("render-table", 313.0),
+    ("rings", 1.9),
+];
+
+enum Job {
+    Experiment(Box<ex::plan::Plan>),
+    Table(Box<TablePlan>),
+}
+
+struct Item {
+    file: PathBuf,
+    job: Job,
+    out: PathBuf,
+    estimate: Option<Estimate>,
+}
+
+#[derive(Clone, Copy)]
+struct Estimate {
+    seconds: f64,
+    /// From the output folder's own timings (an earlier run here), not the built-in table.
+    here: bool,
+}
+
+impl Item {
+    fn verb(&self) -> &'static str {
+        match self.job {
+            Job::Experiment(_) => "run",
+            Job::Table(_) => "render",
+        }
+    }
+}
+
+pub fn reproduce(args: ReproduceArgs) -> anyhow::Result<ExitCode> {
+    if let Some(t) = args.threads {
+        workbench::util::threads::check_threads(t)?;
+    }
+    let results = args
+        .results_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results"));
+    let paths = if args.paths.is_empty() {
+        vec![PathBuf::from("experiments")]
+    } else {
+        args.paths.clone()
+    };
+    let items = plan(&paths, &results, args.threads)?;
+    let total = items
+        .iter()
+        .filter_map(|i| i.estimate)
+        .fold(0.0, |t, e| t + e.seconds);
+    if args.list {
+        stdout(&list(&items, &results, total))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    status!("reproduce: {}", headline(&items, &results, total));
+    let start = Instant::now();
+    let mut done = Vec::with_capacity(items.len());
+    let mut estimated_done = 0.0;
+    for (k, item) in items.iter().enumerate() {
+        let elapsed = start.elapsed().as_secs_f64();
+        let to_go = (total - estimated_done).max(0.0);
+        status!(
+            "[{}/{}] {} {} → {} ({}; {} elapsed{})",
+            k + 1,
+            items.len(),
+            item.verb(),
+            item.file.display(),
+            item.out.display(),
+            item.estimate.map_or("no estimate".to_string(), |e| format!(
+                "about {}",
+                duration(e.seconds)
+            )),
+            duration(elapsed),
+            if total > 0.0 {
+                format!(", about {} to go", duration(to_go))
+            } else {
+                String::new()
+            }
+        );
+        let item_start = Instant::now();
+        let outcome = run_item(item, &results, args.threads, args.quiet).with_context(|| {
+            format!(
+                "reproduce stopped at {} ({} of {}; the outputs of the files before it are written)",
+                item.file.display(),
+                k + 1,
+                items.len()
+            )
+        })?;
+        let seconds = item_start.elapsed().as_secs_f64();
+        status!("        done in {}{}", duration(seconds), outcome.checks_phrase());
+        estimated_done += item.estimate.map_or(0.0, |e| e.seconds);
+        done.push((item, seconds, outcome));
+    }
+    let failed = done.iter().filter(|(_, _, o)| o.failed > 0).count();
+    stdout(&summary(&done, start.elapsed().as_secs_f64(), total))?;
+    Ok(if failed > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// The files in order, each validated, with its output folder and estimate.
+fn plan(paths: &[PathBuf], results: &Path, threads: Option<usize>) -> anyhow::Result<Vec<Item>> {
+    let mut files = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            files.extend(folder_files(path)?);
+        } else {
+            files.push(path.clone());
+        }
+    }
+    let mut items: Vec<Item> = Vec::with_capacity(files.len());
+    for file in files {
+        let text = spec_json::read_spec(&file).unwrap_or_default();
+        let (job, out) = match spec_json::spec_kind(&text) {
+            Some(SpecKind::RenderTable) => {
+                let plan = table::load(&file)?;
+                let out = table::output_dir(results, &plan);
+                (Job::Table(Box::new(plan)), out)
+            }
+            // Anything else, unreadable files included, gets the experiment's messages.
+            _ => {
+                let plan = ex::load_plan(
+                    &file,
+                    &ex::Overrides {
+                        threads,
+                        ..Default::default()
+                    },
+                )?;
+                let out = results.join(&plan.name);
+                (Job::Experiment(Box::new(plan)), out)
+            }
+        };
+        if let Some(other) = items.iter().find(|i| i.out == out) {
+            return Err(InputError::new(format!(
+                "{}: writes {}, as {} does; give one of them",
+                file.display(),
+                out.display(),
+                other.file.display()
+            ))
+            .into());
+        }
+        let estimate = estimate(&job, &out);
+        items.push(Item {
+            file,
+            job,
+            out,
+            estimate,
+        });
+    }
+    Ok(items)
+}
+
+/// A folder's `*.json` files: experiment files by file name, then render tables by file name.
+fn folder_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let entries = std::fs::read_dir(dir).with_context(|| format!("reading the folder {}", dir.display()))?;
+    let mut files = Vec::new();
+    for entry in entries {
+        let path = entry
+            .with_context(|| format!("reading the folder {}", dir.display()))?
+            .path();
+        if path.extension().is_some_and(|e| e == "json") && path.is_file() {
+            files.push(path);
+        }
+    }
+    if files.is_empty() {
+        return Err(InputError::new(format!(
+            "{}: holds no *.json files (experiment files or render tables)",
+            dir.display()
+        ))
+        .into());
+    }
+    files.sort();
+    let is_table = |p: &PathBuf| {
+        spec_json::read_spec(p)
+            .ok()
+            .and_then(|t| spec_json::spec_kind(&t))
+            == Some(SpecKind::RenderTable)
+    };
+    // A stable sort keeps the file names' order within each kind.
+    files.sort_by_key(is_table);
+    Ok(files)
+}
+
+/// The seconds an earlier run wrote into the output folder (`timings.json` of an experiment,
+/// the per-render `timings.csv` of a table), else the built-in measurement of a shipped file.
+fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
+    let here = match job {
+        Job::Experiment(_) => std::fs::read(out.join("timings.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .and_then(|v| v["wall_seconds"].as_f64()),
+        Job::Table(_) => std::fs::read_to_string(out.join("timings.csv"))
+            .ok()
+            .and_then(|t| {
+                let seconds: Option<Vec<f64>> = t
+                    .lines()
+                    .skip(1)
+                    .map(|l| l.rsplit(',').next().and_then(|s| s.parse().ok()))
+                    .collect();
+                seconds.map(|s| s.iter().sum())
+            }),
+    };
+    let name = match job {
+        Job::Experiment(p) => &p.name,
+        Job::Table(p) => &p.name,
+    };
+    here.filter(|s| s.is_finite() && *s >= 0.0)
+        .map(|seconds| Estimate { seconds, here: true })
+        .or_else(|| {
+            MEASURED
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|&(_, seconds)| Estimate { seconds, here: false })
+        })
+}
+
+fn headline(items: &[Item], results: &Path, total: f64) -> String {
+    let unknown = items.iter().filter(|i| i.estimate.is_none()).count();
+    let here = items
+        .iter()
+        .filter(|i| i.estimate.is_some_and(|e| e.here))
+        .count();
+    let files = |n: usize| format!("{n} file{}", if n == 1 { "" } else { "s" });
+    let mut s = format!("{} into {}, ", files(items.len()), results.display());
+    if unknown == items.len() {
+        s.push_str("no time estimate (no earlier timings here, none built in)");
+        return s;
+    }
+    s.push_str(&format!("about {} in all", duration(total)));
+    if unknown > 0 {
+        s.push_str(&format!(" plus {} without an estimate", files(unknown)));
+    }
+    s.push_str(&format!(
+        " ({here} estimate{} from earlier runs' timings here, {} measured on a 2-core machine)",
+        if here == 1 { "" } else { "s" },
+        items.len() - unknown - here
+    ));
+    s
+}
+
+fn list(items: &[Item], results: &Path, total: f64) -> String {
+    let width = items
+        .iter()
+        .map(|i| i.file.display().to_string().chars().count())
+        .max()
+        .unwrap_or(0);
+    let out_width = items
+        .iter()
+        .map(|i| i.out.display().to_string().chars().count())
+        .max()
+        .unwrap_or(0);
+    let mut s = format!("reproduce: {}\n", headline(items, results, total));
+    for (k, item) in items.iter().enumerate() {
+        let file = item.file.display().to_string();
+        let out = item.out.display().to_string();
+        s.push_str(&format!(
+            "{:>3}. {:<6} {file}{} → {out}{}  {}\n",
+            k + 1,
+            item.verb(),
+            " ".repeat(width - file.chars().count()),
+            " ".repeat(out_width - out.chars().count()),
+            match item.estimate {
+                Some(e) => format!(
+                    "about {}{}",
+                    duration(e.seconds),
+                    if e.here { " (here)" } else { "" }
+                ),
+                None => "no estimate".to_string(),
+            }
+        ));
+    }
+    s
+}
+
+/// What one file's run came to.
+struct Outcome {
+    checks: usize,
+    failed: usize,
+    /// The run's report, kept to be printed in full when one of its checks failed.
+    report: Option<String>,
+}
+
+impl Outcome {
+    fn checks_phrase(&self) -> String {
+        match (self.checks, self.failed) {
+            (0, _) => String::new(),
+            (n, 0) => format!(": {n} check{} passed", if n == 1 { "" } else { "s" }),
+            (n, f) => format!(": {f} of {n} check{} FAILED", if n == 1 { "" } else { "s" }),
+        }
+    }
+}
+
+fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) -> anyhow::Result<Outcome> {
+    match &item.job {
+        Job::Experiment(plan) => {
+            let overrides = ex::Overrides {
+                out: Some(item.out.clone()),
+                threads,
+                spec: Some(item.file.clone()),
+                ..Default::default()
+            };
+            for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
+                status!("warning: {w}");
+            }
+            let report = ex::run_plan(plan, &overrides, &Bar::new(quiet))?;
+            print_run_warnings(&report);
+            let passed = report.checks.iter().map(|c| c.passed());
+            let passed = passed
+                .chain(report.calibration.iter().map(|c| c.passed()))
+                .chain(report.tolerance_checks.iter().map(|c| c.passed()));
+            let (checks, failed) = passed.fold((0, 0), |(n, f), p| (n + 1, f + usize::from(!p)));
+            let text = (failed > 0).then(|| {
+                ex::format_report(plan, &report)
+                    + &ex::adaptive::format_report(plan, &report.stopping, &report.tolerance_checks)
+            });
+            Ok(Outcome {
+                checks,
+                failed,
+                report: text,
+            })
+        }
+        Job::Table(plan) => {
+            if let Some(w) = plan.model.as_ref().and_then(|m| m.accuracy_warning()) {
+                status!("warning: {w}");
+            }
+            let pool = workbench::util::threads::pool(threads)?;
+            pool.install(|| table::run(plan, results, &Bar::new(quiet)))?;
+            Ok(Outcome {
+                checks: 0,
+                failed: 0,
+                report: None,
+            })
+        }
+    }
+}
+
+fn summary(done: &[(&Item, f64, Outcome)], seconds: f64, estimated: f64) -> String {
+    let mut s = String::new();
+    for (item, _, outcome) in done {
+        if let Some(report) = &outcome.report {
+            s.push_str(&format!("{}:{report}\n", item.file.display()));
+        }
+    }
+    s.push_str(&format!(
+        "reproduced {} file{} in {}{}:\n",
+        done.len(),
+        if done.len() == 1 { "" } else { "s" },
+        duration(seconds),
+        if estimated > 0.0 {
+            format!(" (estimated {})", duration(estimated))
+        } else {
+            String::new()
+        }
+    ));
+    let width = done
+        .iter()
+        .map(|(i, _, _)| i.out.display().to_string().chars().count())
+        .max()
+        .unwrap_or(0);
+    for (item, seconds, outcome) in done {
+        let out = item.out.display().to_string();
+        s.push_str(&format!(
+            "  {out}{}  {:>10}{}\n",
+            " ".repeat(width - out.chars().count()),
+            duration(*seconds),
+            outcome.checks_phrase().replacen(':', "  ", 1)
+        ));
+    }
+    let checks: usize = done.iter().map(|(_, _, o)| o.checks).sum();
+    let failed: Vec<String> = done
+        .iter()
+        .filter(|(_, _, o)| o.failed > 0)
+        .map(|(i, _, _)| i.file.display().to_string())
+        .collect();
+    if failed.is_empty() {
+        s.push_str(&format!("every check passed ({checks})\n"));
+    } else {
+        s.push_str(&format!(
+            "checks failed in {} (their reports are above; every output was written)\n",
+            failed.join(", ")
+        ));
+    }
+    s
+}
+
+/// `0.4 s`, `25 s`, `3 min 05 s`, `1 h 02 min`.
+fn duration(seconds: f64) -> String {
+    if seconds < 9.95 {
+        format!("{seconds:.1} s")
+    } else if seconds < 59.5 {
+        format!("{seconds:.0} s")
+    } else if seconds < 3600.0 {
+        let s = seconds.round() as u64;
+        format!("{} min {:02} s", s / 60, s % 60)
+    } else {
+        let m = (seconds / 60.0).round() as u64;
+        format!("{} h {:02} min", m / 60, m % 60)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::duration;
+
+    #[test]
+    fn durations_read_as_people_write_them() {
+        assert_eq!(duration(0.04), "0.0 s");
+        assert_eq!(duration(9.94), "9.9 s");
+        assert_eq!(duration(9.96), "10 s");
+        assert_eq!(duration(25.4), "25 s");
+        assert_eq!(duration(59.7), "1 min 00 s");
+        assert_eq!(duration(185.0), "3 min 05 s");
+        assert_eq!(duration(3725.0), "1 h 02 min");
+    }
+}
