@@ -106,16 +106,19 @@ type PointsAndWeights<'py> = (Bound<'py, numpy::PyArray2<f64>>, Bound<'py, numpy
 #[allow(clippy::too_many_arguments)]
 pub fn rule<'py>(
     py: Python<'py>,
-    n: usize,
+    n: i128,
     design: &str,
     kernel: Option<Bound<'py, PyAny>>,
     noise: Option<f64>,
     kernel_mean: Option<String>,
-    kernel_mean_samples: Option<u64>,
+    kernel_mean_samples: Option<i128>,
     method: &str,
-    seed: u64,
+    seed: i128,
     values: Option<Bound<'py, PyAny>>,
 ) -> PyResult<PointsAndWeights<'py>> {
+    let n = arrays::count(n, "n")?;
+    let seed = arrays::whole(seed, "seed")?;
+    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
     let design = design_arg(design)?;
     let method = weighted_method_arg(method)?;
     let args = ModelArgs {
@@ -161,11 +164,13 @@ pub fn weights<'py>(
     kernel: Option<Bound<'py, PyAny>>,
     noise: Option<f64>,
     kernel_mean: Option<String>,
-    kernel_mean_samples: Option<u64>,
+    kernel_mean_samples: Option<i128>,
     method: &str,
-    seed: u64,
+    seed: i128,
     values: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    let seed = arrays::whole(seed, "seed")?;
+    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
     let method = weighted_method_arg(method)?;
     let args = ModelArgs {
         kernel,
@@ -197,9 +202,11 @@ pub fn kernel_means<'py>(
     points: &Bound<'py, PyAny>,
     kernel: Option<Bound<'py, PyAny>>,
     kernel_mean: Option<String>,
-    kernel_mean_samples: Option<u64>,
-    seed: u64,
+    kernel_mean_samples: Option<i128>,
+    seed: i128,
 ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    let seed = arrays::whole(seed, "seed")?;
+    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
     let model = fixed_model(py, kernel, kernel_mean, kernel_mean_samples)?;
     let points = arrays::points(points, "points")?;
     let z = py.detach(|| model.kernel_means(&points, &mut workbench::bq::rule::kernel_mean_stream(seed)));
@@ -514,14 +521,17 @@ impl Rule {
     fn new<'py>(
         py: Python<'py>,
         points: Option<&Bound<'py, PyAny>>,
-        n: Option<usize>,
+        n: Option<i128>,
         design: Option<&str>,
         kernel: Option<Bound<'py, PyAny>>,
         noise: Option<f64>,
         kernel_mean: Option<String>,
-        kernel_mean_samples: Option<u64>,
-        seed: u64,
+        kernel_mean_samples: Option<i128>,
+        seed: i128,
     ) -> PyResult<Rule> {
+        let n = n.map(|n| arrays::count(n, "n")).transpose()?;
+        let seed = arrays::whole(seed, "seed")?;
+        let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
         let args = ModelArgs {
             kernel,
             noise,

@@ -45,8 +45,9 @@ fn plan_of(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Plan> {
 pub fn run<'py>(
     py: Python<'py>,
     spec: &Bound<'py, PyAny>,
-    threads: Option<usize>,
+    threads: Option<i128>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let threads = threads.map(|t| arrays::count(t, "threads")).transpose()?;
     if let Some(t) = threads {
         workbench::util::threads::check_threads(t).map_err(|_| {
             value_error(format!(
@@ -136,11 +137,14 @@ fn columns<'py>(py: Python<'py>, plan: &Plan, rows: &[TrialRow]) -> PyResult<Bou
 #[pyfunction]
 pub fn trial_points<'py>(
     py: Python<'py>,
-    seed: u64,
+    seed: i128,
     design: &str,
-    n: usize,
-    trial: usize,
+    n: i128,
+    trial: i128,
 ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    let seed = arrays::whole(seed, "seed")?;
+    let n = arrays::count(n, "n")?;
+    let trial = arrays::count(trial, "trial")?;
     let d = workbench::sampling::Design::from_name(design).ok_or_else(|| {
         value_error(format!(
             "design: unknown design {design:?}; expected one of {}",

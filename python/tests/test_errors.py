@@ -113,6 +113,19 @@ def test_rule_arguments():
     raises(r"^n: must be at least 1, got 0", wb.trial_points, 1, "uniform", 0, 0)
 
 
+def test_whole_number_arguments_out_of_range():
+    big = 2**64
+    raises(r"^n: must be a whole number from 0 to 18446744073709551615, got -1$", wb.rule, -1)
+    raises(r"^seed: must be a whole number .* got -3$", wb.rule, 16, seed=-3)
+    raises(rf"^seed: must be a whole number .* got {big}$", wb.Rule, n=16, seed=big)
+    raises(r"^kernel_mean_samples: must be a whole number .* got -5$", wb.weights, POINTS, kernel_mean="mc", kernel_mean_samples=-5)
+    raises(r"^seed: must be a whole number .* got -1$", wb.kernel_means, POINTS, seed=-1)
+    raises(r"^trial: must be a whole number .* got -1$", wb.trial_points, 1, "uniform", 4, -1)
+    raises(r"^threads: must be a whole number .* got -2$", wb.run, GOOD, threads=-2)
+    # The largest seed is a seed.
+    wb.trial_points(2**64 - 1, "uniform", 4, 0)
+
+
 def test_integrand_arguments():
     raises(r'^spec: unknown integrand "sin"', wb.Integrand, "sin")
     raises(r"^spec: axis: must be a non-zero finite vector", wb.Integrand, {"type": "lobe", "axis": [0, 0, 0], "exponent": 2})
