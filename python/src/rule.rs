@@ -5,6 +5,7 @@
 use crate::arrays;
 use crate::model::{self, ModelArgs};
 use crate::{library_error, value_error};
+use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Arc, OnceLock};
@@ -653,6 +654,27 @@ impl Rule {
             out.set_item("log_marginal_likelihoods", ells)?;
         }
         Ok(out)
+    }
+
+    /// `q_inverse() -> ndarray`: `Q⁻¹ = (K + σ_n² I)⁻¹` of a fixed model's rule, float64 `(n, n)`
+    /// (from the kept factor, one solve per column): what a vectorised renderer needs for the
+    /// `ml` amplitude `λ̂ = YᵀQ⁻¹Y / N` of many pixels at once (`workbench.mitsuba`).
+    fn q_inverse<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        if self.model.is_fitted() {
+            return Err(value_error(
+                "kernel: a fitted rule has one Q per grid model; use a fixed kernel",
+            ));
+        }
+        let n = self.points.len();
+        let mut q = vec![0.0; n * n];
+        for i in 0..n {
+            q[i * n + i] = 1.0;
+        }
+        self.kept[0].factor.solve_columns_in_place(&mut q, n);
+        // Column-major n × n; Q⁻¹ is symmetric, so the rows read the same.
+        Ok(numpy::ndarray::Array2::from_shape_vec((n, n), q)
+            .expect("n × n")
+            .into_pyarray(py))
     }
 
     /// `estimate(values, method="bmc", prior=None, scale=None) -> (value, sd)`.

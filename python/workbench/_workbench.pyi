@@ -181,6 +181,9 @@ class Rule:
         ``condition_estimate``, ``prior_variance``, ``posterior_variance`` (raw, unit amplitude),
         ``posterior_sd``, ``warnings``); a fitted rule adds ``chosen``, ``model`` and
         ``log_marginal_likelihoods``."""
+    def q_inverse(self) -> npt.NDArray[np.float64]:
+        """``Q⁻¹ = (K + σ_n² I)⁻¹``, shape ``(n, n)``, of a fixed model's rule: what a vectorised
+        renderer needs for the ``ml`` amplitude ``λ̂ = YᵀQ⁻¹Y / N`` of many pixels at once."""
     def estimate(
         self,
         values: Values,
