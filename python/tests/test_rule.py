@@ -1,6 +1,7 @@
 """Rules and weights against ``workbench rule``'s CSV and summary, bit for bit."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -140,3 +141,16 @@ def test_numerical_warnings_are_python_warnings(cli):
     assert "warning: the posterior variance" in p.stderr
     with pytest.warns(RuntimeWarning, match="the posterior variance V̂ − zᵀQ⁻¹z is negative"):
         wb.rule(24, seed=4, kernel_mean="mc", kernel_mean_samples=500)
+
+
+def test_q_inverse_gives_the_ml_amplitude_of_the_estimate():
+    r = wb.Rule(n=40, seed=3, design="sobol")
+    q = r.q_inverse()
+    assert q.shape == (40, 40) and np.allclose(q, q.T, rtol=0, atol=1e-9 * np.abs(q).max())
+    y = wb.Integrand({"type": "gaussian", "axis": [1, 0, 1], "sharpness": 5})(r.points)
+    value, sd = r.estimate(y, "bmc", scale="ml")
+    var1 = r.diagnostics()["posterior_variance"]
+    assert math.isclose(sd, math.sqrt(y @ q @ y / 40 * var1), rel_tol=1e-10)
+    assert math.isclose(value, float(r.weights() @ y), rel_tol=1e-12)
+    with pytest.raises(ValueError, match="^kernel: a fitted rule has one Q per grid model"):
+        wb.Rule(n=8, kernel="fitted").q_inverse()
