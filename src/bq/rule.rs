@@ -109,9 +109,37 @@ pub fn check_point_count(n: usize, what: &str) -> Result<(), InputError> {
     Ok(())
 }
 
+/// Largest distance of a point's norm from 1 that a given point (a points file, an array from
+/// Python) may have.
+pub const UNIT_TOLERANCE: f64 = 1e-9;
+
+/// Checks a given point: finite, a unit vector (`|‖p‖ − 1| ≤ 1e-9`) and not below the horizon
+/// (`z ≥ 0`, the local frame with normal `+z`). The message says what is wrong; the caller says
+/// where (a file's line, an array's row).
+pub fn check_point(p: Vec3) -> Result<(), String> {
+    let norm = p.norm();
+    // NaN coordinates make the norm NaN: not a unit vector either.
+    if (norm - 1.0).abs() > UNIT_TOLERANCE || norm.is_nan() {
+        return Err(format!(
+            "({}, {}, {}) is not a unit vector (norm {norm})",
+            p.x, p.y, p.z
+        ));
+    }
+    if p.z < 0.0 {
+        return Err(format!("z = {} is below the horizon (need z >= 0)", p.z));
+    }
+    Ok(())
+}
+
 /// Stream identifiers under the rule's seed.
 const POINTS_STREAM: u64 = 0;
 const KERNEL_MEAN_STREAM: u64 = 1;
+
+/// The random stream of a rule's MC kernel means under `seed` (`workbench rule --kernel-mean
+/// mc`): what [`compute_rule`] and [`rule_weights`] draw from.
+pub fn kernel_mean_stream(seed: u64) -> crate::util::rng::WorkbenchRng {
+    stream(seed, &[KERNEL_MEAN_STREAM])
+}
 
 /// `n` points drawn with `design` from `seed`: the set `workbench rule --n N --seed S` uses.
 pub fn generate_points(n: usize, seed: u64, design: Design) -> Vec<Vec3> {
@@ -120,7 +148,7 @@ pub fn generate_points(n: usize, seed: u64, design: Design) -> Vec<Vec3> {
 
 /// The weights of `points` under `model`; `seed` drives the MC kernel-mean mode only.
 pub fn compute_rule(points: &[Vec3], model: &BmcModel, seed: u64) -> crate::Result<BmcWeights> {
-    let mut rng = stream(seed, &[KERNEL_MEAN_STREAM]);
+    let mut rng = kernel_mean_stream(seed);
     Ok(model.weights(points, &mut rng, &mut SpdWorkspace::new())?)
 }
 
@@ -132,8 +160,47 @@ pub fn compute_rule_for_design(
     model: &BmcModel,
     seed: u64,
 ) -> crate::Result<BmcWeights> {
-    let mut rng = stream(seed, &[KERNEL_MEAN_STREAM]);
+    let mut rng = kernel_mean_stream(seed);
     Ok(model.weights_for_design(points, design, &mut rng, &mut SpdWorkspace::new())?)
+}
+
+/// The weights `workbench rule` writes (and the Python bindings' `rule` and `weights`) for
+/// `points` drawn with `design` (points read from a file count as i.i.d. uniform: a dense solve):
+/// a fixed model's ([`compute_rule_for_design`]) or, for a fitted model, those of the grid model
+/// the values `y` choose ([`crate::bq::fitted::choose_on_points`], with the choice), as `bmc`
+/// weights or turned into Bayes–Sard's ([`BmcWeights::bayes_sard`]) for `Method::Bsq`. `seed`
+/// drives the MC kernel means, as in [`compute_rule`].
+///
+/// # Panics
+/// With a fitted model and no values (or a fixed one with values), or values of another length.
+pub fn rule_weights(
+    points: &[Vec3],
+    design: Design,
+    model: &BmcModel,
+    method: Method,
+    values: Option<&[f64]>,
+    seed: u64,
+) -> crate::Result<(BmcWeights, Option<crate::bq::fitted::Choice>)> {
+    assert_eq!(
+        model.is_fitted(),
+        values.is_some(),
+        "values exactly for a fitted model"
+    );
+    let (weights, choice) = match values {
+        Some(y) => {
+            let mut rng = kernel_mean_stream(seed);
+            let choice =
+                crate::bq::fitted::choose_on_points(model, points, design, method, y, 0.0, &mut rng)?;
+            (choice.weights.clone(), Some(choice))
+        }
+        None => (compute_rule_for_design(points, design, model, seed)?, None),
+    };
+    let weights = if method == Method::Bsq {
+        weights.bayes_sard()
+    } else {
+        weights
+    };
+    Ok((weights, choice))
 }
 
 /// [`check_point_count`] for a set generated with `design`: a ring set needs a count that

@@ -114,28 +114,15 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
     // earlier file, and no other command may write them meanwhile. Taken once the input is
     // known to be good, so that bad input leaves no trace.
     let mut files = FileSet::lock(&outputs, "use another --out or --summary")?;
-    // A fitted model: each grid model's weights on the points, and the one whose marginal
-    // likelihood of the values is largest (for bsq the restricted one).
-    let choice = match &values {
-        Some(y) => {
-            let design = if args.points.is_some() {
-                Design::Iid(workbench::sampling::Density::Uniform)
-            } else {
-                design
-            };
-            let mut rng = workbench::util::rng::stream(args.seed, &[1]);
-            Some(workbench::bq::fitted::choose_on_points(
-                &model, &points, design, method, y, 0.0, &mut rng,
-            )?)
-        }
-        None => None,
+    // Points from a file count as i.i.d. uniform (a dense solve); a fitted model chooses the grid
+    // model whose marginal likelihood of the values is largest (for bsq the restricted one).
+    let design = if args.points.is_some() {
+        Design::Iid(workbench::sampling::Density::Uniform)
+    } else {
+        design
     };
-    let weights = match (&choice, &args.points) {
-        (Some(c), _) => c.weights.clone(),
-        (None, Some(_)) => workbench::bq::rule::compute_rule(&points, &model, args.seed)?,
-        (None, None) => workbench::bq::rule::compute_rule_for_design(&points, design, &model, args.seed)?,
-    };
-    let weights = if bsq { weights.bayes_sard() } else { weights };
+    let (weights, choice) =
+        workbench::bq::rule::rule_weights(&points, design, &model, method, values.as_deref(), args.seed)?;
     // The model the weights are of: the chosen one of a fitted grid.
     let model = match &choice {
         Some(c) => model.candidates()[c.chosen].clone(),
@@ -321,19 +308,7 @@ fn parse_points_csv(text: &str) -> Result<Vec<Vec3>, String> {
                 .ok_or_else(|| format!("line {line}: {axis} = `{field}` is not a finite number"))?;
         }
         let v = Vec3::new(p[0], p[1], p[2]);
-        let norm = v.norm();
-        if (norm - 1.0).abs() > 1e-9 {
-            return Err(format!(
-                "line {line}: ({}, {}, {}) is not a unit vector (norm {norm})",
-                p[0], p[1], p[2]
-            ));
-        }
-        if v.z < 0.0 {
-            return Err(format!(
-                "line {line}: z = {} is below the horizon (need z >= 0)",
-                p[2]
-            ));
-        }
+        workbench::bq::rule::check_point(v).map_err(|m| format!("line {line}: {m}"))?;
         points.push(v);
     }
     if points.is_empty() {

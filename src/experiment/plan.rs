@@ -604,7 +604,7 @@ fn resolve_fit_from(spec: &ExperimentSpec) -> Result<usize, String> {
 }
 
 /// One integrand, validated, with its truth computed (and its default name filled in).
-fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
+pub fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
     match spec {
         IntegrandSpec::Named(name) => CosPower::parse(name).map(Integrand::Cos).ok_or_else(|| {
             format!(

@@ -52,6 +52,84 @@ pub fn csv_field(s: &str) -> String {
     }
 }
 
+/// One row of `trials.csv` as values: what [`unit_rows`] writes as text, for callers that want
+/// the numbers themselves (the Python bindings' `run`). Every float is the exact `f64` the CSV
+/// holds in shortest round-trip form.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrialRow {
+    /// Index into [`Plan::integrands`].
+    pub integrand: usize,
+    /// Index into [`Plan::estimators`].
+    pub estimator: usize,
+    pub n: usize,
+    pub trial: usize,
+    pub estimate: f64,
+    pub truth: f64,
+    pub abs_error: f64,
+    /// The stated sd (None where the estimator states none, e.g. MC at N = 1).
+    pub posterior_sd: Option<f64>,
+    pub warnings: u32,
+    /// The weight set's `weight_sum, negative_weights, jitter, condition_estimate` (None for MC).
+    pub weight_set: Option<(f64, usize, f64, f64)>,
+    /// The amplitude λ used (None for MC).
+    pub amplitude: Option<f64>,
+    /// Student-t degrees of freedom of the interval (None for a normal interval or none).
+    pub dof: Option<usize>,
+    /// A fitted model's winner, as its label (`s=2.75 noise=1e-8`); None for the others.
+    pub model: Option<String>,
+}
+
+/// The rows of unit (`n_index`, `trial`): every (integrand, estimator) in the plan's order, as
+/// values, each with what the summary and the unit log's cost columns need.
+pub fn unit_row_values(
+    plan: &Plan,
+    unit: &UnitResult,
+    n_index: usize,
+    trial: usize,
+) -> Vec<(TrialRow, RowValues)> {
+    let n = plan.samples[n_index];
+    let mut rows = Vec::with_capacity(plan.integrands.len() * plan.estimators.len());
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        let truth = f.integral();
+        for (ei, e) in plan.estimators.iter().enumerate() {
+            let est = unit.estimates[fi][ei];
+            let uncertainty = unit.uncertainty[fi][ei];
+            let values = RowValues {
+                abs_error: (est - truth).abs(),
+                sd: uncertainty.map(|u| (u.sd, u.dof)),
+                warnings: unit.warnings_for(fi, ei),
+                evaluations: unit.cost.evaluations[fi][ei],
+                weight_set_seconds: unit.cost.weight_set[ei],
+                seconds: unit.cost.seconds[fi][ei],
+                model: unit.chosen[fi][ei].map(|c| c as u16),
+            };
+            let model = values.model.map(|c| {
+                let m = e.model.expect("a chosen model has a model");
+                plan.models[m].candidates()[usize::from(c)].label()
+            });
+            let row = TrialRow {
+                integrand: fi,
+                estimator: ei,
+                n,
+                trial,
+                estimate: est,
+                truth,
+                abs_error: values.abs_error,
+                posterior_sd: uncertainty.map(|x| x.sd),
+                warnings: values.warnings,
+                weight_set: unit.diagnostics[fi][ei]
+                    .as_ref()
+                    .map(|d| (d.weight_sum, d.negative_weights, d.jitter, d.condition_estimate)),
+                amplitude: uncertainty.and_then(|x| x.amplitude),
+                dof: uncertainty.and_then(|x| x.dof),
+                model,
+            };
+            rows.push((row, values));
+        }
+    }
+    rows
+}
+
 /// Appends the log rows of unit (`n_index`, `trial`) to `out` — every (integrand, estimator)
 /// in the plan's order, each a `trials.csv` row followed by the cost columns — and returns
 /// their values for the summary, in the same order.
@@ -62,54 +140,38 @@ pub fn unit_rows(
     trial: usize,
     out: &mut String,
 ) -> Vec<RowValues> {
-    let n = plan.samples[n_index];
-    let mut values = Vec::with_capacity(plan.integrands.len() * plan.estimators.len());
-    for (fi, f) in plan.integrands.iter().enumerate() {
-        let truth = f.integral();
-        for (ei, e) in plan.estimators.iter().enumerate() {
-            let est = unit.estimates[fi][ei];
-            let uncertainty = unit.uncertainty[fi][ei];
-            // The weight set's diagnostics (empty for MC).
-            let diagnostics = unit.diagnostics[fi][ei].as_ref().map_or(",,,".to_string(), |d| {
-                format!(
-                    "{:?},{},{:?},{:?}",
-                    d.weight_sum, d.negative_weights, d.jitter, d.condition_estimate
-                )
+    let rows = unit_row_values(plan, unit, n_index, trial);
+    let mut values = Vec::with_capacity(rows.len());
+    for (r, v) in rows {
+        // The weight set's diagnostics (empty for MC).
+        let weight_set = r
+            .weight_set
+            .map_or(",,,".to_string(), |(sum, negative, jitter, condition)| {
+                format!("{sum:?},{negative},{jitter:?},{condition:?}")
             });
-            let row = RowValues {
-                abs_error: (est - truth).abs(),
-                sd: uncertainty.map(|u| (u.sd, u.dof)),
-                warnings: unit.warnings_for(fi, ei),
-                evaluations: unit.cost.evaluations[fi][ei],
-                weight_set_seconds: unit.cost.weight_set[ei],
-                seconds: unit.cost.seconds[fi][ei],
-                model: unit.chosen[fi][ei].map(|c| c as u16),
-            };
-            let model = row.model.map_or(String::new(), |c| {
-                let m = e.model.expect("a chosen model has a model");
-                plan.models[m].candidates()[usize::from(c)].label()
-            });
-            writeln!(
-                out,
-                "{},{},{},{},{n},{trial},{est:?},{truth:?},{:?},{},{},{diagnostics},{},{},{model},{},{:?},{:?}",
-                f.name(),
-                csv_field(&e.label),
-                e.method.name(),
-                e.design.name(),
-                row.abs_error,
-                opt(uncertainty.map(|x| x.sd)),
-                row.warnings,
-                opt(uncertainty.and_then(|x| x.amplitude)),
-                uncertainty
-                    .and_then(|x| x.dof)
-                    .map_or(String::new(), |d| d.to_string()),
-                row.evaluations,
-                row.weight_set_seconds,
-                row.seconds,
-            )
-            .expect("writing to a String");
-            values.push(row);
-        }
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{:?},{:?},{:?},{},{},{weight_set},{},{},{},{},{:?},{:?}",
+            plan.integrands[r.integrand].name(),
+            csv_field(&plan.estimators[r.estimator].label),
+            plan.estimators[r.estimator].method.name(),
+            plan.estimators[r.estimator].design.name(),
+            r.n,
+            r.trial,
+            r.estimate,
+            r.truth,
+            r.abs_error,
+            opt(r.posterior_sd),
+            r.warnings,
+            opt(r.amplitude),
+            r.dof.map_or(String::new(), |d| d.to_string()),
+            r.model.as_deref().unwrap_or(""),
+            v.evaluations,
+            v.weight_set_seconds,
+            v.seconds,
+        )
+        .expect("writing to a String");
+        values.push(v);
     }
     values
 }

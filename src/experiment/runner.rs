@@ -114,6 +114,21 @@ pub fn run_units(plan: &Plan, units: &[usize], tick: &(dyn Fn() + Sync)) -> crat
     results.into_iter().collect()
 }
 
+/// The `n` points that `design` draws in trial `trial` of an experiment with master seed `seed`:
+/// every estimator with that design sees them at that N (a tolerance estimator extends them,
+/// the same stream). What lets a row of `trials.csv` be reproduced outside a run.
+pub fn trial_points(seed: u64, design: Design, n: usize, trial: usize) -> Vec<crate::util::geometry::Vec3> {
+    design.sample_set(n, &mut trial_stream(seed, design, n, trial))
+}
+
+/// The random stream of `design`'s points in trial `trial` at `n` ([`trial_points`]).
+fn trial_stream(seed: u64, design: Design, n: usize, trial: usize) -> crate::util::rng::WorkbenchRng {
+    stream(
+        seed,
+        &[SAMPLES_STREAM, design.stream_id(), n as u64, trial as u64],
+    )
+}
+
 /// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`.
 pub fn run_unit(
     plan: &Plan,
@@ -128,13 +143,7 @@ pub fn run_unit(
         .iter()
         .map(|&d| {
             let clock = Instant::now();
-            let set = d.sample_set(
-                n,
-                &mut stream(
-                    plan.seed,
-                    &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
-                ),
-            );
+            let set = trial_points(plan.seed, d, n, trial);
             sample_seconds.push(clock.elapsed().as_secs_f64());
             set
         })
@@ -173,13 +182,7 @@ pub fn run_unit(
     // Tolerance estimators extend the unit's set of their design (same stream, nested).
     let adaptive_clock = Instant::now();
     let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
-        d.sample_set(
-            count,
-            &mut stream(
-                plan.seed,
-                &[SAMPLES_STREAM, d.stream_id(), n as u64, trial as u64],
-            ),
-        )
+        d.sample_set(count, &mut trial_stream(plan.seed, d, n, trial))
     })?;
     // Every tolerance estimator's stages, on every integrand: one shared cost, shown as such.
     let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();

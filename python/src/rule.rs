@@ -1,0 +1,875 @@
+//! Rules, weights, kernel means, the fitted model and estimates: `workbench rule`'s numbers and
+//! [`workbench::bq::rule::Rule::estimate`], the one estimate sequence of the runner and the
+//! renderer.
+
+use crate::arrays;
+use crate::model::{self, ModelArgs};
+use crate::{library_error, value_error};
+use numpy::IntoPyArray;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::sync::{Arc, OnceLock};
+use workbench::bq::estimator::Method;
+use workbench::bq::factor::{Factor, SpdWorkspace};
+use workbench::bq::model::{BmcModel, ResolvedModel};
+use workbench::bq::rule::Values;
+use workbench::bq::weights::{BmcWeights, Diagnostics, Scale, Solved};
+use workbench::sampling::{Density, Design};
+use workbench::util::geometry::Vec3;
+
+/// `method`, by name.
+pub fn method_arg(name: &str) -> PyResult<Method> {
+    Method::from_name(name).ok_or_else(|| {
+        value_error(format!(
+            "method: unknown method {name:?}; expected one of {}",
+            Method::ALL.map(|m| format!("{:?}", m.name())).join(", ")
+        ))
+    })
+}
+
+/// A method with weights (`bmc`, `bmcp`, `bsq`): what a rule is for.
+fn weighted_method_arg(name: &str) -> PyResult<Method> {
+    let method = method_arg(name)?;
+    if !method.needs_weights() {
+        return Err(value_error(format!(
+            "method: {name:?} uses no weights; a rule's weights are for \"bmc\" (also \"bmcp\") or \"bsq\""
+        )));
+    }
+    Ok(method)
+}
+
+fn design_arg(name: &str) -> PyResult<Design> {
+    Design::from_name(name).ok_or_else(|| {
+        value_error(format!(
+            "design: unknown design {name:?}; expected one of {}",
+            Design::ALL.map(|d| format!("{:?}", d.name())).join(", ")
+        ))
+    })
+}
+
+fn scale_arg(name: &str) -> PyResult<Scale> {
+    Scale::from_name(name).ok_or_else(|| {
+        value_error(format!(
+            "scale: unknown scale {name:?}; expected \"unit\", \"ml\" or \"loo\""
+        ))
+    })
+}
+
+/// Bayes–Sard fits a constant: it needs two points (as `workbench rule --method bsq`).
+fn check_min_points(method: Method, n: usize, what: &str) -> PyResult<()> {
+    if n < method.min_points() {
+        return Err(value_error(format!(
+            "{what}: method {:?} needs at least {} points, got {n}",
+            method.name(),
+            method.min_points()
+        )));
+    }
+    Ok(())
+}
+
+/// The values argument against the model: a fitted model needs them, a fixed one refuses them
+/// (the CLI's `--values` rules).
+fn values_for_model(
+    values: Option<&Bound<'_, PyAny>>,
+    resolved: &ResolvedModel,
+    n: usize,
+) -> PyResult<Option<Vec<f64>>> {
+    match (values, resolved.is_fitted()) {
+        (Some(v), true) => Ok(Some(arrays::values(v, "values", n)?)),
+        (None, true) => Err(value_error(
+            "values: a fitted kernel needs the integrand's values at the rule's points (the model is \
+             chosen by the marginal likelihood of the values)",
+        )),
+        (Some(_), false) => Err(value_error(
+            "values: only used with a fitted kernel (a fixed kernel's weights do not depend on the values)",
+        )),
+        (None, false) => Ok(None),
+    }
+}
+
+/// Warns (Python `RuntimeWarning`) about a weight set's numerical warnings, as the CLI prints
+/// them.
+fn warn_diagnostics(py: Python<'_>, d: &Diagnostics) -> PyResult<()> {
+    for w in &d.warnings {
+        model::warn(py, &w.message())?;
+    }
+    Ok(())
+}
+
+/// A rule as arrays: points `(n, 3)` and weights `(n,)`.
+type PointsAndWeights<'py> = (Bound<'py, numpy::PyArray2<f64>>, Bound<'py, numpy::PyArray1<f64>>);
+
+/// `rule(n=64, *, design="uniform", kernel=None, noise=None, kernel_mean=None,
+/// kernel_mean_samples=None, method="bmc", seed=0, values=None) -> (points, weights)`
+#[pyfunction]
+#[pyo3(signature = (n=64, *, design="uniform", kernel=None, noise=None, kernel_mean=None,
+    kernel_mean_samples=None, method="bmc", seed=0, values=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn rule<'py>(
+    py: Python<'py>,
+    n: i128,
+    design: &str,
+    kernel: Option<Bound<'py, PyAny>>,
+    noise: Option<f64>,
+    kernel_mean: Option<String>,
+    kernel_mean_samples: Option<i128>,
+    method: &str,
+    seed: i128,
+    values: Option<Bound<'py, PyAny>>,
+) -> PyResult<PointsAndWeights<'py>> {
+    let n = arrays::count(n, "n")?;
+    let seed = arrays::whole(seed, "seed")?;
+    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
+    let design = design_arg(design)?;
+    let method = weighted_method_arg(method)?;
+    let args = ModelArgs {
+        kernel,
+        noise,
+        kernel_mean,
+        kernel_mean_samples,
+    };
+    let resolved = args.resolve(py)?;
+    let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
+    if n > 0 {
+        design
+            .check_count(n)
+            .map_err(|m| value_error(format!("n: {n} with design {:?}: {m}", design.name())))?;
+    }
+    workbench::bq::rule::check_generated_count(n, design, exact, "n").map_err(|e| value_error(e.0))?;
+    check_min_points(method, n, "n")?;
+    let values = values_for_model(values.as_ref(), &resolved, n)?;
+    let model = model::build(py, &resolved)?;
+    let (points, (weights, _)) = py
+        .detach(|| {
+            let points = workbench::bq::rule::generate_points(n, seed, design);
+            workbench::bq::rule::rule_weights(&points, design, &model, method, values.as_deref(), seed)
+                .map(|w| (points, w))
+        })
+        .map_err(library_error)?;
+    warn_diagnostics(py, &weights.diagnostics)?;
+    Ok((
+        arrays::points_array(py, &points),
+        arrays::vector(py, weights.weights),
+    ))
+}
+
+/// `weights(points, *, kernel=None, noise=None, kernel_mean=None, kernel_mean_samples=None,
+/// method="bmc", seed=0, values=None) -> weights`
+#[pyfunction]
+#[pyo3(signature = (points, *, kernel=None, noise=None, kernel_mean=None,
+    kernel_mean_samples=None, method="bmc", seed=0, values=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn weights<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    kernel: Option<Bound<'py, PyAny>>,
+    noise: Option<f64>,
+    kernel_mean: Option<String>,
+    kernel_mean_samples: Option<i128>,
+    method: &str,
+    seed: i128,
+    values: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    let seed = arrays::whole(seed, "seed")?;
+    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
+    let method = weighted_method_arg(method)?;
+    let args = ModelArgs {
+        kernel,
+        noise,
+        kernel_mean,
+        kernel_mean_samples,
+    };
+    let resolved = args.resolve(py)?;
+    let points = arrays::points(points, "points")?;
+    workbench::bq::rule::check_point_count(points.len(), "points").map_err(|e| value_error(e.0))?;
+    check_min_points(method, points.len(), "points")?;
+    let values = values_for_model(values.as_ref(), &resolved, points.len())?;
+    let model = model::build(py, &resolved)?;
+    let design = Design::Iid(Density::Uniform);
+    let (weights, _) = py
+        .detach(|| {
+            workbench::bq::rule::rule_weights(&points, design, &model, method, values.as_deref(), seed)
+        })
+        .map_err(library_error)?;
+    warn_diagnostics(py, &weights.diagnostics)?;
+    Ok(arrays::vector(py, weights.weights))
+}
+
+/// `kernel_means(points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0) -> z`
+#[pyfunction]
+#[pyo3(signature = (points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0))]
+pub fn kernel_means<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    kernel: Option<Bound<'py, PyAny>>,
+    kernel_mean: Option<String>,
+    kernel_mean_samples: Option<i128>,
+    seed: i128,
+) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    let seed = arrays::whole(seed, "seed")?;
+    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
+    let model = fixed_model(py, kernel, kernel_mean, kernel_mean_samples)?;
+    let points = arrays::points(points, "points")?;
+    let z = py.detach(|| model.kernel_means(&points, &mut workbench::bq::rule::kernel_mean_stream(seed)));
+    Ok(arrays::vector(py, z))
+}
+
+/// `prior_variance(kernel=None) -> float`: `V̂ = ∫∫ k dω dω'` (exact).
+#[pyfunction]
+#[pyo3(signature = (kernel=None))]
+pub fn prior_variance<'py>(py: Python<'py>, kernel: Option<Bound<'py, PyAny>>) -> PyResult<f64> {
+    Ok(fixed_model(py, kernel, None, None)?.prior_variance())
+}
+
+/// A fixed (not fitted) model without noise-dependent quantities.
+fn fixed_model<'py>(
+    py: Python<'py>,
+    kernel: Option<Bound<'py, PyAny>>,
+    kernel_mean: Option<String>,
+    kernel_mean_samples: Option<u64>,
+) -> PyResult<Arc<BmcModel>> {
+    let args = ModelArgs {
+        kernel,
+        noise: None,
+        kernel_mean,
+        kernel_mean_samples,
+    };
+    let resolved = args.resolve(py)?;
+    if resolved.is_fitted() {
+        return Err(value_error(
+            "kernel: a fitted kernel has one kernel per grid model; give one of them, e.g. \
+             {\"type\": \"sobolev\", \"s\": 2.75}",
+        ));
+    }
+    model::build(py, &resolved)
+}
+
+/// `fit(points, values, *, method="bmc", grid=None) -> dict`: the fitted model's choice (math.md
+/// §9), as `workbench rule --points P --kernel fitted --values V` makes it.
+#[pyfunction]
+#[pyo3(signature = (points, values, *, method="bmc", grid=None))]
+pub fn fit<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    values: &Bound<'py, PyAny>,
+    method: &str,
+    grid: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let method = weighted_method_arg(method)?;
+    let kernel = PyDict::new(py);
+    kernel.set_item("type", "fitted")?;
+    if let Some(g) = grid {
+        kernel.set_item("grid", g)?;
+    }
+    let args = ModelArgs {
+        kernel: Some(kernel.into_any()),
+        noise: None,
+        kernel_mean: None,
+        kernel_mean_samples: None,
+    };
+    // The model's messages name the kernel's fields (`kernel: grid.noise …`, `kernel.grid: …`);
+    // here the argument is the grid.
+    let resolved = args.resolve(py).map_err(|e| {
+        let m = e.value(py).to_string();
+        let m = m
+            .strip_prefix("kernel: ")
+            .or(m.strip_prefix("kernel."))
+            .unwrap_or(&m);
+        if m.starts_with("grid") {
+            value_error(m.to_string())
+        } else {
+            value_error(format!("grid: {m}"))
+        }
+    })?;
+    let points = arrays::points(points, "points")?;
+    workbench::bq::rule::check_point_count(points.len(), "points").map_err(|e| value_error(e.0))?;
+    check_min_points(method, points.len(), "points")?;
+    let y = arrays::values(values, "values", points.len())?;
+    let model = model::build(py, &resolved)?;
+    let design = Design::Iid(Density::Uniform);
+    let (weights, choice) = py
+        .detach(|| workbench::bq::rule::rule_weights(&points, design, &model, method, Some(&y), 0))
+        .map_err(library_error)?;
+    let choice = choice.expect("a fitted model chooses");
+    let out = PyDict::new(py);
+    out.set_item("chosen", choice.chosen)?;
+    let chosen = &model.candidates()[choice.chosen];
+    out.set_item("model", chosen.label())?;
+    out.set_item("s", sobolev_s(chosen))?;
+    out.set_item("noise", chosen.noise)?;
+    let grid: Vec<Bound<'py, PyDict>> = model
+        .candidates()
+        .iter()
+        .zip(&choice.log_likelihoods)
+        .map(|(m, l)| {
+            let d = PyDict::new(py);
+            d.set_item("s", sobolev_s(m))?;
+            d.set_item("noise", m.noise)?;
+            d.set_item("log_marginal_likelihood", l)?;
+            Ok(d)
+        })
+        .collect::<PyResult<_>>()?;
+    out.set_item("grid", grid)?;
+    out.set_item("weights", arrays::vector(py, weights.weights))?;
+    Ok(out)
+}
+
+fn sobolev_s(m: &BmcModel) -> Option<f64> {
+    match &m.kernel {
+        workbench::bq::kernel::Kernel::Sobolev(k) => Some(k.s()),
+        _ => None,
+    }
+}
+
+/// One model's weights on a rule's points with its kept factor (what `Q⁻¹Y` and `diag(Q⁻¹)`
+/// need) and `log det Q` (what a fitted model's choice needs).
+struct Kept {
+    weights: BmcWeights,
+    factor: Factor,
+    log_det: f64,
+    inverse_diagonal: OnceLock<Vec<f64>>,
+}
+
+/// A quadrature rule with everything an estimate needs: points, their BMC weights under a model
+/// and the factorisation of `Q` (for the fitted amplitude of the `ml` and `loo` scales), or, for a
+/// fitted kernel, every grid model's.
+#[pyclass(frozen, module = "workbench")]
+pub struct Rule {
+    points: Vec<Vec3>,
+    /// How the points were drawn (given points: i.i.d. uniform, a dense solve).
+    design: Design,
+    generated: bool,
+    resolved: ResolvedModel,
+    model: Arc<BmcModel>,
+    kept: Vec<Kept>,
+}
+
+impl Rule {
+    fn build(
+        py: Python<'_>,
+        points: Vec<Vec3>,
+        design: Design,
+        generated: bool,
+        resolved: ResolvedModel,
+        seed: u64,
+    ) -> PyResult<Rule> {
+        let model = model::build(py, &resolved)?;
+        let kept = py
+            .detach(|| {
+                // As `workbench rule` (and a fitted model's choice) draws: one kernel-mean stream
+                // and one workspace, every grid model in turn.
+                let mut rng = workbench::bq::rule::kernel_mean_stream(seed);
+                let mut workspace = SpdWorkspace::new();
+                let models: Vec<&BmcModel> = if model.is_fitted() {
+                    model.candidates().iter().collect()
+                } else {
+                    vec![&model]
+                };
+                models
+                    .into_iter()
+                    .map(|m| {
+                        let weights = m.weights_for_design(&points, design, &mut rng, &mut workspace)?;
+                        Ok(Kept {
+                            weights,
+                            factor: workspace.keep_factor(),
+                            log_det: workspace.log_det(),
+                            inverse_diagonal: OnceLock::new(),
+                        })
+                    })
+                    .collect::<Result<Vec<_>, workbench::bq::factor::NotPositiveDefinite>>()
+            })
+            .map_err(|e| library_error(e.into()))?;
+        for k in &kept {
+            warn_diagnostics(py, &k.weights.diagnostics)?;
+        }
+        Ok(Rule {
+            points,
+            design,
+            generated,
+            resolved,
+            model,
+            kept,
+        })
+    }
+
+    /// `Q⁻¹Y` with model `k`'s factor.
+    fn solve(&self, k: usize, y: &[f64]) -> Vec<f64> {
+        let mut solve = y.to_vec();
+        self.kept[k].factor.solve_columns_in_place(&mut solve, 1);
+        solve
+    }
+
+    /// The model an estimate of `method` on `y` uses (a fitted rule: the grid model of largest
+    /// marginal likelihood, with every model's `ℓ`), and `Q⁻¹Y` under it when `needs_solve`.
+    fn choose(
+        &self,
+        method: Method,
+        y: &[f64],
+        prior: f64,
+        needs_solve: bool,
+    ) -> (usize, Vec<f64>, Option<Vec<f64>>) {
+        if !self.model.is_fitted() {
+            return (0, Vec::new(), needs_solve.then(|| self.solve(0, y)));
+        }
+        let mut solves = Vec::with_capacity(self.kept.len());
+        let ells: Vec<f64> = self
+            .kept
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let solve = self.solve(k, y);
+                let l = workbench::bq::fitted::log_marginal_likelihood(
+                    method, y, &solve, &c.weights, prior, c.log_det,
+                )
+                .unwrap_or(f64::NAN);
+                solves.push(solve);
+                l
+            })
+            .collect();
+        let best = workbench::bq::fitted::best(&ells);
+        (best, ells, Some(solves.swap_remove(best)))
+    }
+
+    /// `Î` and its sd (NaN where none is stated) of `method` (one with weights) on values `y`.
+    fn estimate_values(&self, method: Method, y: &[f64], prior: f64, scale: Scale) -> (f64, f64) {
+        let (k, _, solve) = self.choose(method, y, prior, scale != Scale::Unit);
+        let c = &self.kept[k];
+        let inverse_diagonal = (scale == Scale::Loo).then(|| {
+            c.inverse_diagonal
+                .get_or_init(|| c.factor.inverse_diagonal())
+                .as_slice()
+        });
+        let rule = workbench::bq::rule::Rule {
+            density: self.design.density(),
+            points: &self.points,
+            weights: Some(&c.weights),
+            inverse_diagonal,
+        };
+        let values = Values {
+            y,
+            solved: solve.as_deref().map(Solved::Full),
+        };
+        let e = rule.estimate(method, values, prior, scale);
+        (e.value, e.uncertainty.map_or(f64::NAN, |u| u.sd))
+    }
+
+    /// The weight set `method` uses on `values` (a fitted rule needs them).
+    fn weight_set(
+        &self,
+        method: Method,
+        values: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(usize, Vec<f64>, BmcWeights)> {
+        let (k, ells) = match (values, self.model.is_fitted()) {
+            (None, false) => (0, Vec::new()),
+            (Some(v), true) => {
+                let y = arrays::values(v, "values", self.points.len())?;
+                let (k, ells, _) = self.choose(method, &y, 0.0, false);
+                (k, ells)
+            }
+            (None, true) => {
+                return Err(value_error(
+                    "values: a fitted rule's weights depend on the integrand's values; pass them",
+                ));
+            }
+            (Some(_), false) => {
+                return Err(value_error(
+                    "values: only used with a fitted kernel (a fixed kernel's weights do not depend on the values)",
+                ));
+            }
+        };
+        let w = &self.kept[k].weights;
+        Ok((
+            k,
+            ells,
+            if method == Method::Bsq {
+                w.bayes_sard()
+            } else {
+                w.clone()
+            },
+        ))
+    }
+}
+
+/// The prior constant of BMCP: needed by it, refused by the others.
+fn prior_arg(method: Method, prior: Option<f64>) -> PyResult<f64> {
+    match (method.uses_prior(), prior) {
+        (true, Some(c)) => {
+            let max = workbench::experiment::plan::MAX_PRIOR;
+            if !(c.is_finite() && c.abs() <= max) {
+                return Err(value_error(format!(
+                    "prior: the constant must be a finite number with |c| <= {max:e}, got {c:?}"
+                )));
+            }
+            Ok(c)
+        }
+        (true, None) => Err(value_error(
+            "prior: method \"bmcp\" needs its constant prior mean c (e.g. the integrand's mean value)",
+        )),
+        (false, Some(c)) => Err(value_error(format!(
+            "prior: {c} is not used by method {:?} (only \"bmcp\" takes a prior)",
+            method.name()
+        ))),
+        (false, None) => Ok(0.0),
+    }
+}
+
+#[pymethods]
+impl Rule {
+    #[new]
+    #[pyo3(signature = (points=None, *, n=None, design=None, kernel=None, noise=None,
+        kernel_mean=None, kernel_mean_samples=None, seed=0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new<'py>(
+        py: Python<'py>,
+        points: Option<&Bound<'py, PyAny>>,
+        n: Option<i128>,
+        design: Option<&str>,
+        kernel: Option<Bound<'py, PyAny>>,
+        noise: Option<f64>,
+        kernel_mean: Option<String>,
+        kernel_mean_samples: Option<i128>,
+        seed: i128,
+    ) -> PyResult<Rule> {
+        let n = n.map(|n| arrays::count(n, "n")).transpose()?;
+        let seed = arrays::whole(seed, "seed")?;
+        let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
+        let args = ModelArgs {
+            kernel,
+            noise,
+            kernel_mean,
+            kernel_mean_samples,
+        };
+        let resolved = args.resolve(py)?;
+        let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
+        match (points, n) {
+            (Some(_), Some(_)) => Err(value_error(
+                "n: give either points or n (points to generate), not both",
+            )),
+            (Some(_), None) if design.is_some() => Err(value_error(
+                "design: only with n (how to generate the points); given points are weighted as they are",
+            )),
+            (Some(p), None) => {
+                let points = arrays::points(p, "points")?;
+                workbench::bq::rule::check_point_count(points.len(), "points")
+                    .map_err(|e| value_error(e.0))?;
+                Rule::build(py, points, Design::Iid(Density::Uniform), false, resolved, seed)
+            }
+            (None, n) => {
+                let n = n.unwrap_or(64);
+                let design = design_arg(design.unwrap_or("uniform"))?;
+                if n > 0 {
+                    design
+                        .check_count(n)
+                        .map_err(|m| value_error(format!("n: {n} with design {:?}: {m}", design.name())))?;
+                }
+                workbench::bq::rule::check_generated_count(n, design, exact, "n")
+                    .map_err(|e| value_error(e.0))?;
+                let points = workbench::bq::rule::generate_points(n, seed, design);
+                Rule::build(py, points, design, true, resolved, seed)
+            }
+        }
+    }
+
+    /// The points, a float64 array of shape `(n, 3)` (a copy).
+    #[getter]
+    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        arrays::points_array(py, &self.points)
+    }
+
+    /// The number of points.
+    #[getter]
+    fn n(&self) -> usize {
+        self.points.len()
+    }
+
+    fn __len__(&self) -> usize {
+        self.points.len()
+    }
+
+    /// The design the points were generated with, or None for given points.
+    #[getter]
+    fn design(&self) -> Option<&'static str> {
+        self.generated.then(|| self.design.name())
+    }
+
+    /// Whether the kernel is fitted (math.md §9): the weights then depend on the values.
+    #[getter]
+    fn fitted(&self) -> bool {
+        self.model.is_fitted()
+    }
+
+    /// The resolved model (kernel with its parameters, noise, kernel mean), as an experiment's
+    /// manifest states it.
+    #[getter]
+    fn model<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_python(py, &self.resolved.to_json())
+    }
+
+    /// `weights(method="bmc", values=None)`: the rule's weights for `method` (`bsq`: Bayes–Sard's,
+    /// summing to 2π); a fitted rule needs the values that choose its model.
+    #[pyo3(signature = (method="bmc", values=None))]
+    fn weights<'py>(
+        &self,
+        py: Python<'py>,
+        method: &str,
+        values: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+        let method = weighted_method_arg(method)?;
+        check_min_points(method, self.points.len(), "points")?;
+        let (_, _, w) = self.weight_set(method, values)?;
+        Ok(arrays::vector(py, w.weights))
+    }
+
+    /// `diagnostics(method="bmc", values=None) -> dict`: the weight set's diagnostics (as `workbench
+    /// rule --summary` states them) and, for a fitted rule, the chosen model with every model's ℓ.
+    #[pyo3(signature = (method="bmc", values=None))]
+    fn diagnostics<'py>(
+        &self,
+        py: Python<'py>,
+        method: &str,
+        values: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let method = weighted_method_arg(method)?;
+        check_min_points(method, self.points.len(), "points")?;
+        let (k, ells, w) = self.weight_set(method, values)?;
+        let d = &w.diagnostics;
+        let out = PyDict::new(py);
+        out.set_item("n", d.n)?;
+        out.set_item("weight_sum", d.weight_sum)?;
+        out.set_item("negative_weights", d.negative_weights)?;
+        out.set_item("min_weight", d.min_weight)?;
+        out.set_item("max_weight", d.max_weight)?;
+        out.set_item("jitter", d.jitter)?;
+        out.set_item("condition_estimate", d.condition_estimate)?;
+        out.set_item("prior_variance", d.prior_variance)?;
+        out.set_item("posterior_variance", d.posterior_variance)?;
+        out.set_item("posterior_sd", w.posterior_sd())?;
+        out.set_item(
+            "warnings",
+            d.warnings.iter().map(|w| w.message()).collect::<Vec<_>>(),
+        )?;
+        if self.model.is_fitted() {
+            out.set_item("chosen", k)?;
+            out.set_item("model", self.model.candidates()[k].label())?;
+            out.set_item("log_marginal_likelihoods", ells)?;
+        }
+        Ok(out)
+    }
+
+    /// `q_inverse() -> ndarray`: `Q⁻¹ = (K + σ_n² I)⁻¹` of a fixed model's rule, float64 `(n, n)`
+    /// (from the kept factor, one solve per column): what a vectorised renderer needs for the
+    /// `ml` amplitude `λ̂ = YᵀQ⁻¹Y / N` of many pixels at once (`workbench.mitsuba`).
+    fn q_inverse<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        if self.model.is_fitted() {
+            return Err(value_error(
+                "kernel: a fitted rule has one Q per grid model; use a fixed kernel",
+            ));
+        }
+        let n = self.points.len();
+        let mut q = vec![0.0; n * n];
+        for i in 0..n {
+            q[i * n + i] = 1.0;
+        }
+        self.kept[0].factor.solve_columns_in_place(&mut q, n);
+        // Column-major n × n; Q⁻¹ is symmetric, so the rows read the same.
+        Ok(numpy::ndarray::Array2::from_shape_vec((n, n), q)
+            .expect("n × n")
+            .into_pyarray(py))
+    }
+
+    /// `estimate(values, method="bmc", prior=None, scale=None) -> (value, sd)`.
+    #[pyo3(signature = (values, method="bmc", prior=None, scale=None))]
+    fn estimate(
+        &self,
+        values: &Bound<'_, PyAny>,
+        method: &str,
+        prior: Option<f64>,
+        scale: Option<&str>,
+    ) -> PyResult<(f64, f64)> {
+        let method = weighted_method_arg(method)?;
+        let y = arrays::values(values, "values", self.points.len())?;
+        self.estimate_checked(method, &y, prior, scale)
+    }
+
+    fn __repr__(&self) -> String {
+        let model = if self.model.is_fitted() {
+            format!("fitted over {} models", self.model.candidates().len())
+        } else {
+            self.model.label()
+        };
+        match self.generated {
+            true => format!(
+                "workbench.Rule(n={}, design={:?}, {model})",
+                self.points.len(),
+                self.design.name()
+            ),
+            false => format!("workbench.Rule({} given points, {model})", self.points.len()),
+        }
+    }
+}
+
+impl Rule {
+    fn estimate_checked(
+        &self,
+        method: Method,
+        y: &[f64],
+        prior: Option<f64>,
+        scale: Option<&str>,
+    ) -> PyResult<(f64, f64)> {
+        check_min_points(method, self.points.len(), "points")?;
+        let prior = prior_arg(method, prior)?;
+        let scale = scale.map_or(Ok(Scale::DEFAULT), scale_arg)?;
+        Ok(self.estimate_values(method, y, prior, scale))
+    }
+}
+
+/// A `serde_json` value as the Python object `json.loads` gives.
+pub fn json_to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.getattr("loads")?.call1((value.to_string(),))
+}
+
+/// `estimate(method, points, values, *, weights=None, prior=None, scale=None, density=None) ->
+/// (value, sd)`
+#[pyfunction]
+#[pyo3(signature = (method, points, values, *, weights=None, prior=None, scale=None, density=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn estimate<'py>(
+    py: Python<'py>,
+    method: &str,
+    points: &Bound<'py, PyAny>,
+    values: &Bound<'py, PyAny>,
+    weights: Option<&Bound<'py, PyAny>>,
+    prior: Option<f64>,
+    scale: Option<&str>,
+    density: Option<&str>,
+) -> PyResult<(f64, f64)> {
+    let method = method_arg(method)?;
+    if !method.needs_weights() {
+        for (name, given) in [
+            ("weights", weights.is_some()),
+            ("scale", scale.is_some()),
+            ("prior", prior.is_some()),
+        ] {
+            if given {
+                return Err(value_error(format!(
+                    "{name}: not used by method \"mc\" (plain Monte Carlo: the mean of f/p)"
+                )));
+            }
+        }
+        let density = match density.unwrap_or("uniform") {
+            "uniform" => Density::Uniform,
+            "cosine" => Density::Cosine,
+            other => {
+                return Err(value_error(format!(
+                    "density: unknown density {other:?}; expected \"uniform\" or \"cosine\""
+                )));
+            }
+        };
+        let points = arrays::points(points, "points")?;
+        let y = arrays::values(values, "values", points.len())?;
+        let rule = workbench::bq::rule::Rule {
+            density,
+            points: &points,
+            weights: None,
+            inverse_diagonal: None,
+        };
+        let e = rule.estimate(method, Values { y: &y, solved: None }, 0.0, Scale::Unit);
+        return Ok((e.value, e.uncertainty.map_or(f64::NAN, |u| u.sd)));
+    }
+    if let Some(d) = density {
+        return Err(value_error(format!(
+            "density: {d:?} is not used by method {:?} (BMC weights hold for points from any density)",
+            method.name()
+        )));
+    }
+    match weights {
+        Some(w) => {
+            let rule = w.cast::<Rule>().map_err(|_| {
+                value_error(format!(
+                    "weights: must be a workbench.Rule (its weights with the factor the posterior sd \
+                     needs) or None, got {}",
+                    w.get_type().name().map_or("?".into(), |n| n.to_string())
+                ))
+            })?;
+            let rule = rule.get();
+            same_points(points, &rule.points)?;
+            let y = arrays::values(values, "values", rule.points.len())?;
+            rule.estimate_checked(method, &y, prior, scale)
+        }
+        None => {
+            let p = arrays::points(points, "points")?;
+            workbench::bq::rule::check_point_count(p.len(), "points").map_err(|e| value_error(e.0))?;
+            let y = arrays::values(values, "values", p.len())?;
+            check_min_points(method, p.len(), "points")?;
+            let resolved = ModelArgs {
+                kernel: None,
+                noise: None,
+                kernel_mean: None,
+                kernel_mean_samples: None,
+            }
+            .resolve(py)?;
+            let rule = Rule::build(py, p, Design::Iid(Density::Uniform), false, resolved, 0)?;
+            rule.estimate_checked(method, &y, prior, scale)
+        }
+    }
+}
+
+/// `points` must be the rule's own points, bit for bit (the weights hold for them only).
+fn same_points(points: &Bound<'_, PyAny>, own: &[Vec3]) -> PyResult<()> {
+    use numpy::{PyArray2, PyArrayMethods};
+    let differ = |what: String| {
+        value_error(format!(
+            "points: {what}; with weights=rule, pass the rule's own points (rule.points)"
+        ))
+    };
+    let Ok(array) = points.cast::<PyArray2<f64>>() else {
+        // Checked as any points argument, for the message.
+        arrays::points(points, "points")?;
+        return Err(differ("are not the rule's points".into()));
+    };
+    let view = array.readonly();
+    let view = view.as_array();
+    if view.nrows() != own.len() || view.ncols() != 3 {
+        arrays::points(points, "points")?;
+        return Err(differ(format!(
+            "{} points for a rule of {}",
+            view.nrows(),
+            own.len()
+        )));
+    }
+    for (i, (row, p)) in view.rows().into_iter().zip(own).enumerate() {
+        if row[0].to_bits() != p.x.to_bits()
+            || row[1].to_bits() != p.y.to_bits()
+            || row[2].to_bits() != p.z.to_bits()
+        {
+            return Err(differ(format!("row {i} is not the rule's point {i}")));
+        }
+    }
+    Ok(())
+}
+
+/// `_estimate_core_seconds(rule, values, method="bmc", scale=None, iterations=10000) -> float`:
+/// the mean seconds of the estimate's own work (the model's `Q⁻¹Y`, the amplitude, `Î` and its
+/// sd) without the Python call around it, for the overhead benchmark (`python/bench/`).
+#[pyfunction]
+#[pyo3(name = "_estimate_core_seconds", signature = (rule, values, method="bmc", scale=None, iterations=10000))]
+pub fn estimate_core_seconds(
+    rule: &Bound<'_, Rule>,
+    values: &Bound<'_, PyAny>,
+    method: &str,
+    scale: Option<&str>,
+    iterations: usize,
+) -> PyResult<f64> {
+    let rule = rule.get();
+    let method = weighted_method_arg(method)?;
+    let y = arrays::values(values, "values", rule.points.len())?;
+    let scale = scale.map_or(Ok(Scale::DEFAULT), scale_arg)?;
+    let start = std::time::Instant::now();
+    let mut sink = 0.0;
+    for _ in 0..iterations.max(1) {
+        let (v, sd) = rule.estimate_values(method, std::hint::black_box(&y), 0.0, scale);
+        sink += v + sd;
+    }
+    std::hint::black_box(sink);
+    Ok(start.elapsed().as_secs_f64() / iterations.max(1) as f64)
+}

@@ -1,0 +1,82 @@
+"""Shared helpers: the CLI binary (``target/release/workbench``, built by ``cargo build --release``
+or ``cargo test --release`` at the repository root; ``WORKBENCH_BIN`` overrides it) and exact
+readers of its CSVs."""
+
+import csv
+import math
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+
+
+def cli_binary() -> pathlib.Path:
+    path = pathlib.Path(os.environ.get("WORKBENCH_BIN", REPO / "target" / "release" / "workbench"))
+    if not path.exists():
+        raise RuntimeError(
+            f"the workbench CLI is not at {path}: run `cargo build --release` at the repository root "
+            "(or set WORKBENCH_BIN); the tests compare the bindings with it"
+        )
+    return path
+
+
+@pytest.fixture
+def cli(tmp_path):
+    """Runs the CLI in ``tmp_path``; returns the completed process."""
+
+    def run(*args, check=True):
+        p = subprocess.run(
+            [str(cli_binary()), *map(str, args)], cwd=tmp_path, capture_output=True, text=True
+        )
+        if check and p.returncode != 0:
+            raise AssertionError(f"workbench {' '.join(map(str, args))} failed:\n{p.stderr}")
+        return p
+
+    return run
+
+
+def read_csv(path):
+    """Header and rows of a CSV, as strings."""
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def exact(field: str) -> float:
+    """A CSV number as the exact double (the CLI writes shortest round-trip form; Python's
+    float() rounds correctly); an empty field is NaN, as in ``run``'s columns."""
+    return float(field) if field != "" else math.nan
+
+
+def read_rule(path):
+    header, rows = read_csv(path)
+    assert header == ["x", "y", "z", "weight"]
+    a = np.array([[exact(v) for v in r] for r in rows])
+    return np.ascontiguousarray(a[:, :3]), np.ascontiguousarray(a[:, 3])
+
+
+def same_bits(a, b) -> bool:
+    """Equal to the bit, NaNs at the same places."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape:
+        return False
+    nan = np.isnan(a)
+    return bool(np.array_equal(nan, np.isnan(b)) and np.all(a[~nan].view(np.uint64) == b[~nan].view(np.uint64)))
+
+
+def write_points(path, points):
+    with open(path, "w") as f:
+        f.write("x,y,z\n")
+        for p in points:
+            f.write(",".join(repr(float(v)) for v in p) + "\n")
+
+
+def write_values(path, values):
+    with open(path, "w") as f:
+        f.write("value\n")
+        for v in values:
+            f.write(repr(float(v)) + "\n")

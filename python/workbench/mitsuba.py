@@ -1,0 +1,202 @@
+"""A Mitsuba 3 integrator: direct illumination from the environment emitter at the first hit,
+estimated by a BMC rule in the local shading frame, with Monte Carlo (cosine or BSDF sampling)
+as the baseline in the same integrator.
+
+    import mitsuba as mi
+    import workbench.mitsuba as wbm
+    wbm.set_variant()              # llvm_ad_rgb, or scalar_rgb where the LLVM variant is missing
+    wbm.register()                 # mi.register_integrator("workbench", ...)
+    img = mi.render(scene_with({"type": "workbench", "method": "bmc", "n": 64}))
+
+At a pixel the camera ray's first hit ``x`` gets ``Î = Σ_i w_i f(R ω_i)`` with
+``f(ω) = L_env(ω) V(x, ω) f_r(ω_o, ω) cos θ``: one rule (points ``ω_i`` and weights ``w_i``,
+``workbench.Rule``) computed once, rotated per pixel sample by a random azimuth about the
+shading normal (the weights hold for any rotation about the normal: the kernels depend on
+``ω·ω'`` only), visibility ``V`` by ``scene.ray_test``, the BSDF (times the cosine) evaluated by
+Mitsuba in the local frame. Rays that hit nothing see the environment. The per-channel sd the
+estimator states — ``sqrt(λ Var₁)`` with the ``ml`` amplitude ``λ̂ = YᵀQ⁻¹Y / N`` (Student-t,
+N dof), or ``λ = 1`` with ``scale="unit"`` — is written to the AOVs ``sd.R``, ``sd.G``, ``sd.B``;
+for the MC baselines it is the standard error ``s/√N`` of their mean. Emission of hit surfaces
+and indirect light are left out (direct illumination from the environment only), as in
+workbench's own renderer.
+
+Properties (``mi.load_dict``): ``method`` = ``"bmc"`` (default), ``"mc_cosine"`` or
+``"mc_bsdf"``; ``n`` points or samples per pixel sample (default 64); ``design`` of the rule's
+points (``"uniform"``, ``"sobol"``, …; default ``uniform``); ``s`` (Sobolev smoothness, default
+1.4) and ``noise`` (σ_n², default 0.01); ``scale`` (``"ml"`` or ``"unit"``); ``seed`` of the
+rule. The computation is vectorised over pixels: each of the N rule points (or MC samples) is
+one step of a Python loop that Dr.Jit traces into one kernel.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import mitsuba as mi
+
+import workbench as _wb
+
+NAME = "workbench"
+METHODS = ("bmc", "mc_cosine", "mc_bsdf")
+VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+
+
+#: The oldest LLVM whose JIT lowers every operation Mitsuba's kernels use: with LLVM 14 or 15
+#: (Debian 12's default) `llvm.maximum`, which Mitsuba's warps and BSDF sampling emit, aborts the
+#: process ("Cannot select: fmaximum"). Debian 12 has `libllvm19` (`apt-get install libllvm19`),
+#: which Dr.Jit then finds by itself (or set DRJIT_LIBLLVM_PATH).
+MIN_LLVM = 16
+
+
+def set_variant() -> str:
+    """Selects ``llvm_ad_rgb`` (vectorised over pixels) if Mitsuba has it and Dr.Jit loaded an
+    LLVM ≥ 16, else ``scalar_rgb`` (one pixel at a time; the same numbers, slowly); returns the
+    variant."""
+    import drjit as dr
+
+    available = mi.variants()
+    if "llvm_ad_rgb" in available:
+        try:
+            mi.set_variant("llvm_ad_rgb")
+            if dr.detail.llvm_version()[0] >= MIN_LLVM:
+                return "llvm_ad_rgb"
+        except Exception:  # noqa: BLE001 - no LLVM library on the machine
+            pass
+    if "scalar_rgb" in available:
+        mi.set_variant("scalar_rgb")
+        return "scalar_rgb"
+    raise RuntimeError(f"Mitsuba has neither of {VARIANTS}; it has {available}")
+
+
+def register() -> None:
+    """Registers the integrator as ``"workbench"`` for the current variant (call again after
+    ``mi.set_variant``)."""
+    cls = _integrator_class()
+    mi.register_integrator(NAME, lambda props: cls(props))
+
+
+def _not(mask):
+    """Logical not of a mask: a Dr.Jit Bool array (``~``) or, in scalar variants, a Python bool
+    (where ``~True`` would be the integer -2)."""
+    return (not mask) if isinstance(mask, bool) else ~mask
+
+
+def _integrator_class():
+    import drjit as dr
+
+    class WorkbenchIntegrator(mi.SamplingIntegrator):
+        def __init__(self, props):
+            super().__init__(props)
+            self.method = props.get("method", "bmc")
+            if self.method not in METHODS:
+                raise ValueError(f"method: unknown method {self.method!r}; expected one of {METHODS}")
+            self.n = int(props.get("n", 64))
+            if self.n < 2:
+                raise ValueError(f"n: must be at least 2, got {self.n}")
+            self.scale = props.get("scale", "ml")
+            if self.scale not in ("ml", "unit"):
+                raise ValueError(f"scale: must be 'ml' or 'unit', got {self.scale!r}")
+            if self.method == "bmc":
+                rule = _wb.Rule(
+                    n=self.n,
+                    design=props.get("design", "uniform"),
+                    kernel={"type": "sobolev", "s": float(props.get("s", 1.4))},
+                    noise=float(props.get("noise", 0.01)),
+                    seed=int(props.get("seed", 0)),
+                )
+                self.points = rule.points.tolist()
+                self.weights = rule.weights().tolist()
+                self.var1 = max(rule.diagnostics()["posterior_variance"], 0.0)
+                self.q_inverse = rule.q_inverse().tolist() if self.scale == "ml" else None
+
+        def aov_names(self):
+            return ["sd.R", "sd.G", "sd.B"]
+
+        def to_string(self):
+            return f"WorkbenchIntegrator[method={self.method}, n={self.n}]"
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            si = scene.ray_intersect(ray, active)
+            hit = active & si.is_valid()
+            env = scene.environment()
+            result = mi.Color3f(0.0)
+            sd = mi.Color3f(0.0)
+            if env is not None:
+                # A ray that hits nothing sees the environment.
+                result = dr.select(hit, result, env.eval(si, active & _not(hit)))
+            if env is None:
+                return result, active, [sd[0], sd[1], sd[2]]
+            bsdf = si.bsdf(ray)
+            ctx = mi.BSDFContext()
+
+            def incident(wo_local, weight_active):
+                """L_env(ω) V(x, ω) f_r cos θ for a local direction ω (Color3f)."""
+                wo_world = si.sh_frame.to_world(wo_local)
+                visible = weight_active & _not(scene.ray_test(si.spawn_ray(wo_world), weight_active))
+                si_env = dr.zeros(mi.SurfaceInteraction3f)
+                si_env.wi = -wo_world
+                radiance = env.eval(si_env, visible)
+                f = bsdf.eval(ctx, si, wo_local, visible)
+                return dr.select(visible, radiance * f, mi.Color3f(0.0))
+
+            if self.method == "bmc":
+                phi = 2.0 * math.pi * sampler.next_1d(hit)
+                c, s = dr.cos(phi), dr.sin(phi)
+                ys = []
+                for (px, py, pz) in self.points:
+                    wo = mi.Vector3f(c * px - s * py, s * px + c * py, pz)
+                    ys.append(incident(wo, hit))
+                estimate = mi.Color3f(0.0)
+                for w, y in zip(self.weights, ys):
+                    estimate += w * y
+                if self.q_inverse is None:
+                    amplitude = mi.Color3f(1.0)
+                else:
+                    # λ̂ = YᵀQ⁻¹Y / N per channel.
+                    quad = mi.Color3f(0.0)
+                    for i, yi in enumerate(ys):
+                        row = self.q_inverse[i]
+                        qy = mi.Color3f(0.0)
+                        for j, yj in enumerate(ys):
+                            qy += row[j] * yj
+                        quad += yi * qy
+                    amplitude = _clamp_at_zero(quad / self.n)
+                sd = dr.sqrt(amplitude * self.var1)
+            else:
+                total = mi.Color3f(0.0)
+                total_sq = mi.Color3f(0.0)
+                for _ in range(self.n):
+                    if self.method == "mc_cosine":
+                        wo = mi.warp.square_to_cosine_hemisphere(sampler.next_2d(hit))
+                        pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+                        term = dr.select(pdf > 0, incident(wo, hit) / pdf, mi.Color3f(0.0))
+                    else:
+                        bs, weight = bsdf.sample(ctx, si, sampler.next_1d(hit), sampler.next_2d(hit), hit)
+                        ok = hit & (bs.pdf > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
+                        wo_world = si.sh_frame.to_world(bs.wo)
+                        visible = ok & _not(scene.ray_test(si.spawn_ray(wo_world), ok))
+                        si_env = dr.zeros(mi.SurfaceInteraction3f)
+                        si_env.wi = -wo_world
+                        term = dr.select(visible, env.eval(si_env, visible) * weight, mi.Color3f(0.0))
+                    total += term
+                    total_sq += term * term
+                estimate = total / self.n
+                variance = _clamp_at_zero(total_sq / self.n - estimate * estimate) * (self.n / (self.n - 1))
+                sd = dr.sqrt(variance / self.n)
+            result = dr.select(hit, estimate, result)
+            sd = dr.select(hit, sd, mi.Color3f(0.0))
+            return result, active, [sd[0], sd[1], sd[2]]
+
+    def _clamp_at_zero(x):
+        # dr.select rather than dr.maximum: the LLVM versions Debian ships (14, 15) cannot
+        # select the `llvm.maximum` intrinsic that dr.maximum emits on some vector widths.
+        return dr.select(x > 0, x, 0.0)
+
+    return WorkbenchIntegrator
+
+
+def rule_points(n: int = 64, design: str = "uniform", seed: int = 0) -> np.ndarray:
+    """The rule's points the integrator uses (local frame), for inspection."""
+    return _wb.Rule(n=n, design=design, seed=seed).points
