@@ -22,6 +22,9 @@
 //! 0 (every residual 0) or whose MC sample sd is exactly 0 states a zero-width interval from no
 //! evidence of variation at all — typically a small feature none of its samples saw — so it
 //! never meets a target ([`Verdict::ZeroEvidence`]); the walk doubles on and counts the stage.
+//! A fitted amplitude on samples that are all equal is zero evidence too ([`Target::judge_stage`]):
+//! BMCP's prior constant makes its residuals non-zero when every sample is 0, and its interval
+//! then rests on that constant, not on anything the samples saw.
 //! An integrand that really is constant on the samples therefore runs to the last stage.
 //!
 //! Caveat, as for every interval built from the samples (math.md §7): when the samples miss a
@@ -125,6 +128,12 @@ pub fn zero_evidence(u: &Uncertainty) -> bool {
     }
 }
 
+/// Whether the sample values `y` are all the same (none, or one, count as the same): the
+/// samples saw no variation at all.
+pub fn flat(y: &[f64]) -> bool {
+    y.iter().all(|&v| v == y[0])
+}
+
 /// What a stage's stated uncertainty must meet for the walk to stop there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Target {
@@ -176,6 +185,19 @@ impl Target {
             Target::Sd(t) => u.sd <= *t,
         };
         if met { Verdict::Met } else { Verdict::Short }
+    }
+
+    /// The verdict on a stage whose weighted estimator stated `u` with amplitude `scale` from
+    /// the sample values `y`: as [`Target::judge`], and zero evidence too when the amplitude is
+    /// fitted (not [`Scale::Unit`], whose interval never rests on the values) and every value is
+    /// the same ([`flat`]). BMCP's residuals `Y − c` are not 0 when every sample is 0, so its
+    /// fitted amplitude is not 0 either, but its samples saw no more than BMC's: a BMCP trial
+    /// whose pilot missed a light must not stop there on the prior constant alone.
+    pub fn judge_stage(&self, u: Option<&Uncertainty>, y: &[f64], scale: Scale) -> Verdict {
+        if u.is_some() && scale != Scale::Unit && flat(y) {
+            return Verdict::ZeroEvidence;
+        }
+        self.judge(u)
     }
 
     /// Whether `u` meets the target ([`Target::judge`] says [`Verdict::Met`]).
@@ -431,7 +453,8 @@ pub fn weighted_together(
                     solved: solved.map(Solved::Full),
                 };
                 let e = rule.estimate(method, values, walker.priors[fi], scale);
-                Ok((e, target.judge(e.uncertainty.as_ref())))
+                let verdict = target.judge_stage(e.uncertainty.as_ref(), &nested.values[fi][..m], scale);
+                Ok((e, verdict))
             })?;
             outcomes.push(Outcome::from(stop));
         }

@@ -532,7 +532,9 @@ fn weighted_pixel(
             };
             rule.estimate(method, values, prior[c], Scale::Ml)
         });
-        let verdict = Verdict::all(estimates.iter().map(|e| target.judge(e.uncertainty.as_ref())));
+        let verdict = Verdict::all(
+            (0..3).map(|c| target.judge_stage(estimates[c].uncertainty.as_ref(), &values[c], Scale::Ml)),
+        );
         Ok::<_, std::convert::Infallible>((estimates, verdict))
     });
     let Ok(stop) = stop;

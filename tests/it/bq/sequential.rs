@@ -130,6 +130,56 @@ fn zero_evidence_never_stops_the_rule() {
     }
 }
 
+/// The guard with a prior constant: BMCP's residuals `Y − c` are `−c`, not 0, when every
+/// sample is 0, so its fitted amplitude is positive — but the samples saw nothing, and a
+/// trial whose pilot missed a light must not stop there on the constant alone (found on a 5°
+/// cap: BMCP met a 0.01 tolerance at N = 64 with the whole integral missing). Values that are
+/// all equal are zero evidence for every fitted amplitude; a unit amplitude still stops.
+#[test]
+fn bmcp_on_samples_that_are_all_zero_never_stops() {
+    let pts = Density::Uniform.sample_set(256, &mut stream(1, &[]));
+    let values = vec![vec![0.0; pts.len()], vec![0.25; pts.len()]];
+    let t = Tolerance {
+        min_n: 8,
+        ..Tolerance::new(1.0, 256)
+    };
+    let stages = t.stages(8);
+    let m = model();
+    for method in [Method::Bmc, Method::Bmcp, Method::Bsq] {
+        for scale in [Scale::Ml, Scale::Loo] {
+            let mut nested = NestedWeights::new(&m, &pts, &values, &[scale]);
+            let walker = Walker {
+                estimator: WeightedEstimator { method, scale },
+                priors: vec![0.5, 0.5],
+                stages: stages.clone(),
+                target: t.target(),
+            };
+            for (fi, o) in stages::weighted_together(&[walker], &mut nested).unwrap()[0]
+                .outcomes
+                .iter()
+                .enumerate()
+            {
+                let what = format!("{method} {} integrand {fi}", scale.name());
+                assert_eq!((o.n_used, o.met, o.zero_evidence), (256, false, 6), "{what}");
+            }
+        }
+    }
+    // The same samples and prior with values that vary meet the loose tolerance at once.
+    let varied = vec![pts.iter().map(cos3).collect::<Vec<_>>()];
+    let mut nested = NestedWeights::new(&m, &pts, &varied, &[Scale::Ml]);
+    let walker = Walker {
+        estimator: WeightedEstimator {
+            method: Method::Bmcp,
+            scale: Scale::Ml,
+        },
+        priors: vec![0.5],
+        stages: stages.clone(),
+        target: Tolerance::new(10.0, 256).target(),
+    };
+    let o = stages::weighted_together(&[walker], &mut nested).unwrap()[0].outcomes[0];
+    assert_eq!((o.n_used, o.met, o.zero_evidence), (8, true, 0));
+}
+
 /// A feature the first stages miss: MC doubles on through the zero-evidence stages (counting
 /// them) and stops at the first stage whose interval, now with evidence, meets the tolerance.
 #[test]
