@@ -16,6 +16,26 @@ use std::sync::Arc;
 /// 1e146 the fitted amplitude overflows).
 pub const MAX_PRIOR: f64 = 1e100;
 
+/// The largest BMCP prior constant `|c|` a model accepts: [`MAX_PRIOR`] in units of the prior
+/// sd at a point, `√(k(x,x) + σ_n²)`, where that is below 1 (the smallest over a fitted grid).
+///
+/// Why: the fitted amplitude's `rᵀQ⁻¹r` with `r = Y − c·1` is about `c²·1ᵀQ⁻¹1`, and
+/// `1ᵀQ⁻¹1 ≤ N/λ_min(Q)`. With the kernel's scale `k(x,x)` and `σ_n²` near 1, `λ_min(Q)` is at
+/// least `σ_n²` or the jitter (≳ 1e-17 relative), so `|c| ≤ 1e100` leaves `c²·1ᵀQ⁻¹1` below
+/// ~1e240. A kernel of tiny scale (SE `σ_f = 1e-100` with no noise: `Q ≈ 1e-200 K̃`) makes
+/// `1ᵀQ⁻¹1` larger by `1/k(x,x)`, so the constant is measured in that scale's units: beyond it
+/// the amplitude overflowed to ∞ (or to NaN, and a false "every residual is 0" warning).
+pub fn prior_bound(model: &crate::bq::model::ResolvedModel) -> f64 {
+    let models = match &model.grid {
+        Some(grid) => grid.clone(),
+        None => vec![(model.kernel.clone(), model.noise)],
+    };
+    models
+        .iter()
+        .map(|(k, noise)| MAX_PRIOR * (k.diagonal() + noise).sqrt().min(1.0))
+        .fold(MAX_PRIOR, f64::min)
+}
+
 /// Largest number of points one unit of work (one N and trial) draws across all designs in use:
 /// each design draws its own set of N points, and each set and its integrand values take
 /// [`BYTES_PER_POINT`] per worker thread, so this keeps a thread under 0.3 GiB. With one design
@@ -694,19 +714,18 @@ fn resolve_estimator(
     let prior = if e.method.uses_prior() {
         Some(match e.prior.unwrap_or(PriorSpec::Named(PriorName::Analytic)) {
             PriorSpec::Named(PriorName::Analytic) => Prior::Analytic,
-            // The fitted amplitude's rᵀQ⁻¹r with r = Y − c·1 is about c²·1ᵀQ⁻¹1, and 1ᵀQ⁻¹1
-            // reaches N/σ_n² ≈ 1e16 (N = 16384, σ_n² = 1e-12): beyond |c| ≈ 1e146 it overflows
-            // to an infinite amplitude (or NaN and a false zero-amplitude warning), so the bound
-            // leaves a wide margin below that and far above any integrand's mean.
-            PriorSpec::Value(c) if c.abs() <= MAX_PRIOR => Prior::Value(c),
             PriorSpec::Value(c) => {
-                return Err(err(
-                    at("prior"),
-                    format!(
-                        "must be finite with |c| ≤ {MAX_PRIOR:e} (larger constants overflow the fitted \
-                         amplitude's rᵀQ⁻¹r), got {c:e}"
-                    ),
-                ));
+                let bound = prior_bound(model.as_ref().expect("a prior's method has weights"));
+                if !(c.abs() <= bound) {
+                    return Err(err(
+                        at("prior"),
+                        format!(
+                            "must be finite with |c| ≤ {MAX_PRIOR:e} · min(1, √(k(x,x) + σ_n²)) = {bound:e} for \
+                             this model (larger constants overflow the fitted amplitude's rᵀQ⁻¹r), got {c:e}"
+                        ),
+                    ));
+                }
+                Prior::Value(c)
             }
         })
     } else {

@@ -65,6 +65,54 @@ fn overflowing_amplitude_a_huge_bmcp_prior_is_refused_with_the_bound() {
     }
 }
 
+/// Issue 21, item 2, by another road: the bound on the prior is relative to the kernel's scale.
+/// An SE kernel with `σ_f = 1e-100` and no noise (both accepted) made `1ᵀQ⁻¹1` ~1e200 times
+/// larger, so `|c| = 1e60` — far below 1e100 — overflowed the amplitude (∞ with no warning at
+/// N = 2, a false "every residual is 0" at N = 64). Such a prior is now refused with the bound
+/// for that model, `1e100 · √(k(x,x) + σ_n²) = 1`; at the bound nothing overflows or warns.
+#[test]
+fn overflowing_amplitude_a_prior_large_for_a_tiny_kernel_scale_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = |prior: &str| {
+        SPEC.replace(
+            r#""prior": PRIOR"#,
+            &format!(
+                r#""prior": {prior}, "kernel": {{"type": "se", "sigma": 1e-100, "length": 0.5}}, "noise": 0"#
+            ),
+        )
+        .replace("[4, 8]", "[2, 64]")
+    };
+    std::fs::write(dir.path().join("x.json"), spec("1e60")).unwrap();
+    let o = workbench(dir.path(), &["run", "x.json", "-q"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains(
+            "x.json: estimators[1].prior: must be finite with |c| ≤ 1e100 · min(1, √(k(x,x) + σ_n²)) = 1e0"
+        ) && err.contains("got 1e60"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(!dir.path().join("results").exists(), "nothing may be written");
+
+    std::fs::write(dir.path().join("x.json"), spec("-1")).unwrap();
+    let o = workbench(dir.path(), &["run", "x.json", "-q", "--out", "o"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&dir.path().join("o/trials.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let bmcp: Vec<_> = rows.iter().filter(|r| r[col("estimator")] == "BMCP").collect();
+    assert_eq!(bmcp.len(), 8);
+    for r in bmcp {
+        let amplitude: f64 = r[col("amplitude")].parse().unwrap();
+        let sd: f64 = r[col("posterior_sd")].parse().unwrap();
+        assert!(amplitude.is_finite() && amplitude > 0.0, "amplitude {amplitude}");
+        assert!(sd.is_finite() && sd > 0.0, "sd {sd}");
+        assert!(!r[col("warnings")].is_empty(), "{r:?}");
+    }
+    let stderr_text = stderr(&o);
+    assert!(!stderr_text.contains("every residual is 0"), "{stderr_text}");
+}
+
 /// A cached reference with a NaN pixel was used without a word: it is now damaged, reported and
 /// rendered again, and the table's RMSEs are finite.
 #[test]
