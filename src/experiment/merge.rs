@@ -220,6 +220,19 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
         .map(|d| read_shard(d))
         .collect::<Result<Vec<_>, _>>()?;
     let shards = check_set(shards)?;
+    // The merged manifest records one build, the one writing it: that must be the build whose
+    // rows it holds (its summary, fits and plots are computed again here).
+    let (ours, theirs) = (Build::current(), &shards[0].identity.build);
+    if theirs != &ours {
+        return Err(InputError::new(format!(
+            "merge: the shards in {} were written by workbench {}, this is workbench {}; merge them \
+             with the build that wrote them",
+            shards[0].dir.display(),
+            theirs.describe(),
+            ours.describe()
+        ))
+        .into());
+    }
     let plan = rebuild_plan(&shards[0])?;
     let inputs: Vec<(&str, &Path)> = shards
         .iter()

@@ -225,6 +225,48 @@ fn bayes_sard_rule_sums_to_two_pi() {
     assert!(stderr(&o).contains("--method bsq"), "{}", stderr(&o));
 }
 
+/// Issue 21, item 3: `rule --summary` wrote `"student_t_dof": null` under `--scale unit` and
+/// `loo` — the JSON a NaN would give. Where no Student-t interval applies the key is left out
+/// and `interval` says `normal`; under `ml` it is the Student-t's N dof (BMC) or N − 1 (BSQ).
+#[test]
+fn null_student_t_dof_rule_summary_leaves_it_out_under_unit_and_loo() {
+    let dir = tempfile::tempdir().unwrap();
+    for method in ["bmc", "bsq"] {
+        for scale in ["unit", "loo", "ml"] {
+            let o = workbench(
+                dir.path(),
+                &[
+                    "rule",
+                    "--n",
+                    "16",
+                    "--method",
+                    method,
+                    "--scale",
+                    scale,
+                    "--out",
+                    "r.csv",
+                    "--summary",
+                    "r.json",
+                ],
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+            let text = std::fs::read_to_string(dir.path().join("r.json")).unwrap();
+            assert!(!text.contains("null"), "{method} {scale}: {text}");
+            let s: serde_json::Value = serde_json::from_str(&text).unwrap();
+            let sc = &s["scale"];
+            assert_eq!(sc["scale"], scale, "{sc}");
+            if scale == "ml" {
+                assert_eq!(sc["interval"], "student_t", "{sc}");
+                let dof = if method == "bmc" { 16 } else { 15 };
+                assert_eq!(sc["student_t_dof"], dof, "{method}: {sc}");
+            } else {
+                assert_eq!(sc["interval"], "normal", "{method} {scale}: {sc}");
+                assert!(sc.get("student_t_dof").is_none(), "{method} {scale}: {sc}");
+            }
+        }
+    }
+}
+
 /// `rule --kernel fitted --values FILE`: on cos³θ at 64 points the chosen model is a smooth one
 /// (s > 2), its weights are byte for byte those of `rule` with that fixed kernel and noise, the
 /// summary lists every grid model's ℓ with the chosen one largest, and the rule integrates the

@@ -845,7 +845,7 @@ fn shared_parent_a_shard_leaves_another_hosts_staging_folder_alone() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let spec = r#"{"name": "k", "integrands": ["cos3"], "estimators": [{"label": "MC", "method": "mc"},
-        {"label": "BMC", "method": "bmc"}], "samples": [256, 512], "trials": 2000, "seed": 11}"#;
+        {"label": "BMC", "method": "bmc"}], "samples": [512, 1024], "trials": 20000, "seed": 11}"#;
     std::fs::write(d.join("s.json"), spec).unwrap();
     std::fs::create_dir(d.join("shards")).unwrap();
     let bin = env!("CARGO_BIN_EXE_workbench");
@@ -856,10 +856,11 @@ fn shared_parent_a_shard_leaves_another_hosts_staging_folder_alone() {
             .collect()
     };
     // "Host" B: a few processes first, so that the shard's pid is not one of this namespace's
-    // low ones; stopped after a second, long before 2000 trials of BMC at N = 512 are done.
+    // low ones; stopped after two seconds, long before 10 000 trials of BMC at N = 1024 are
+    // done (minutes of work on any machine), so the staging folder is a running shard's.
     let script = format!(
         "for i in 1 2 3 4 5 6 7 8 9; do /bin/true; done; \
-         timeout --foreground -s KILL 1 {bin} run s.json --shard 2/2 --threads 1 --out shards/2 -q; exit 0"
+         timeout --foreground -s KILL 2 {bin} run s.json --shard 2/2 --threads 1 --out shards/2 -q; exit 0"
     );
     let status = std::process::Command::new("unshare")
         .args(["--pid", "--fork", "--mount-proc", "sh", "-c", &script])
@@ -876,7 +877,7 @@ fn shared_parent_a_shard_leaves_another_hosts_staging_folder_alone() {
     );
     // Here: a run beside it, which sweeps the shared folder for dead writers' leftovers as it
     // starts (B's pid is not alive in this namespace: the old rule removed the folder).
-    let small = spec.replace("2000", "4");
+    let small = spec.replace("20000", "4");
     std::fs::write(d.join("s.json"), &small).unwrap();
     ok(&workbench(
         d,
@@ -895,7 +896,7 @@ fn shared_parent_a_shard_leaves_another_hosts_staging_folder_alone() {
             "--foreground",
             "-s",
             "KILL",
-            "1",
+            "2",
             bin,
             "run",
             "s.json",

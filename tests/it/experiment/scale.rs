@@ -267,9 +267,32 @@ fn merge_refuses_shards_of_different_builds_a_dirty_tree_included() {
         assert!(!d.join("out").exists(), "nothing written for refused input");
     }
     // Put back, the set merges.
-    std::fs::write(d.join("a3/shard.json"), shard).unwrap();
+    std::fs::write(d.join("a3/shard.json"), &shard).unwrap();
     std::fs::write(d.join("a3/units.csv"), &header).unwrap();
     ok(&workbench(d, &["merge", "out", "-q", "a1", "a2", "a3"]));
+
+    // Every shard of another build: they agree with each other, but the merged manifest would
+    // name this build for rows it did not compute (the issue-21 audit found exactly that), so
+    // this build refuses them and names both.
+    let there = format!("version=9.9.9 build={}", token(commit, changes));
+    for i in 1..=3 {
+        let path = d.join(format!("a{i}/shard.json"));
+        let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        r["workbench_version"] = "9.9.9".into();
+        std::fs::write(&path, serde_json::to_vec_pretty(&r).unwrap()).unwrap();
+        let units = d.join(format!("a{i}/units.csv"));
+        let text = std::fs::read_to_string(&units).unwrap();
+        std::fs::write(&units, text.replacen(&here, &there, 1)).unwrap();
+    }
+    let e = refused(
+        &workbench(d, &["merge", "out2", "-q", "a1", "a2", "a3"]),
+        "were written by workbench 9.9.9",
+    );
+    assert!(
+        e.contains(&format!("this is workbench {}", env!("CARGO_PKG_VERSION"))),
+        "{e}"
+    );
+    assert!(!d.join("out2").exists(), "nothing written for refused input");
 }
 
 #[test]
