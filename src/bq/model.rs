@@ -166,20 +166,26 @@ impl BmcModel {
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(tag = "type", deny_unknown_fields)]
 pub enum KernelSpec {
+    /// The Sobolev kernel of math.md §4 (1 < s < 2) and §9 (2 < s < 3, 3 < s < 4).
     #[serde(rename = "sobolev")]
     Sobolev {
+        /// Smoothness s in (1, 2), (2, 3) or (3, 4); default 1.4.
         #[serde(default)]
         s: Option<f64>,
     },
+    /// The squared-exponential kernel σ_f² exp(−‖x − y‖² / (2 l²)).
     #[serde(rename = "se")]
     SquaredExponential {
+        /// σ_f in [1e-100, 1e100]; default 1.
         #[serde(default)]
         sigma: Option<f64>,
+        /// The length scale l in [0.001, 1e4]; default 0.5.
         #[serde(default)]
         length: Option<f64>,
     },
     /// Sobolev kernels and noises chosen per weight set and integrand by the profiled marginal
-    /// likelihood (math.md §9); the grid defaults to [`DEFAULT_GRID_S`] × [`DEFAULT_GRID_NOISE`].
+    /// likelihood (math.md §9); the grid defaults to s ∈ {1.2, 1.6, 2.75, 3.75} × σ_n² ∈
+    /// {1e-2, 1e-8} (`DEFAULT_GRID_S`, `DEFAULT_GRID_NOISE`).
     #[serde(rename = "fitted")]
     Fitted {
         #[serde(default, skip_serializing_if = "Option::is_none")]
