@@ -321,6 +321,8 @@ struct Stage {
     inverse_diagonal: Option<Vec<f64>>,
     /// `Q⁻¹Y` per integrand, when a fitted amplitude uses the set.
     values_solve: Option<Vec<Vec<f64>>>,
+    /// `log det Q` of the stage (a fitted model's choice, math.md §9).
+    log_det: f64,
 }
 
 /// BMC weight sets on the growing prefixes of one nested point set, built on demand and shared
@@ -402,6 +404,7 @@ impl<'a> NestedWeights<'a> {
                 weights,
                 inverse_diagonal,
                 values_solve,
+                log_det: self.factor.log_det(),
             },
         ));
         Ok(self.stages.len() - 1)
@@ -418,6 +421,63 @@ pub struct Walker {
     pub target: Target,
 }
 
+impl NestedWeights<'_> {
+    /// The estimate of `walker` on integrand `fi` at stage `m` (built already, at index `i`),
+    /// with the stage's verdict on it.
+    fn stage_estimate(&self, i: usize, m: usize, fi: usize, walker: &Walker) -> (Estimate, Verdict) {
+        let WeightedEstimator { method, scale } = walker.estimator;
+        let stage = &self.stages[i].1;
+        let rule = Rule {
+            density: Density::Uniform,
+            points: &self.points[..m],
+            weights: Some(&stage.weights),
+            inverse_diagonal: stage.inverse_diagonal.as_deref(),
+        };
+        let solved = (scale != Scale::Unit).then(|| {
+            stage
+                .values_solve
+                .as_ref()
+                .expect("NestedWeights::new was told the scale")[fi]
+                .as_slice()
+        });
+        let y = &self.values[fi][..m];
+        let values = Values {
+            y,
+            solved: solved.map(Solved::Full),
+        };
+        let e = rule.estimate(method, values, walker.priors[fi], scale);
+        let verdict = walker.target.judge_stage(e.uncertainty.as_ref(), y, scale);
+        (e, verdict)
+    }
+
+    /// `ℓ` of this model for `walker`'s method on integrand `fi` at stage `m` (built already,
+    /// at index `i`; its values solved): math.md §9.
+    fn log_likelihood(&self, i: usize, m: usize, fi: usize, walker: &Walker) -> f64 {
+        let stage = &self.stages[i].1;
+        let solve = &stage
+            .values_solve
+            .as_ref()
+            .expect("a fitted model's candidates solve their values")[fi];
+        crate::bq::fitted::log_marginal_likelihood(
+            walker.estimator.method,
+            &self.values[fi][..m],
+            solve,
+            &stage.weights,
+            walker.priors[fi],
+            stage.log_det,
+        )
+        .unwrap_or(f64::NAN)
+    }
+
+    /// The diagnostics of stage `m` (built already) as `method` sees them.
+    fn diagnostics(&mut self, m: usize, method: Method) -> Result<Diagnostics, NotPositiveDefinite> {
+        let i = self.stage(m)?;
+        Ok(method
+            .diagnostics(Some(&self.stages[i].1.weights))
+            .expect("a weighted method has diagnostics"))
+    }
+}
+
 /// Sequential BMC / BMCP / Bayes–Sard on the weight sets of `nested`, one run per walker and one
 /// outcome per integrand, each (walker, integrand) walked on its own ([`walk`]). The stages are
 /// built on demand and kept, so each is factored once, shared by every walker, and the factor
@@ -428,33 +488,11 @@ pub fn weighted_together(
 ) -> Result<Vec<WeightedRun>, NotPositiveDefinite> {
     let mut runs = Vec::with_capacity(walkers.len());
     for walker in walkers {
-        let WeightedEstimator { method, scale } = walker.estimator;
-        let target = walker.target;
         let mut outcomes = Vec::with_capacity(nested.values.len());
         for fi in 0..nested.values.len() {
             let stop = walk(&walker.stages, |m| {
                 let i = nested.stage(m)?;
-                let stage = &nested.stages[i].1;
-                let rule = Rule {
-                    density: Density::Uniform,
-                    points: &nested.points[..m],
-                    weights: Some(&stage.weights),
-                    inverse_diagonal: stage.inverse_diagonal.as_deref(),
-                };
-                let solved = (scale != Scale::Unit).then(|| {
-                    stage
-                        .values_solve
-                        .as_ref()
-                        .expect("NestedWeights::new was told the scale")[fi]
-                        .as_slice()
-                });
-                let values = Values {
-                    y: &nested.values[fi][..m],
-                    solved: solved.map(Solved::Full),
-                };
-                let e = rule.estimate(method, values, walker.priors[fi], scale);
-                let verdict = target.judge_stage(e.uncertainty.as_ref(), &nested.values[fi][..m], scale);
-                Ok((e, verdict))
+                Ok(nested.stage_estimate(i, m, fi, walker))
             })?;
             outcomes.push(Outcome::from(stop));
         }
@@ -464,13 +502,68 @@ pub fn weighted_together(
             .map(|o| o.n_used)
             .max()
             .expect("at least one integrand");
-        let i = nested.stage(top)?;
-        let diagnostics = method
-            .diagnostics(Some(&nested.stages[i].1.weights))
-            .expect("a weighted method has diagnostics");
+        let diagnostics = nested.diagnostics(top, walker.estimator.method)?;
         runs.push(WeightedRun {
             outcomes,
             diagnostics,
+        });
+    }
+    Ok(runs)
+}
+
+/// What a sequential run with a fitted model produced: the run, and per integrand the index of
+/// the grid model chosen at the last stage used.
+#[derive(Clone, Debug)]
+pub struct FittedRun {
+    pub run: WeightedRun,
+    pub chosen: Vec<usize>,
+}
+
+/// Sequential estimation with a fitted model (math.md §9): `candidates` holds one
+/// [`NestedWeights`] per grid model, in grid order, on the same nested set and values (each
+/// made with [`Scale::Ml`] among its scales, so that every stage solves its values). At every
+/// stage each (walker, integrand) takes the model of largest `ℓ` on the stage's points and
+/// values ([`crate::bq::fitted`]; ties: the first), whose estimate and interval the target
+/// judges — the choice a fixed-N run makes on that many points — and the walk goes on as
+/// [`weighted_together`]'s. Every candidate's factor grows with the stages walked.
+pub fn fitted_together(
+    walkers: &[Walker],
+    candidates: &mut [NestedWeights<'_>],
+) -> Result<Vec<FittedRun>, NotPositiveDefinite> {
+    let integrands = candidates[0].values.len();
+    let mut runs = Vec::with_capacity(walkers.len());
+    for walker in walkers {
+        let mut outcomes = Vec::with_capacity(integrands);
+        let mut chosen = Vec::with_capacity(integrands);
+        for fi in 0..integrands {
+            let mut choice = 0;
+            let stop = walk(&walker.stages, |m| {
+                let mut ells = Vec::with_capacity(candidates.len());
+                let mut at = Vec::with_capacity(candidates.len());
+                for c in candidates.iter_mut() {
+                    let i = c.stage(m)?;
+                    ells.push(c.log_likelihood(i, m, fi, walker));
+                    at.push(i);
+                }
+                choice = crate::bq::fitted::best(&ells);
+                Ok(candidates[choice].stage_estimate(at[choice], m, fi, walker))
+            })?;
+            outcomes.push(Outcome::from(stop));
+            chosen.push(choice);
+        }
+        // The diagnostics of the largest stage used, of the model chosen there.
+        let top = (0..integrands)
+            .rev()
+            .max_by_key(|&fi| outcomes[fi].n_used)
+            .expect("at least one integrand");
+        let diagnostics =
+            candidates[chosen[top]].diagnostics(outcomes[top].n_used, walker.estimator.method)?;
+        runs.push(FittedRun {
+            run: WeightedRun {
+                outcomes,
+                diagnostics,
+            },
+            chosen,
         });
     }
     Ok(runs)

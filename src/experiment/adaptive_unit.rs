@@ -17,6 +17,8 @@ pub struct UnitRun {
     pub diagnostics: Option<crate::bq::weights::Diagnostics>,
     /// Whether the amplitude was fitted (`ml`, `loo`).
     pub fitted: bool,
+    /// A fitted model's choice per integrand (the grid index at the last stage used).
+    pub chosen: Option<Vec<usize>>,
 }
 
 /// A unit's nested set for one (design, max_n), and every integrand's values on it.
@@ -65,6 +67,7 @@ pub fn run_unit(
                     .collect(),
                 diagnostics: None,
                 fitted: false,
+                chosen: None,
             });
         }
         // One nested weight family per model on the set, shared by its estimators.
@@ -85,44 +88,61 @@ pub fn run_unit(
                 .iter()
                 .map(|&ei| plan.estimators[ei].scale.unwrap_or(Scale::Unit))
                 .collect();
-            let mut nested = stages::NestedWeights::new(&plan.models[m], points, values, &scales);
-            // The estimators walk the stages together, so each stage is factored once.
-            let mut runs = stages::weighted_together(
-                &users
-                    .iter()
-                    .map(|&ei| {
-                        let e = &plan.estimators[ei];
-                        stages::Walker {
-                            estimator: stages::WeightedEstimator {
-                                method: e.method,
-                                scale: e.scale.unwrap_or(Scale::Unit),
-                            },
-                            priors: plan
-                                .integrands
-                                .iter()
-                                .map(|f| e.prior.map_or(0.0, |p| p.resolve(f.constant_prior())))
-                                .collect(),
-                            stages: stages_of(e),
-                            target: e.tolerance.expect("a tolerance estimator").target(),
-                        }
-                    })
-                    .collect::<Vec<_>>(),
-                &mut nested,
-            )
-            .map_err(|source| crate::Error::Numerical {
+            let walkers: Vec<stages::Walker> = users
+                .iter()
+                .map(|&ei| {
+                    let e = &plan.estimators[ei];
+                    stages::Walker {
+                        estimator: stages::WeightedEstimator {
+                            method: e.method,
+                            scale: e.scale.unwrap_or(Scale::Unit),
+                        },
+                        priors: plan
+                            .integrands
+                            .iter()
+                            .map(|f| e.prior.map_or(0.0, |p| p.resolve(f.constant_prior())))
+                            .collect(),
+                        stages: stages_of(e),
+                        target: e.tolerance.expect("a tolerance estimator").target(),
+                    }
+                })
+                .collect();
+            let numerical = |source| crate::Error::Numerical {
                 what: format!(
                     "tolerance estimator {:?}, N₀ = {n}, trial {trial}",
                     plan.estimators[users[0]].label
                 ),
                 source,
-            })?
-            .into_iter();
-            for (&ei, &scale) in users.iter().zip(&scales) {
-                let r = runs.next().expect("one run per walker");
+            };
+            // The estimators walk the stages together, so each stage is factored once (a
+            // fitted model: once per grid model, every model's ℓ at every stage).
+            let runs: Vec<(stages::WeightedRun, Option<Vec<usize>>)> = if plan.models[m].is_fitted() {
+                let mut with_ml = scales.clone();
+                with_ml.push(Scale::Ml);
+                let mut candidates: Vec<stages::NestedWeights> = plan.models[m]
+                    .candidates()
+                    .iter()
+                    .map(|model| stages::NestedWeights::new(model, points, values, &with_ml))
+                    .collect();
+                stages::fitted_together(&walkers, &mut candidates)
+                    .map_err(numerical)?
+                    .into_iter()
+                    .map(|r| (r.run, Some(r.chosen)))
+                    .collect()
+            } else {
+                let mut nested = stages::NestedWeights::new(&plan.models[m], points, values, &scales);
+                stages::weighted_together(&walkers, &mut nested)
+                    .map_err(numerical)?
+                    .into_iter()
+                    .map(|r| (r, None))
+                    .collect()
+            };
+            for ((&ei, &scale), (r, chosen)) in users.iter().zip(&scales).zip(runs) {
                 out[ei] = Some(UnitRun {
                     outcomes: r.outcomes,
                     diagnostics: Some(r.diagnostics),
                     fitted: scale != Scale::Unit,
+                    chosen,
                 });
             }
         }

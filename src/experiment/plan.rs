@@ -28,7 +28,7 @@ pub const MAX_PRIOR: f64 = 1e100;
 pub fn prior_bound(model: &crate::bq::model::ResolvedModel) -> f64 {
     let models = match &model.grid {
         Some(grid) => grid.clone(),
-        None => vec![(model.kernel.clone(), model.noise)],
+        None => vec![(model.kernel, model.noise)],
     };
     models
         .iter()
@@ -335,16 +335,6 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
             &at,
         )?;
         planned.settings.tolerance = planned.tolerance;
-        if planned.tolerance.is_some() && model.as_ref().is_some_and(ResolvedModel::is_fitted) {
-            // The stage walker extends one nested factor per weight set; a fitted model would
-            // need one per grid model and a choice per stage, which it does not do yet.
-            return Err(err(
-                at("kernel"),
-                "a fitted kernel cannot be used with a tolerance yet; give a fixed kernel (e.g. \
-                 {\"type\": \"sobolev\", \"s\": 2.75}) or drop \"tolerance\""
-                    .to_string(),
-            ));
-        }
         if let Some(model) = model {
             let key = (model.clone(), planned.design);
             let index = match model_keys.iter().position(|k| *k == key) {
@@ -716,7 +706,7 @@ fn resolve_estimator(
             PriorSpec::Named(PriorName::Analytic) => Prior::Analytic,
             PriorSpec::Value(c) => {
                 let bound = prior_bound(model.as_ref().expect("a prior's method has weights"));
-                if !(c.abs() <= bound) {
+                if !c.is_finite() || c.abs() > bound {
                     return Err(err(
                         at("prior"),
                         format!(

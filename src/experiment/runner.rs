@@ -275,6 +275,10 @@ pub fn run_unit(
     let mut chosen: Vec<Vec<Option<usize>>> = vec![vec![None; plan.estimators.len()]; ni];
     for (fi, f) in plan.integrands.iter().enumerate() {
         for (ei, e) in plan.estimators.iter().enumerate() {
+            if let Some(c) = adaptive[ei].as_ref().and_then(|r| r.chosen.as_ref()) {
+                chosen[fi][ei] = Some(c[fi]);
+                continue;
+            }
             let Some(set) = weight_set_of(e).filter(|_| plan.models[e.model.expect("has a set")].is_fitted())
             else {
                 continue;
@@ -400,7 +404,7 @@ pub fn run_unit(
                     .iter()
                     .flatten()
                     .zip(plan.estimators.iter().cycle())
-                    .any(|(&ch, e)| ch == Some(c) && e.model == Some(*m));
+                    .any(|(&ch, e)| ch == Some(c) && e.model == Some(*m) && e.tolerance.is_none());
             if used {
                 messages.extend(candidate.weights.diagnostics.warnings.iter().map(|w| w.message()));
             }

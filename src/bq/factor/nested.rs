@@ -263,6 +263,11 @@ impl NestedCholesky {
         lower_inverse_diagonal(&self.factor, self.n)
     }
 
+    /// `log det (Q + jI)` of the factored block, `2 Σ log L_ii` ([`super::lower_log_det`]).
+    pub fn log_det(&self) -> f64 {
+        super::lower_log_det((0..self.n).map(|i| self.factor[(i, i)]))
+    }
+
     /// `L[i, j]` of the factored block (`j ≤ i < n`), for tests.
     pub fn entry(&self, i: usize, j: usize) -> f64 {
         assert!(

@@ -180,6 +180,82 @@ fn bmcp_on_samples_that_are_all_zero_never_stops() {
     assert_eq!((o.n_used, o.met, o.zero_evidence), (8, true, 0));
 }
 
+/// A fitted model's walk chooses at each stage what a fixed-N fit on that stage's points
+/// chooses ([`workbench::bq::fitted::choose_on_points`], its own dense factorisations), and its
+/// estimate is that choice's weights applied to the values, to rounding: the nested factors
+/// change no decision.
+#[test]
+fn a_fitted_walk_chooses_at_each_stage_as_a_fixed_n_fit() {
+    use workbench::bq::fitted::choose_on_points;
+    let fitted = BmcModel::fitted(
+        [1.2, 1.6, 2.75, 3.75]
+            .iter()
+            .flat_map(|&s| {
+                [1e-2, 1e-8].map(|noise| {
+                    BmcModel::new(
+                        Kernel::Sobolev(Sobolev::new(s).unwrap()),
+                        noise,
+                        KernelMeanMode::Exact,
+                    )
+                })
+            })
+            .collect(),
+    );
+    let pts = Density::Uniform.sample_set(256, &mut stream(5, &[]));
+    let cap = |p: &Vec3| if p.x > 0.6 { p.z } else { 0.0 };
+    let values = vec![
+        pts.iter().map(cos3).collect::<Vec<f64>>(),
+        pts.iter().map(cap).collect(),
+    ];
+    let scales = [Scale::Ml];
+    let mut candidates: Vec<NestedWeights> = fitted
+        .candidates()
+        .iter()
+        .map(|m| NestedWeights::new(m, &pts, &values, &scales))
+        .collect();
+    // Targets that stop at different stages: none (the last), and a loose one.
+    for abs in [1e-12, 0.05] {
+        let t = Tolerance {
+            min_n: 16,
+            ..Tolerance::new(abs, 256)
+        };
+        let walker = Walker {
+            estimator: WeightedEstimator {
+                method: Method::Bmc,
+                scale: Scale::Ml,
+            },
+            priors: vec![0.0, 0.0],
+            stages: t.stages(16),
+            target: t.target(),
+        };
+        let run = &stages::fitted_together(&[walker], &mut candidates).unwrap()[0];
+        for (fi, o) in run.run.outcomes.iter().enumerate() {
+            let n = o.n_used;
+            let y = &values[fi][..n];
+            let choice = choose_on_points(
+                &fitted,
+                &pts[..n],
+                Design::Iid(Density::Uniform),
+                Method::Bmc,
+                y,
+                0.0,
+                &mut stream(0, &[]),
+            )
+            .unwrap();
+            assert_eq!(
+                run.chosen[fi], choice.chosen,
+                "abs {abs}, integrand {fi}, N = {n}"
+            );
+            let direct: f64 = choice.weights.weights.iter().zip(y).map(|(w, v)| w * v).sum();
+            assert!(
+                (o.estimate - direct).abs() <= 1e-9 * direct.abs().max(1.0),
+                "abs {abs}, integrand {fi}: {} vs {direct}",
+                o.estimate
+            );
+        }
+    }
+}
+
 /// A feature the first stages miss: MC doubles on through the zero-evidence stages (counting
 /// them) and stops at the first stage whose interval, now with evidence, meets the tolerance.
 #[test]
