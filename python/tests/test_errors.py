@@ -30,6 +30,7 @@ def raises(match, f, *args, **kwargs):
         (np.zeros((0, 3)), r"^points: .*shape \(0, 3\)"),
         (np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0]]), r"^points\[1\]: \(1, 0, 1\) is not a unit vector \(norm 1.414"),
         (np.array([[0.0, 0.0, 1.0], [0.6, 0.0, -0.8]]), r"^points\[1\]: z = -0.8 is below the horizon"),
+        (np.array([[0.0, 0.0, 1.0], [1.0, 0.0, -1e-300]]), r"^points\[1\]: z = -1e-300 is below the horizon \(need z >= 0\)$"),
         (np.array([[0.0, 0.0, np.nan]]), r"^points\[0\]: \(0, 0, NaN\) is not a unit vector"),
         (np.array([[0.0, 0.0, 1.0 + 2e-9]]), r"^points\[0\]: .*not a unit vector"),
     ],

@@ -121,14 +121,27 @@ pub fn check_point(p: Vec3) -> Result<(), String> {
     // NaN coordinates make the norm NaN: not a unit vector either.
     if (norm - 1.0).abs() > UNIT_TOLERANCE || norm.is_nan() {
         return Err(format!(
-            "({}, {}, {}) is not a unit vector (norm {norm})",
-            p.x, p.y, p.z
+            "({}, {}, {}) is not a unit vector (norm {})",
+            shown(p.x),
+            shown(p.y),
+            shown(p.z),
+            shown(norm)
         ));
     }
     if p.z < 0.0 {
-        return Err(format!("z = {} is below the horizon (need z >= 0)", p.z));
+        return Err(format!("z = {} is below the horizon (need z >= 0)", shown(p.z)));
     }
     Ok(())
+}
+
+/// `v` for a message: as written (`0.6`, `-0.8`, `1`) between 1e-4 and 1e16, in exponent form
+/// outside (`-1e-300`, not three hundred digits).
+fn shown(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e16).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
 }
 
 /// Stream identifiers under the rule's seed.
@@ -279,6 +292,18 @@ pub fn rule_summary(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A point's message shows tiny and huge coordinates in exponent form (a z of -1e-300 was
+    /// three hundred digits long), ordinary ones as written.
+    #[test]
+    fn bad_points_are_named_in_a_short_line() {
+        let below = check_point(Vec3::new(1.0, 0.0, -1e-300)).unwrap_err();
+        assert_eq!(below, "z = -1e-300 is below the horizon (need z >= 0)");
+        let far = check_point(Vec3::new(1e100, 0.0, 0.0)).unwrap_err();
+        assert_eq!(far, "(1e100, 0, 0) is not a unit vector (norm 1e100)");
+        let plain = check_point(Vec3::new(0.6, 0.0, -0.8)).unwrap_err();
+        assert_eq!(plain, "z = -0.8 is below the horizon (need z >= 0)");
+    }
 
     #[test]
     fn point_count_limits() {
