@@ -100,7 +100,8 @@ pub struct RenderArgs {
     pub scale: Option<String>,
     /// Adaptive sampling: each pixel doubles its samples from --spp (the first stage) until every
     /// channel's stated standard deviation is at most this — never on a stage with zero evidence
-    /// (a channel's MC sample sd or fitted amplitude exactly 0) — or --max-spp is reached; `mc`,
+    /// (a channel's MC sample sd or fitted amplitude exactly 0, or its samples all equal) — or
+    /// --max-spp is reached; `mc`,
     /// `mc-cos` and the integrators with weights on uniform sets. Writes <out>-spp.png (the
     /// samples each pixel took).
     #[arg(long)]
