@@ -120,6 +120,8 @@ def _integrator_class():
                     pts = rule.points
                     self._px, self._py, self._pz = (mi.Float(pts[:, k].tolist()) for k in range(3))
                     self._w = mi.Float(self.weights)
+                    # Opaque, so that another rule's Var₁ does not make another kernel.
+                    self._var1 = dr.opaque(mi.Float, self.var1)
                     if self.scale == "ml":
                         # YᵀQ⁻¹Y = ‖Cᵀ Y‖² with Q⁻¹ = C Cᵀ (C lower triangular): N(N+1)/2
                         # multiply-adds per pixel and channel, against N² for YᵀQ⁻¹Y as it stands.
@@ -244,7 +246,7 @@ def _integrator_class():
                 _, quad, ys = dr.while_loop((mi.UInt32(0), mi.Color3f(0.0), ys), lambda k, q, ys: k < n, outer,
                                             label="workbench_amplitude")
                 amplitude = _clamp_at_zero(quad / n)
-            return estimate, dr.sqrt(amplitude * self.var1)
+            return estimate, dr.sqrt(amplitude * self._var1)
 
         def _mc_symbolic(self, scene, sampler, si, bsdf, ctx, env, hit, incident):
             """The MC baselines with a symbolic loop over the N samples (JIT variants); the
