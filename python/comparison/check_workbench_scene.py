@@ -8,7 +8,7 @@ independent halves. The check: RMSE(Mitsuba, exact) is of the size of Mitsuba's 
 (the RMSE of the mean of S samples, estimated from the halves' difference); a wrong camera,
 ground, sphere, albedo, map orientation or lookup would show as an RMSE far above it.
 
-    python python/comparison/check_workbench_scene.py [--res 64] [--spp 16384]
+    python python/comparison/check_workbench_scene.py [--res 32] [--spp 16384]
         [--bin target/release/workbench] [--out results/mitsuba/workbench-check]
 """
 
@@ -109,7 +109,7 @@ def check(res: int, spp: int, binary: str, out_dir: str, scenes_dir: str | None 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--res", type=int, default=64)
+    p.add_argument("--res", type=int, default=32)
     p.add_argument("--spp", type=int, default=16384)
     p.add_argument("--bin", default=os.environ.get("WORKBENCH_BIN", os.path.join(ROOT, "target", "release", "workbench")))
     p.add_argument("--out", default=os.path.join(ROOT, "results", "mitsuba", "workbench-check"))

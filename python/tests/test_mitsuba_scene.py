@@ -42,7 +42,7 @@ def test_the_xml_scene_is_the_workbench_scene(scene_dir):
     # Rays that hit nothing show the map: both renderers look it up the same way.
     assert r["max_abs_difference_background"] < 1e-5, r
     # Hit pixels: the difference is Mitsuba's noise.
-    assert r["hit_pixel_channels"] > 1000, r
+    assert r["hit_pixel_channels"] > 800, r
     assert r["rmse_mitsuba_vs_exact"] < 1.5 * r["mitsuba_noise_rmse"], r
     assert r["fraction_z_below_3"] > 0.97, r
     assert abs(r["mean_difference"]) < 3 * r["mitsuba_se_rmse"] / np.sqrt(r["hit_pixel_channels"]) + 1e-4, r
