@@ -24,7 +24,7 @@ Properties (``mi.load_dict``): ``method`` = ``"bmc"`` (default), ``"mc_cosine"``
 ``"mc_bsdf"``; ``n`` points or samples per pixel sample (default 64); ``design`` of the rule's
 points (``"uniform"``, ``"sobol"``, …; default ``uniform``); ``s`` (Sobolev smoothness, default
 1.4) and ``noise`` (σ_n², default 0.01); ``scale`` (``"ml"`` or ``"unit"``); ``seed`` of the
-rule. The computation is vectorised over pixels. In the JIT variants (``llvm_ad_rgb``) the N rule
+rule; ``symbolic`` (default true; false traces the unrolled loops below in JIT variants too). The computation is vectorised over pixels. In the JIT variants (``llvm_ad_rgb``) the N rule
 points (or MC samples) are a symbolic loop (``dr.while_loop``): the kernel holds one copy of the
 visibility test, the BSDF and the environment lookup whatever N, the values go to per-lane local
 memory, and the ``ml`` amplitude is ``‖CᵀY‖²/N`` with ``Q⁻¹ = CCᵀ`` (a triangular double loop,
@@ -98,6 +98,9 @@ def _integrator_class():
             self.n = int(props.get("n", 64))
             if self.n < 2:
                 raise ValueError(f"n: must be at least 2, got {self.n}")
+            # Symbolic loops over the rule (JIT variants only); False traces the unrolled Python
+            # loops of the scalar variant instead (slow to compile at large N; for tests).
+            self.symbolic = bool(props.get("symbolic", True)) and dr.is_jit_v(mi.Float)
             self.scale = props.get("scale", "ml")
             if self.scale not in ("ml", "unit"):
                 raise ValueError(f"scale: must be 'ml' or 'unit', got {self.scale!r}")
@@ -113,7 +116,7 @@ def _integrator_class():
                 self.weights = rule.weights().tolist()
                 self.var1 = max(rule.diagnostics()["posterior_variance"], 0.0)
                 self.q_inverse = rule.q_inverse().tolist() if self.scale == "ml" else None
-                if dr.is_jit_v(mi.Float):
+                if self.symbolic:
                     # The JIT variants loop symbolically over the rule (one copy of the BSDF,
                     # the visibility test and the amplitude in the kernel, whatever N): the
                     # points, weights and the whitening factor live in device arrays.
@@ -158,7 +161,7 @@ def _integrator_class():
                 f = bsdf.eval(ctx, si, wo_local, visible)
                 return dr.select(visible, radiance * f, mi.Color3f(0.0))
 
-            if self.method == "bmc" and dr.is_jit_v(mi.Float):
+            if self.method == "bmc" and self.symbolic:
                 estimate, sd = self._bmc_symbolic(sampler, hit, incident)
             elif self.method == "bmc":
                 phi = 2.0 * math.pi * sampler.next_1d(hit)
@@ -183,7 +186,7 @@ def _integrator_class():
                         quad += yi * qy
                     amplitude = _clamp_at_zero(quad / self.n)
                 sd = dr.sqrt(amplitude * self.var1)
-            elif dr.is_jit_v(mi.Float):
+            elif self.symbolic:
                 estimate, sd = self._mc_symbolic(scene, sampler, si, bsdf, ctx, env, hit, incident)
             else:
                 total = mi.Color3f(0.0)
