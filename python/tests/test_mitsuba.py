@@ -117,3 +117,25 @@ def test_unit_scale_and_the_scalar_variant_give_the_same_pixels():
         wbm.register()
     assert np.allclose(a, b, rtol=1e-5, atol=1e-6)
     assert np.allclose(a_sd, b_sd, rtol=1e-5, atol=1e-6)
+
+
+
+@pytest.mark.parametrize("method", ["bmc", "mc_cosine", "mc_bsdf"])
+def test_the_symbolic_loops_give_the_unrolled_loops_pixels(method):
+    """In llvm_ad_rgb the rule's points (MC samples) are a symbolic loop and the ml amplitude is
+    ‖CᵀY‖² (Q⁻¹ = CCᵀ); ``symbolic=False`` traces the unrolled loops of the scalar variant and
+    YᵀQ⁻¹Y as it stands. Same random numbers, so the same pixels and sds, on a scene with
+    shadows."""
+    if mi.variant() != "llvm_ad_rgb":
+        pytest.skip("needs the vectorised variant")
+    n = 12
+    d = scene(method, n, size=8, sphere=True)
+    out = []
+    for symbolic in [True, False]:
+        integ = mi.load_dict({"type": "workbench", "method": method, "n": n, "symbolic": symbolic})
+        img = np.array(mi.render(d, integrator=integ, seed=5), dtype=np.float64)
+        out.append((img[..., :3], img[..., 3:]))
+    (a, a_sd), (b, b_sd) = out
+    assert np.allclose(a, b, rtol=1e-5, atol=1e-6)
+    assert np.allclose(a_sd, b_sd, rtol=1e-4, atol=1e-6)
+    assert np.sum(a_sd[..., 1] > 0) > 20

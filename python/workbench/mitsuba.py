@@ -24,8 +24,11 @@ Properties (``mi.load_dict``): ``method`` = ``"bmc"`` (default), ``"mc_cosine"``
 ``"mc_bsdf"``; ``n`` points or samples per pixel sample (default 64); ``design`` of the rule's
 points (``"uniform"``, ``"sobol"``, …; default ``uniform``); ``s`` (Sobolev smoothness, default
 1.4) and ``noise`` (σ_n², default 0.01); ``scale`` (``"ml"`` or ``"unit"``); ``seed`` of the
-rule. The computation is vectorised over pixels: each of the N rule points (or MC samples) is
-one step of a Python loop that Dr.Jit traces into one kernel.
+rule; ``symbolic`` (default true; false traces the unrolled loops below in JIT variants too). The computation is vectorised over pixels. In the JIT variants (``llvm_ad_rgb``) the N rule
+points (or MC samples) are a symbolic loop (``dr.while_loop``): the kernel holds one copy of the
+visibility test, the BSDF and the environment lookup whatever N, the values go to per-lane local
+memory, and the ``ml`` amplitude is ``‖CᵀY‖²/N`` with ``Q⁻¹ = CCᵀ`` (a triangular double loop,
+N(N+1)/2 multiply-adds). In ``scalar_rgb`` the same estimators are plain Python loops.
 """
 
 from __future__ import annotations
@@ -95,6 +98,9 @@ def _integrator_class():
             self.n = int(props.get("n", 64))
             if self.n < 2:
                 raise ValueError(f"n: must be at least 2, got {self.n}")
+            # Symbolic loops over the rule (JIT variants only); False traces the unrolled Python
+            # loops of the scalar variant instead (slow to compile at large N; for tests).
+            self.symbolic = bool(props.get("symbolic", True)) and dr.is_jit_v(mi.Float)
             self.scale = props.get("scale", "ml")
             if self.scale not in ("ml", "unit"):
                 raise ValueError(f"scale: must be 'ml' or 'unit', got {self.scale!r}")
@@ -110,6 +116,20 @@ def _integrator_class():
                 self.weights = rule.weights().tolist()
                 self.var1 = max(rule.diagnostics()["posterior_variance"], 0.0)
                 self.q_inverse = rule.q_inverse().tolist() if self.scale == "ml" else None
+                if self.symbolic:
+                    # The JIT variants loop symbolically over the rule (one copy of the BSDF,
+                    # the visibility test and the amplitude in the kernel, whatever N): the
+                    # points, weights and the whitening factor live in device arrays.
+                    pts = rule.points
+                    self._px, self._py, self._pz = (mi.Float(pts[:, k].tolist()) for k in range(3))
+                    self._w = mi.Float(self.weights)
+                    # Opaque, so that another rule's Var₁ does not make another kernel.
+                    self._var1 = dr.opaque(mi.Float, self.var1)
+                    if self.scale == "ml":
+                        # YᵀQ⁻¹Y = ‖Cᵀ Y‖² with Q⁻¹ = C Cᵀ (C lower triangular): N(N+1)/2
+                        # multiply-adds per pixel and channel, against N² for YᵀQ⁻¹Y as it stands.
+                        c = np.linalg.cholesky(rule.q_inverse())
+                        self._ct = mi.Float(np.ascontiguousarray(c.T).ravel().tolist())
 
         def aov_names(self):
             return ["sd.R", "sd.G", "sd.B"]
@@ -141,7 +161,9 @@ def _integrator_class():
                 f = bsdf.eval(ctx, si, wo_local, visible)
                 return dr.select(visible, radiance * f, mi.Color3f(0.0))
 
-            if self.method == "bmc":
+            if self.method == "bmc" and self.symbolic:
+                estimate, sd = self._bmc_symbolic(sampler, hit, incident)
+            elif self.method == "bmc":
                 phi = 2.0 * math.pi * sampler.next_1d(hit)
                 c, s = dr.cos(phi), dr.sin(phi)
                 ys = []
@@ -164,6 +186,8 @@ def _integrator_class():
                         quad += yi * qy
                     amplitude = _clamp_at_zero(quad / self.n)
                 sd = dr.sqrt(amplitude * self.var1)
+            elif self.symbolic:
+                estimate, sd = self._mc_symbolic(scene, sampler, si, bsdf, ctx, env, hit, incident)
             else:
                 total = mi.Color3f(0.0)
                 total_sq = mi.Color3f(0.0)
@@ -188,6 +212,73 @@ def _integrator_class():
             result = dr.select(hit, estimate, result)
             sd = dr.select(hit, sd, mi.Color3f(0.0))
             return result, active, [sd[0], sd[1], sd[2]]
+
+        def _bmc_symbolic(self, sampler, hit, incident):
+            """The BMC estimate and its sd with symbolic loops over the rule (JIT variants):
+            the values Y go to per-lane local memory, Î = Σ w_i Y_i accumulates on the way, and
+            the ml amplitude is ‖Cᵀ Y‖² / N, a triangular double loop."""
+            n = self.n
+            phi = 2.0 * math.pi * sampler.next_1d(hit)
+            c, s = dr.cos(phi), dr.sin(phi)
+            ys = dr.alloc_local(mi.Color3f, n, mi.Color3f(0.0))
+
+            def body(i, estimate, ys):
+                px = dr.gather(mi.Float, self._px, i)
+                py = dr.gather(mi.Float, self._py, i)
+                pz = dr.gather(mi.Float, self._pz, i)
+                y = incident(mi.Vector3f(c * px - s * py, s * px + c * py, pz), hit)
+                ys[i] = y
+                return i + 1, estimate + dr.gather(mi.Float, self._w, i) * y, ys
+
+            _, estimate, ys = dr.while_loop(
+                (mi.UInt32(0), mi.Color3f(0.0), ys), lambda i, e, ys: i < n, body, label="workbench_bmc"
+            )
+            if self.scale == "unit":
+                amplitude = mi.Color3f(1.0)
+            else:
+                ct = self._ct
+
+                def outer(k, quad, ys):
+                    def inner(j, z, ys):
+                        return j + 1, z + dr.gather(mi.Float, ct, k * n + j) * ys[j], ys
+
+                    _, z, ys = dr.while_loop((k, mi.Color3f(0.0), ys), lambda j, z, ys: j < n, inner,
+                                             label="workbench_whiten")
+                    return k + 1, quad + z * z, ys
+
+                _, quad, ys = dr.while_loop((mi.UInt32(0), mi.Color3f(0.0), ys), lambda k, q, ys: k < n, outer,
+                                            label="workbench_amplitude")
+                amplitude = _clamp_at_zero(quad / n)
+            return estimate, dr.sqrt(amplitude * self._var1)
+
+        def _mc_symbolic(self, scene, sampler, si, bsdf, ctx, env, hit, incident):
+            """The MC baselines with a symbolic loop over the N samples (JIT variants); the
+            same estimator as the unrolled loop of the scalar variant."""
+            n = self.n
+            cosine = self.method == "mc_cosine"
+
+            def body(i, total, total_sq, sampler):
+                if cosine:
+                    wo = mi.warp.square_to_cosine_hemisphere(sampler.next_2d(hit))
+                    pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+                    term = dr.select(pdf > 0, incident(wo, hit) / pdf, mi.Color3f(0.0))
+                else:
+                    bs, weight = bsdf.sample(ctx, si, sampler.next_1d(hit), sampler.next_2d(hit), hit)
+                    ok = hit & (bs.pdf > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
+                    wo_world = si.sh_frame.to_world(bs.wo)
+                    visible = ok & ~scene.ray_test(si.spawn_ray(wo_world), ok)
+                    si_env = dr.zeros(mi.SurfaceInteraction3f)
+                    si_env.wi = -wo_world
+                    term = dr.select(visible, env.eval(si_env, visible) * weight, mi.Color3f(0.0))
+                return i + 1, total + term, total_sq + term * term, sampler
+
+            _, total, total_sq, sampler = dr.while_loop(
+                (mi.UInt32(0), mi.Color3f(0.0), mi.Color3f(0.0), sampler),
+                lambda i, t, t2, smp: i < n, body, label="workbench_mc",
+            )
+            estimate = total / n
+            variance = _clamp_at_zero(total_sq / n - estimate * estimate) * (n / (n - 1))
+            return estimate, dr.sqrt(variance / n)
 
     def _clamp_at_zero(x):
         # dr.select rather than dr.maximum: the LLVM versions Debian ships (14, 15) cannot
