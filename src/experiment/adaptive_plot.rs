@@ -30,7 +30,8 @@ struct Series {
 }
 
 /// How series are drawn: colour by method (in order of appearance), and per first stage a
-/// line style (solid, dashed, alternating) and a marker shape three apart from the method's.
+/// line style (solid, dashed, alternating) and a marker shape two apart from the method's per
+/// stage (a filled circle's N₀ = 64 twin is a ×, not an open circle that would cover it).
 fn styles(series: &[Series]) -> Vec<SeriesStyle> {
     let mut methods: Vec<&str> = Vec::new();
     series
@@ -45,8 +46,9 @@ fn styles(series: &[Series]) -> Vec<SeriesStyle> {
             };
             SeriesStyle {
                 colour: m,
-                marker: m + 3 * s.stage,
+                marker: m + 2 * s.stage,
                 dashed: s.stage % 2 == 1,
+                grow: 0,
             }
         })
         .collect()
@@ -230,16 +232,26 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<style::Fi
         .map(|s| s.points.iter().map(|p| (p.0, p.2)).collect())
         .collect();
     let half = style::plot_height(CHART_HEIGHT / 2);
-    let (_, top_notes) = style::coincidences(&names, &top_points, style::log_px((y0, y1), half), "tolerance");
+    let top_found = style::coincidences(&names, &top_points, style::log_px((y0, y1), half), "tolerance");
     let (s0, s1) = share_axis.range;
-    let (_, bottom_notes) = style::coincidences(
+    let bottom_found = style::coincidences(
         &names,
         &bottom_points,
         move |v| (v - s0) / (s1 - s0) * half,
         "tolerance",
     );
-    caption.extend(top_notes.into_iter().map(|n| format!("Above: {n}")));
-    caption.extend(bottom_notes.into_iter().map(|n| format!("Below: {n}")));
+    // The line style says N₀ already; a series with others on it, above or below, has larger
+    // markers in both charts.
+    let styles: Vec<SeriesStyle> = styles
+        .iter()
+        .enumerate()
+        .map(|(i, st)| SeriesStyle {
+            grow: top_found.under[i].max(bottom_found.under[i]),
+            ..*st
+        })
+        .collect();
+    caption.extend(top_found.notes.iter().map(|n| format!("Above: {n}")));
+    caption.extend(bottom_found.notes.iter().map(|n| format!("Below: {n}")));
 
     style::svg_figure(
         &format!("{}: samples needed", plan.title),
@@ -302,10 +314,8 @@ fn draw(plan: &Plan, cells: &[Cell], fi: usize) -> style::FigureResult<style::Fi
                 }
                 // Markers after both lines, top and bottom point by point (the figure's order).
                 for p in &s.points {
-                    let at = top.backend_coord(&(p.0, p.1));
-                    style::draw_marker(root, st.marker, at, colour)?;
-                    let at = bottom.backend_coord(&(p.0, p.2));
-                    style::draw_marker(root, st.marker, at, colour)?;
+                    style::draw_styled_marker(root, st, top.backend_coord(&(p.0, p.1)))?;
+                    style::draw_styled_marker(root, st, bottom.backend_coord(&(p.0, p.2)))?;
                 }
             }
             Ok(())

@@ -71,15 +71,13 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let names: Vec<String> = plan.estimators.iter().map(|e| e.label.clone()).collect();
     let height = style::plot_height(CHART_HEIGHT);
     let to_px = move |v: f64| (v - y0) / (y1 - y0) * height;
-    let (over, coincident) = style::coincidences(&names, &points, to_px, "N");
+    let found = style::coincidences(&names, &points, to_px, "N");
     for entry in legend.iter_mut() {
         if let Swatch::Series(ei) = entry.swatch {
-            entry.swatch = Swatch::Styled(SeriesStyle {
-                dashed: over[ei],
-                ..SeriesStyle::of(ei)
-            });
+            entry.swatch = Swatch::Styled(found.style(ei, SeriesStyle::of(ei)));
         }
     }
+    let coincident = found.notes.clone();
     let mut caption = vec![format!(
         "Grey band: the 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}), \
              where a calibrated estimator's coverage falls; dashed grey line: {LEVEL}.",
@@ -112,11 +110,12 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                 if s.is_empty() {
                     continue;
                 }
-                let style = SeriesStyle {
-                    dashed: over[ei],
-                    ..SeriesStyle::of(ei)
-                };
-                style::draw_styled_line(&mut chart, root, style, &points[ei])?;
+                style::draw_styled_line(
+                    &mut chart,
+                    root,
+                    found.style(ei, SeriesStyle::of(ei)),
+                    &points[ei],
+                )?;
             }
             Ok(())
         },

@@ -163,15 +163,11 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         .collect();
     let labels: Vec<String> = plan.estimators.iter().map(|e| e.label.clone()).collect();
     let to_px = style::log_px((y0, y1), style::plot_height(CHART_HEIGHT));
-    let (over, mut coincident) = style::coincidences(&labels, &means, &to_px, "N");
-    let styles: Vec<SeriesStyle> = over
-        .iter()
-        .enumerate()
-        .map(|(ei, &dashed)| SeriesStyle {
-            dashed,
-            ..SeriesStyle::of(ei)
-        })
+    let found = style::coincidences(&labels, &means, &to_px, "N");
+    let styles: Vec<SeriesStyle> = (0..means.len())
+        .map(|ei| found.style(ei, SeriesStyle::of(ei)))
         .collect();
+    let mut coincident = found.notes;
     if let Some((ei, a, _)) = &guide {
         let on_guide: Vec<(f64, f64)> = means[*ei].iter().map(|&(n, _)| (n, a / n.sqrt())).collect();
         let at = style::coincident_at(&means[*ei], &on_guide, &to_px, style::COINCIDENT_PX);
@@ -330,10 +326,9 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                 style::draw_guide(&mut chart, line.clone())?;
             }
             for (ei, s) in series.iter().enumerate() {
-                let style = styles[ei];
                 for c in s.iter().filter(|c| ok(c.mean_abs_error)) {
                     let at = chart.backend_coord(&(c.n as f64, c.mean_abs_error));
-                    style::draw_marker(root, style.marker, at, style::colour(style.colour))?;
+                    style::draw_styled_marker(root, styles[ei], at)?;
                 }
             }
             Ok(())

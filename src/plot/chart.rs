@@ -6,7 +6,7 @@
 
 use super::{
     AXIS_FONT, FONT, Figure, GUIDE, HEADER_HEIGHT, LegendEntry, SeriesStyle, TICK_FONT, Ticks, WIDTH,
-    caption_text, chart_minor_ticks, colour, draw_header, draw_legend, draw_marker, format_count,
+    caption_text, chart_minor_ticks, colour, draw_header, draw_legend, draw_styled_marker, format_count,
     format_tick, layout, legend_height,
 };
 use plotters::coord::Shift;
@@ -254,7 +254,7 @@ pub fn draw_styled_line<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
         chart.draw_series(LineSeries::new(points.to_vec(), c.stroke_width(2)))?;
     }
     for p in points {
-        draw_marker(root, style.marker, chart.backend_coord(p), c)?;
+        draw_styled_marker(root, style, chart.backend_coord(p))?;
     }
     Ok(())
 }

@@ -65,27 +65,51 @@ pub fn draw_marker<DB: DrawingBackend>(
     at: (i32, i32),
     colour: RGBColor,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    draw_marker_scaled(area, i, at, colour, 1.0)
+}
+
+/// The marker of a series in `style` at pixel `at`: its shape and colour, enlarged by
+/// [`SeriesStyle::marker_scale`] when later series lie on it, so that theirs, drawn over it,
+/// leave its outline showing.
+pub fn draw_styled_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    style: SeriesStyle,
+    at: (i32, i32),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    draw_marker_scaled(area, style.marker, at, colour(style.colour), style.marker_scale())
+}
+
+/// [`draw_marker`] with every size multiplied by `scale`.
+fn draw_marker_scaled<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    i: usize,
+    at: (i32, i32),
+    colour: RGBColor,
+    scale: f64,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (x, y) = at;
+    let px = |v: f64| (v * scale).round() as i32;
+    let (r, t) = (px(4.0), px(6.0));
     let fill = colour.filled();
     let stroke = colour.stroke_width(2);
     // Open shapes get a white inside so that a band or line behind them does not show through.
     let white = WHITE.filled();
     match marker_shape(i) {
-        0 => area.draw(&Circle::new(at, 4, fill)),
-        1 => area.draw(&TriangleMarker::new(at, 6, fill)),
-        2 => area.draw(&Cross::new(at, 4, stroke)),
+        0 => area.draw(&Circle::new(at, r, fill)),
+        1 => area.draw(&TriangleMarker::new(at, t, fill)),
+        2 => area.draw(&Cross::new(at, r, stroke)),
         3 => {
-            area.draw(&Circle::new(at, 4, white))?;
-            area.draw(&Circle::new(at, 4, stroke))
+            area.draw(&Circle::new(at, r, white))?;
+            area.draw(&Circle::new(at, r, stroke))
         }
-        4 => area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], fill)),
+        4 => area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], fill)),
         5 => area.draw(&Polygon::new(
-            vec![(x, y - 6), (x + 5, y), (x, y + 6), (x - 5, y)],
+            vec![(x, y - t), (x + px(5.0), y), (x, y + t), (x - px(5.0), y)],
             fill,
         )),
         _ => {
-            area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], white))?;
-            area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], stroke))
+            area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], white))?;
+            area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], stroke))
         }
     }
 }
@@ -448,6 +472,8 @@ pub struct SeriesStyle {
     pub marker: usize,
     /// A dashed line (dashes of 8 px, gaps of 5 px) rather than a solid one.
     pub dashed: bool,
+    /// How many later series lie on this one ([`coincidences`]): its markers grow with it.
+    pub grow: usize,
 }
 
 impl SeriesStyle {
@@ -457,7 +483,14 @@ impl SeriesStyle {
             colour: i,
             marker: i,
             dashed: false,
+            grow: 0,
         }
+    }
+
+    /// The markers' size factor: 1, and 1.5, 2 or 2.5 for a series one, two or more later
+    /// series lie on, so that the markers of a coincident group nest, the first largest.
+    pub fn marker_scale(self) -> f64 {
+        1.0 + 0.5 * self.grow.min(3) as f64
     }
 }
 
@@ -591,34 +624,73 @@ pub fn list_values(xs: &[f64]) -> String {
     xs.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ")
 }
 
-/// For each series (its points, in drawing order), whether it lies on an earlier one (callers
-/// draw it dashed, its marker shape differing already), and the caption's sentences for the
-/// pairs that coincide: `"BMCP lies on BMC at N = 32, 64 (markers within 4 px): …"`.
+/// Whether the x values `at` include two neighbours of `series` (its points in x order): then
+/// the two series share a line segment there and one hides the other. Lines that merely cross
+/// (one shared point) stay apart by their markers' shapes.
+fn shares_a_segment(series: &[(f64, f64)], at: &[f64]) -> bool {
+    series
+        .windows(2)
+        .any(|w| at.contains(&w[0].0) && at.contains(&w[1].0))
+}
+
+/// Which series of a figure lie on one another, and what the caption says about it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coincidences {
+    /// Per series, whether it lies on an earlier one (drawn dashed over it).
+    pub over: Vec<bool>,
+    /// Per series, how many later series lie on it (its markers grow).
+    pub under: Vec<usize>,
+    /// The caption's sentences, one per pair.
+    pub notes: Vec<String>,
+}
+
+impl Coincidences {
+    /// Series `i`'s style from `base`: dashed if it lies on an earlier series, its markers
+    /// grown by the number of later ones on it.
+    pub fn style(&self, i: usize, base: SeriesStyle) -> SeriesStyle {
+        SeriesStyle {
+            dashed: base.dashed || self.over.get(i).copied().unwrap_or(false),
+            grow: self.under.get(i).copied().unwrap_or(0),
+            ..base
+        }
+    }
+}
+
+/// Which series (their points, in drawing order) lie on an earlier one along at least one
+/// segment (two neighbouring points within [`COINCIDENT_PX`]): those are drawn dashed over it,
+/// and the earlier one's markers grow, so that nested markers of different shapes show every
+/// series. The caption's sentence for each pair: `"BMCP lies on BMC at N = 32, 64 (markers
+/// within 4 px): …"`.
 pub fn coincidences(
     names: &[String],
     points: &[Vec<(f64, f64)>],
     to_px: impl Fn(f64) -> f64,
     x_name: &str,
-) -> (Vec<bool>, Vec<String>) {
-    let mut over = vec![false; points.len()];
-    let mut notes = Vec::new();
+) -> Coincidences {
+    let mut c = Coincidences {
+        over: vec![false; points.len()],
+        under: vec![0; points.len()],
+        notes: Vec::new(),
+    };
     for j in 0..points.len() {
         for i in 0..j {
             let at = coincident_at(&points[i], &points[j], &to_px, COINCIDENT_PX);
-            if at.is_empty() {
+            if !shares_a_segment(&points[i], &at) {
                 continue;
             }
-            over[j] = true;
-            notes.push(format!(
-                "{} lies on {} at {x_name} = {} (markers within {COINCIDENT_PX} px): it is drawn over it with a \
-                 different line or marker, so that both stay visible.",
+            c.over[j] = true;
+            c.under[i] += 1;
+            c.notes.push(format!(
+                "{} lies on {} at {x_name} = {} (markers within {COINCIDENT_PX} px): it is drawn over it, dashed, \
+                 and {}'s markers are drawn larger, so that both stay visible.",
                 names[j],
                 names[i],
-                list_values(&at)
+                list_values(&at),
+                names[i]
             ));
         }
     }
-    (over, notes)
+    c
 }
 
 const SWATCH_WIDTH: i32 = 34;
@@ -699,7 +771,7 @@ fn draw_swatch<DB: DrawingBackend>(
             } else {
                 area.draw(&PathElement::new(vec![(x, y), (x + w, y)], c.stroke_width(2)))?;
             }
-            draw_marker(area, style.marker, (x + w / 2, y), c)?;
+            draw_styled_marker(area, style, (x + w / 2, y))?;
         }
         Swatch::Guide => dashed(area, x, x + w, y, GUIDE.stroke_width(2))?,
         Swatch::Band => {
@@ -900,15 +972,22 @@ mod tests {
         let b = vec![(16.0, 0.2), (32.0, 0.0101), (64.0, 0.00201)];
         let c = vec![(16.0, 0.5), (32.0, 0.5), (64.0, 0.5)];
         assert_eq!(coincident_at(&a, &b, &to_px, COINCIDENT_PX), [32.0, 64.0]);
-        let names = ["BMC".to_string(), "BMCP".into(), "MC".into()];
-        let (over, notes) = coincidences(&names, &[a, b, c], &to_px, "N");
-        assert_eq!(over, [false, true, false]);
-        assert_eq!(notes.len(), 1);
+        let names = ["BMC".to_string(), "BMCP".into(), "MC".into(), "X".into()];
+        // X crosses BMC at one point only: a crossing, not a coincidence.
+        let crossing = vec![(16.0, 0.5), (32.0, 0.0101), (64.0, 0.5)];
+        let found = coincidences(&names, &[a, b, c, crossing], &to_px, "N");
+        assert_eq!(found.over, [false, true, false, false]);
+        assert_eq!(found.under, [1, 0, 0, 0]);
+        assert_eq!(found.notes.len(), 1);
         assert!(
-            notes[0].starts_with("BMCP lies on BMC at N = 32, 64"),
+            found.notes[0].starts_with("BMCP lies on BMC at N = 32, 64"),
             "{}",
-            notes[0]
+            found.notes[0]
         );
+        // BMC's markers grow, BMCP's line is dashed; the others keep their default.
+        assert_eq!(found.style(0, SeriesStyle::of(0)).marker_scale(), 1.5);
+        assert!(found.style(1, SeriesStyle::of(1)).dashed);
+        assert_eq!(found.style(2, SeriesStyle::of(2)), SeriesStyle::of(2));
         assert_eq!(caption_name("cos3.svg"), "cos3.caption.txt");
     }
 

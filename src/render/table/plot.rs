@@ -110,13 +110,13 @@ pub fn variant_entries(plan: &TablePlan) -> Vec<LegendEntry> {
 fn legend_and_caption(
     plan: &TablePlan,
     frame: &Frame,
-    over: &[bool],
+    found: &style::Coincidences,
     coincident: Vec<String>,
 ) -> (Vec<LegendEntry>, Vec<String>) {
     let mut legend: Vec<LegendEntry> = variant_entries(plan)
         .into_iter()
         .enumerate()
-        .map(|(v, e)| LegendEntry::key(Swatch::Styled(variant_style(v, over)), e.text))
+        .map(|(v, e)| LegendEntry::key(Swatch::Styled(found.style(v, SeriesStyle::of(v))), e.text))
         .collect();
     if let Some((v, _)) = &frame.guide {
         legend.push(LegendEntry::key(
@@ -147,21 +147,13 @@ fn legend_and_caption(
     (legend, caption)
 }
 
-/// Variant `v`'s style: its own colour and marker, dashed when it lies on an earlier variant.
-fn variant_style(v: usize, over: &[bool]) -> SeriesStyle {
-    SeriesStyle {
-        dashed: over.get(v).copied().unwrap_or(false),
-        ..SeriesStyle::of(v)
-    }
-}
-
 /// Every variant's bars, then its line and markers (so no bar hides a marker), all at the
 /// variants' true spp, then the guide.
 fn draw_variants<'s, X: style::F64Coord, Y: style::F64Coord>(
     chart: &mut style::Chart<'_, SVGBackend<'s>, X, Y>,
     root: &style::SvgArea<'s>,
     per_variant: &[Vec<&Cell>],
-    over: &[bool],
+    found: &style::Coincidences,
     guide: &Option<(usize, Vec<(f64, f64)>)>,
 ) -> style::FigureResult<()> {
     for (v, mine) in per_variant.iter().enumerate() {
@@ -172,7 +164,7 @@ fn draw_variants<'s, X: style::F64Coord, Y: style::F64Coord>(
         style::draw_bars(chart, v, bars)?;
     }
     for (v, points) in points_of(per_variant).iter().enumerate() {
-        style::draw_styled_line(chart, root, variant_style(v, over), points)?;
+        style::draw_styled_line(chart, root, found.style(v, SeriesStyle::of(v)), points)?;
     }
     // Over the lines: it lies on MC's.
     if let Some((_, line)) = &guide {
@@ -199,7 +191,8 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> 
     let frame = frame(plan, cells);
     let names: Vec<String> = plan.variants.iter().map(|v| v.label.clone()).collect();
     let to_px = style::log_px(frame.y.range, style::plot_height(CHART_HEIGHT));
-    let (over, mut coincident) = style::coincidences(&names, &points_of(&frame.per_variant), &to_px, "spp");
+    let found = style::coincidences(&names, &points_of(&frame.per_variant), &to_px, "spp");
+    let mut coincident = found.notes.clone();
     if let Some((v, line)) = &frame.guide {
         let mine = &points_of(&frame.per_variant)[*v];
         let (x0, y0) = line[0];
@@ -215,7 +208,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> 
             ));
         }
     }
-    let (legend, caption) = legend_and_caption(plan, &frame, &over, coincident);
+    let (legend, caption) = legend_and_caption(plan, &frame, &found, coincident);
     style::svg_figure(
         &format!("{}: mean RMSE against samples per pixel", plan.title),
         &reference_caption(plan),
@@ -224,7 +217,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> 
         &caption,
         |root, area| {
             let mut chart = style::log_log_chart(root, area, &frame.x, &frame.y)?;
-            draw_variants(&mut chart, root, &frame.per_variant, &over, &frame.guide)
+            draw_variants(&mut chart, root, &frame.per_variant, &found, &frame.guide)
         },
     )
 }
@@ -265,18 +258,24 @@ mod tests {
         let points = points_of(&per_variant);
         assert_eq!(points[0], [(20.0, 0.2), (40.0, 0.1)]);
         assert_eq!(points[1], points[0]);
-        let (over, notes) = style::coincidences(
+        let found = style::coincidences(
             &["MC".into(), "BMC".into()],
             &points,
             style::log_px((0.05, 0.5), 400.0),
             "spp",
         );
-        assert_eq!(over, [false, true]);
-        assert!(
-            notes[0].starts_with("BMC lies on MC at spp = 20, 40"),
-            "{}",
-            notes[0]
+        assert_eq!(
+            (found.over.clone(), found.under.clone()),
+            (vec![false, true], vec![1, 0])
         );
-        assert_ne!(variant_style(0, &over), variant_style(1, &over));
+        assert!(
+            found.notes[0].starts_with("BMC lies on MC at spp = 20, 40"),
+            "{}",
+            found.notes[0]
+        );
+        assert_ne!(
+            found.style(0, SeriesStyle::of(0)),
+            found.style(1, SeriesStyle::of(1))
+        );
     }
 }
