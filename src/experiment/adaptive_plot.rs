@@ -29,9 +29,18 @@ struct Series {
     max_n: Vec<usize>,
 }
 
+/// The marker of method `m` at its `stage`-th first stage: the method's own shape first, then
+/// open shapes (square, circle), white inside with a coloured edge, which show over a
+/// same-coloured filled marker of the first stage where the two coincide.
+fn stage_marker(m: usize, stage: usize) -> usize {
+    match stage {
+        0 => m,
+        k => [6, 3][(k - 1) % 2],
+    }
+}
+
 /// How series are drawn: colour by method (in order of appearance), and per first stage a
-/// line style (solid, dashed, alternating) and a marker shape two apart from the method's per
-/// stage (a filled circle's N₀ = 64 twin is a ×, not an open circle that would cover it).
+/// line style (solid, dashed, alternating) and a marker ([`stage_marker`]).
 fn styles(series: &[Series]) -> Vec<SeriesStyle> {
     let mut methods: Vec<&str> = Vec::new();
     series
@@ -46,7 +55,7 @@ fn styles(series: &[Series]) -> Vec<SeriesStyle> {
             };
             SeriesStyle {
                 colour: m,
-                marker: m + 2 * s.stage,
+                marker: stage_marker(m, s.stage),
                 dashed: s.stage % 2 == 1,
                 grow: 0,
             }
@@ -355,6 +364,8 @@ mod tests {
         );
         assert_ne!(st[0].marker, st[2].marker);
         assert_ne!(st[1].marker, st[3].marker);
+        // The later stage's markers are open shapes, visible over the first stage's.
+        assert_eq!((st[2].marker, st[3].marker), (6, 6));
     }
 
     #[test]

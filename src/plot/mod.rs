@@ -487,10 +487,10 @@ impl SeriesStyle {
         }
     }
 
-    /// The markers' size factor: 1, and 1.5, 2 or 2.5 for a series one, two or more later
-    /// series lie on, so that the markers of a coincident group nest, the first largest.
+    /// The markers' size factor: 1, and 1.5 or 2 for a series one or more later series lie on,
+    /// so that the markers of a coincident group nest, the first largest.
     pub fn marker_scale(self) -> f64 {
-        1.0 + 0.5 * self.grow.min(3) as f64
+        1.0 + 0.5 * self.grow.min(2) as f64
     }
 }
 
