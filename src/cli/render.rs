@@ -339,6 +339,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             error_scale,
             error_max,
             error_colours,
+            workbench::render::image::SD_TITLE,
         )?;
         files.stage(sd_png, &e.png)?;
         sd_image = Some(e);

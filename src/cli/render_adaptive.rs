@@ -152,11 +152,14 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     let seconds = start.elapsed().as_secs_f64();
 
     let (map, black) = result.spp_as_norms();
-    let spp_image = map.error_png(
-        &black,
+    let spp_image = workbench::render::image::scalar_png(
+        &map.error_norms(&black),
+        map.width,
+        map.height,
         ErrorScale::Absolute,
         settings.max_spp() as f64,
         ColourMap::Viridis,
+        workbench::render::image::SPP_TITLE,
     )?;
     files.stage(out, &result.image.to_exr()?)?;
     files.stage(&png, &result.image.to_png()?)?;

@@ -8,12 +8,12 @@
 
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::plot::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry};
 
 const CHART_HEIGHT: u32 = 560;
 
-/// The SVG for integrand `fi` as a string.
-pub fn cost_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<String> {
+/// The figure (SVG and caption) for integrand `fi`.
+pub fn cost_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<style::Figure> {
     draw(plan, cells, fi).map_err(|e| crate::Error::Encode(format!("drawing the cost plot: {e}")))
 }
 
@@ -23,7 +23,7 @@ fn drawable(c: &CellSummary) -> bool {
     style::on_log_axis(c.median_seconds) && style::on_log_axis(c.mean_abs_error)
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<String> {
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<style::Figure> {
     let name = plan.integrands[fi].display_name();
     let series: Vec<Vec<&CellSummary>> = (0..plan.estimators.len())
         .map(|ei| {
@@ -43,10 +43,10 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     );
     let y = Axis::log_values(
         style::padded_log_range(&ys, 1.5),
-        super::plot::error_axis_label("mean absolute error |Î − I|", &name, CHART_HEIGHT),
+        super::plot::error_axis_label("mean absolute error |Î − I|"),
     );
 
-    let mut legend: Vec<LegendEntry> = plan
+    let legend: Vec<LegendEntry> = plan
         .estimators
         .iter()
         .enumerate()
@@ -60,15 +60,12 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
             )
         })
         .collect();
-    legend.push(LegendEntry::wide(
-        Swatch::Text,
-        format!(
-            "one point per N: mean |Î − I| over the {} trials against the median wall-clock seconds per trial \
+    let caption = [format!(
+        "One point per N: mean |Î − I| over the {} trials against the median wall-clock seconds per trial \
              of the estimator alone (drawing its points, its weight set — shared sets counted in full for each \
-             estimator — evaluating the integrand, combining); machine-dependent",
-            plan.trials
-        ),
-    ));
+             estimator — evaluating the integrand, combining); machine-dependent.",
+        plan.trials
+    )];
 
     style::svg_figure(
         &format!("{}: error at equal cost", plan.title),
@@ -78,6 +75,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         ),
         CHART_HEIGHT,
         &legend,
+        &caption,
         |root, area| {
             let mut chart = style::log_log_chart(root, area, &x, &y)?;
             for (ei, s) in series.iter().enumerate() {

@@ -5,14 +5,14 @@
 
 use super::plan::Plan;
 use super::summary::{CellSummary, binomial_band};
-use crate::plot::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, SeriesStyle, Swatch};
 
 const CHART_HEIGHT: u32 = 480;
 /// The level the plot is about.
 pub const LEVEL: f64 = 0.95;
 
-/// The SVG for integrand `fi` as a string.
-pub fn coverage_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<String> {
+/// The figure (SVG and caption) for integrand `fi`.
+pub fn coverage_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<style::Figure> {
     draw(plan, cells, fi).map_err(|e| crate::Error::Encode(format!("drawing the coverage plot: {e}")))
 }
 
@@ -24,7 +24,7 @@ fn label(e: &super::plan::PlannedEstimator) -> String {
     }
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<String> {
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<style::Figure> {
     let integrand = &plan.integrands[fi];
     let name = integrand.display_name();
     let series: Vec<Vec<(usize, f64)>> = (0..plan.estimators.len())
@@ -59,20 +59,37 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         .filter(|(ei, _)| !series[*ei].is_empty())
         .map(|(ei, e)| LegendEntry::series(ei, label(e)))
         .collect();
-    legend.push(LegendEntry::wide(
+    legend.push(LegendEntry::key(
         Swatch::Band,
-        format!(
-            "grey band: 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}), \
-             where a calibrated estimator's coverage falls; dashed line: {LEVEL}",
-            plan.trials
-        ),
+        format!("99% binomial band around {LEVEL}"),
     ));
-    legend.push(LegendEntry::wide(
-        Swatch::Text,
-        "coverage: share of trials whose 95% interval Î ± q·sd holds the truth (ml: Student-t; \
+    // Series that lie on an earlier one are drawn dashed over it (and said so).
+    let points: Vec<Vec<(f64, f64)>> = series
+        .iter()
+        .map(|s| s.iter().map(|&(n, c)| (n as f64, c)).collect())
+        .collect();
+    let names: Vec<String> = plan.estimators.iter().map(|e| e.label.clone()).collect();
+    let height = style::plot_height(CHART_HEIGHT);
+    let to_px = move |v: f64| (v - y0) / (y1 - y0) * height;
+    let found = style::coincidences(&names, &points, to_px, "N");
+    for entry in legend.iter_mut() {
+        if let Swatch::Series(ei) = entry.swatch {
+            entry.swatch = Swatch::Styled(found.style(ei, SeriesStyle::of(ei)));
+        }
+    }
+    let coincident = found.notes.clone();
+    let mut caption = vec![format!(
+        "Grey band: the 99% binomial band around {LEVEL} for {} trials ({band_lo:.3}–{band_hi:.3}), \
+             where a calibrated estimator's coverage falls; dashed grey line: {LEVEL}.",
+        plan.trials
+    )];
+    caption.push(
+        "Coverage: the share of trials whose 95% interval Î ± q·sd holds the truth (ml: Student-t; \
          unit, loo: normal; MC: Student-t with N − 1 dof on its standard error). Above the band: \
-         intervals too wide; below: too narrow",
-    ));
+         intervals too wide; below: too narrow."
+            .to_string(),
+    );
+    caption.extend(coincident);
 
     style::svg_figure(
         &format!("{}: calibration", plan.title),
@@ -82,6 +99,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
         ),
         CHART_HEIGHT,
         &legend,
+        &caption,
         |root, area| {
             let mut chart = style::chart_on(area, x.log_coord(), y.linear_coord())?;
             style::draw_mesh(&mut chart, &x, &y)?;
@@ -92,8 +110,12 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
                 if s.is_empty() {
                     continue;
                 }
-                let line: Vec<(f64, f64)> = s.iter().map(|&(n, c)| (n as f64, c)).collect();
-                style::draw_line_with_markers(&mut chart, root, ei, &line)?;
+                style::draw_styled_line(
+                    &mut chart,
+                    root,
+                    found.style(ei, SeriesStyle::of(ei)),
+                    &points[ei],
+                )?;
             }
             Ok(())
         },

@@ -136,6 +136,22 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
     })
 }
 
+/// [`plan_json`] with how the figures are drawn, `"plot": {"bands": [labels]}` (what `validate`
+/// prints and the manifest records). Kept out of [`plan_json`], which identifies the trials
+/// across shards and resumed runs: how a figure is drawn changes no trial.
+pub fn plan_json_with_plot(plan: &Plan) -> serde_json::Value {
+    let mut v = plan_json(plan);
+    let banded: Vec<&str> = plan
+        .estimators
+        .iter()
+        .zip(&plan.bands)
+        .filter(|(_, on)| **on)
+        .map(|(e, _)| e.label.as_str())
+        .collect();
+    v["plot"] = serde_json::json!({ "bands": banded });
+    v
+}
+
 /// An integrand's name, truth and oracle prior, and for a family its definition.
 fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
     let mut v = serde_json::json!({
@@ -164,7 +180,7 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
 /// [`crate::files::result_folder::ResultFolder::commit`]).
 pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[CalibrationOutcome]) -> Vec<u8> {
     let v = serde_json::json!({
-        "plan": plan_json(plan),
+        "plan": plan_json_with_plot(plan),
         "seed": plan.seed,
         "checks": checks.iter().map(|c| serde_json::json!({
             "better": c.check.better,
@@ -205,7 +221,8 @@ pub fn manifest_json(plan: &Plan, checks: &[CheckOutcome], calibration: &[Calibr
 /// The names an experiment's `manifest.json` accounts for beyond its `files`, or `None` if it is
 /// not one (see [`crate::files::result_folder::LegacyManifest`]): the machine-dependent files
 /// (`timings*`, one `<integrand>-cost.svg` each), and for a manifest written before manifests
-/// listed their files every file of its run (one `<integrand>.svg` each). Passed to
+/// listed their files every file of its run (one `<integrand>.svg` each); the cost plot's
+/// caption, `<integrand>-cost.caption.txt`, is machine-dependent with it. Passed to
 /// [`crate::files::result_folder::ResultFolder::prepare`].
 pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>> {
     use crate::files::result_folder::{MANIFEST, TIMINGS};
@@ -223,6 +240,7 @@ pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>
     for f in integrands {
         let name = f.get("name")?.as_str()?;
         names.push(format!("{name}-cost.svg"));
+        names.push(format!("{name}-cost.caption.txt"));
         if !lists {
             names.push(format!("{name}.svg"));
         }
@@ -298,6 +316,7 @@ mod tests {
         assert_eq!(
             names,
             [
+                "cos3-cost.caption.txt",
                 "cos3-cost.svg",
                 "cos3.svg",
                 "manifest.json",
@@ -325,6 +344,7 @@ mod tests {
         assert_eq!(
             names,
             [
+                "cos3-cost.caption.txt",
                 "cos3-cost.svg",
                 "timings-summary.csv",
                 "timings-trials.csv",

@@ -72,31 +72,34 @@ pub fn write_set(
         if only_tolerance {
             continue;
         }
-        let svg = plot::error_plot_svg(plan, &cells, fi)?;
-        folder.write(
+        let figure = plot::error_plot_svg(plan, &cells, fi)?;
+        crate::plot::write_figure(
+            folder,
             &format!("{}.svg", f.name()),
             &format!("absolute error against n for {}, every estimator", f.name()),
-            svg.as_bytes(),
+            &figure,
         )?;
         if cells.iter().any(|c| c.integrand == fi && c.coverage.is_some()) {
-            let svg = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
-            folder.write(
+            let figure = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
+            crate::plot::write_figure(
+                folder,
                 &format!("{}-coverage.svg", f.name()),
                 &format!(
                     "95% coverage against n for {}, every estimator with an interval, with the binomial 99% band",
                     f.name()
                 ),
-                svg.as_bytes(),
+                &figure,
             )?;
         }
-        let svg = cost_plot::cost_plot_svg(plan, &cells, fi)?;
-        folder.write_local(
+        let figure = cost_plot::cost_plot_svg(plan, &cells, fi)?;
+        crate::plot::write_figure_local(
+            folder,
             &format!("{}-cost.svg", f.name()),
             &format!(
                 "mean absolute error against median seconds per trial for {} (machine-dependent; not committed)",
                 f.name()
             ),
-            svg.as_bytes(),
+            &figure,
         )?;
     }
     let failed = |e: std::io::Error| Error::io("writing timings-trials.csv", e);

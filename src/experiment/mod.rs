@@ -225,14 +225,15 @@ pub fn run_plan(
             &adaptive::summary_csv(plan, &stopping),
         )?;
         for (fi, f) in plan.integrands.iter().enumerate() {
-            if let Some(svg) = adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
-                folder.write(
+            if let Some(figure) = adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
+                crate::plot::write_figure(
+                    &mut folder,
                     &format!("{}-tolerance.svg", f.name()),
                     &format!(
                         "mean n used and share within the tolerance against the tolerance for {}, every tolerance estimator",
                         f.name()
                     ),
-                    svg.as_bytes(),
+                    &figure,
                 )?;
             }
         }

@@ -71,6 +71,9 @@ pub struct Plan {
     pub designs: Vec<Design>,
     /// Smallest N of the slope fits ([`super::fit`]).
     pub fit_from_n: usize,
+    /// Per estimator, whether the error plots draw its 10–90% band (`plot.bands`,
+    /// [`resolve_bands`]).
+    pub bands: Vec<bool>,
 }
 
 /// The constant prior mean of an estimator that takes one ([`Method::uses_prior`]).
@@ -215,7 +218,9 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
             ResolvedCheck::Calibration(c) => calibration_checks.push(c),
         }
     }
+    let bands = resolve_bands(spec, &estimators)?;
     Ok(Plan {
+        bands,
         fit_from_n: resolve_fit_from(spec)?,
         name: spec.name.clone(),
         title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
@@ -594,6 +599,38 @@ fn resolve_check(
         better_index,
         than_index,
     }))
+}
+
+/// The most estimators whose 10–90% bands are drawn by default: with more, overlapping bands hide
+/// each other and the lines.
+pub const DEFAULT_BANDS_UP_TO: usize = 3;
+
+/// Per estimator, whether its band is drawn: `plot.bands` as given (`"all"`, `"none"`, labels of
+/// estimators), else all of them when there are at most [`DEFAULT_BANDS_UP_TO`], none when more.
+pub fn resolve_bands(spec: &ExperimentSpec, estimators: &[PlannedEstimator]) -> Result<Vec<bool>, String> {
+    use super::spec::{BandsName, BandsSpec};
+    let all = |on: bool| vec![on; estimators.len()];
+    Ok(match spec.plot.as_ref().and_then(|p| p.bands.as_ref()) {
+        None => all(estimators.len() <= DEFAULT_BANDS_UP_TO),
+        Some(BandsSpec::Named(BandsName::All)) => all(true),
+        Some(BandsSpec::Named(BandsName::None)) => all(false),
+        Some(BandsSpec::Labels(labels)) => {
+            if let Some(unknown) = labels.iter().find(|l| !estimators.iter().any(|e| e.label == **l)) {
+                return Err(err(
+                    "plot.bands",
+                    format!(
+                        "names \"{unknown}\", which is no estimator's label ({})",
+                        estimators
+                            .iter()
+                            .map(|e| e.label.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ));
+            }
+            estimators.iter().map(|e| labels.contains(&e.label)).collect()
+        }
+    })
 }
 
 /// The smallest N of the slope fits: given, or the upper half of the grid.

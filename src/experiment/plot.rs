@@ -1,20 +1,22 @@
-//! One SVG per integrand: absolute error against N on log–log axes (plotters). Each estimator
-//! has its mean error (line and markers) and the 10–90% quantile band of its trials (light fill,
-//! dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]), or
-//! says that it is exact; a dashed N^(−1/2) guide goes through the MC series.
+//! One SVG per integrand: absolute error against N on log–log axes (plotters), and its caption
+//! file. Each estimator has its mean error (line and markers) and, as `plot.bands` says
+//! ([`super::plan::resolve_bands`]), the 10–90% quantile band of its trials (light fill, dashed
+//! edges); the legend gives its slope fitted over the stated range ([`super::fit`]), or says that
+//! it is exact; a dashed N^(−1/2) guide goes through the MC series. A series that lies on an
+//! earlier one is drawn dashed over it, and the caption says where.
 
 use super::fit::{PLATEAU_SLOPE, SeriesFit, SlopeFlag, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::plot::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, SeriesStyle, Swatch};
 use crate::sampling::{Density, Design};
 use plotters::prelude::*;
 
 /// Height of the chart (axes and plotting area), between the title block and the legend.
 const CHART_HEIGHT: u32 = 560;
 
-/// The SVG for integrand `fi` as a string.
-pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<String> {
+/// The figure (SVG and caption) for integrand `fi`.
+pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<style::Figure> {
     draw(plan, cells, fi).map_err(|e| crate::Error::Encode(format!("drawing the error plot: {e}")))
 }
 
@@ -92,7 +94,7 @@ fn runs(len: usize, keep: impl Fn(usize) -> bool) -> Vec<std::ops::Range<usize>>
     out
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<String> {
+fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<style::Figure> {
     let integrand = &plan.integrands[fi];
     let name = integrand.display_name();
     let truth = integrand.integral();
@@ -117,6 +119,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
             fit_series(&points, truth, from_n)
         })
         .collect();
+    let banded = |ei: usize| plan.bands.get(ei).copied().unwrap_or(false);
 
     let n_min = *plan.samples.iter().min().expect("samples") as f64;
     let n_max = *plan.samples.iter().max().expect("samples") as f64;
@@ -124,46 +127,107 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     let guide = guide_estimator(plan).and_then(|ei| {
         let c = series[ei].iter().find(|c| ok(c.mean_abs_error))?;
         let a = c.mean_abs_error * (c.n as f64).sqrt();
-        Some((ei, vec![(n_min, a / n_min.sqrt()), (n_max, a / n_max.sqrt())]))
+        Some((ei, a, vec![(n_min, a / n_min.sqrt()), (n_max, a / n_max.sqrt())]))
     });
 
-    // Axis ranges from what is drawn: errors that can stand on a log axis, and the guide.
+    // Axis ranges from what is drawn: means, the bands drawn, and the guide.
     let drawn: Vec<f64> = series
         .iter()
-        .flatten()
-        .flat_map(|c| [c.mean_abs_error, c.q10_abs_error, c.q90_abs_error])
+        .enumerate()
+        .flat_map(|(ei, s)| {
+            s.iter().flat_map(move |c| {
+                let mut v = vec![c.mean_abs_error];
+                if banded(ei) {
+                    v.extend([c.q10_abs_error, c.q90_abs_error]);
+                }
+                v
+            })
+        })
         .filter(|&e| ok(e))
-        .chain(guide.iter().flat_map(|g| g.1.iter().map(|p| p.1)))
+        .chain(guide.iter().flat_map(|g| g.2.iter().map(|p| p.1)))
         .collect();
     let (y0, y1) = style::padded_log_range(&drawn, 1.5);
     let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
     let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
-    let y = Axis::log_values(
-        (y0, y1),
-        error_axis_label("absolute error |Î − I|", &name, CHART_HEIGHT),
-    );
+    let y = Axis::log_values((y0, y1), error_axis_label("absolute error |Î − I|"));
+
+    // Series that lie on an earlier one are drawn dashed over it (and said so).
+    let means: Vec<Vec<(f64, f64)>> = series
+        .iter()
+        .map(|s| {
+            s.iter()
+                .filter(|c| ok(c.mean_abs_error))
+                .map(|c| (c.n as f64, c.mean_abs_error))
+                .collect()
+        })
+        .collect();
+    let labels: Vec<String> = plan.estimators.iter().map(|e| e.label.clone()).collect();
+    let to_px = style::log_px((y0, y1), style::plot_height(CHART_HEIGHT));
+    let found = style::coincidences(&labels, &means, &to_px, "N");
+    let styles: Vec<SeriesStyle> = (0..means.len())
+        .map(|ei| found.style(ei, SeriesStyle::of(ei)))
+        .collect();
+    let mut coincident = found.notes;
+    if let Some((ei, a, _)) = &guide {
+        let on_guide: Vec<(f64, f64)> = means[*ei].iter().map(|&(n, _)| (n, a / n.sqrt())).collect();
+        let at = style::coincident_at(&means[*ei], &on_guide, &to_px, style::COINCIDENT_PX);
+        if !at.is_empty() {
+            coincident.push(format!(
+                "The N^(−1/2) guide lies on {} at N = {} (within {} px): it is drawn over that line, grey and \
+                 dashed.",
+                labels[*ei],
+                style::list_values(&at),
+                style::COINCIDENT_PX
+            ));
+        }
+    }
 
     let mut legend: Vec<LegendEntry> = plan
         .estimators
         .iter()
         .zip(&fits)
         .enumerate()
-        .map(|(ei, (e, fit))| LegendEntry::series(ei, fit_label(&e.label, fit)))
+        .map(|(ei, (e, fit))| LegendEntry::key(Swatch::Styled(styles[ei]), fit_label(&e.label, fit)))
         .collect();
-    if let Some((ei, _)) = &guide {
-        legend.push(LegendEntry {
-            swatch: Swatch::Guide,
-            text: format!("∝ N^(−1/2) through {}", plan.estimators[*ei].label),
-            wide: false,
-        });
+    if let Some((ei, _, _)) = &guide {
+        legend.push(LegendEntry::key(
+            Swatch::Guide,
+            format!("∝ N^(−1/2) through {}", plan.estimators[*ei].label),
+        ));
     }
-    legend.push(LegendEntry::wide(
-        Swatch::Band,
+    let any_band = (0..plan.estimators.len()).any(banded);
+    if any_band {
+        legend.push(LegendEntry::key(Swatch::Band, "10–90% quantiles of |Î − I|"));
+    }
+
+    let mut caption = vec![format!(
+        "Lines and markers: the mean absolute error |Î − I| over the {} trials at each N, one series per estimator.",
+        plan.trials
+    )];
+    caption.push(if any_band {
+        let which: Vec<&str> = labels
+            .iter()
+            .enumerate()
+            .filter(|(ei, _)| banded(*ei))
+            .map(|(_, l)| l.as_str())
+            .collect();
         format!(
-            "band (light fill, dashed edges): 10–90% quantiles of |Î − I| over the {} trials; line: mean |Î − I|",
-            plan.trials
-        ),
-    ));
+            "Bands (light fill, dashed edges in the series' colour): the 10–90% quantiles of |Î − I| over the {} \
+             trials, drawn for {} (plot.bands); every estimator's quantiles are in summary.csv.",
+            plan.trials,
+            if which.len() == labels.len() {
+                "every estimator".to_string()
+            } else {
+                which.join(", ")
+            }
+        )
+    } else {
+        format!(
+            "No quantile bands are drawn (plot.bands; by default none with more than {} estimators); the 10–90% \
+             quantiles of |Î − I| are in summary.csv.",
+            super::plan::DEFAULT_BANDS_UP_TO
+        )
+    });
     let any_exact = fits.iter().any(|f| match f {
         SeriesFit::Exact => true,
         SeriesFit::Slope { exact_at, .. } | SeriesFit::TooFew { exact_at, .. } => !exact_at.is_empty(),
@@ -183,43 +247,48 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     if flagged(SlopeFlag::WideInterval) {
         reasons.push("wide interval: the 95% interval is wider than the slope, so it holds 0".to_string());
     }
-    legend.push(LegendEntry::wide(
-        Swatch::Text,
-        format!(
-            "slope: least-squares fit of ln(mean error) on ln N over N ≥ {from_n}{}, ± its 95% interval{}{}",
-            if from_n == super::fit::fit_from(&plan.samples) {
-                " (the upper half of the N grid)"
-            } else {
-                " (fit_from_n)"
-            },
-            if reasons.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "; n/a: no rate to state ({}; numbers in fits.csv)",
-                    reasons.join("; ")
-                )
-            },
-            if any_exact {
-                "; exact: error 0 up to rounding (≤ 1e-12·I), not drawn"
-            } else {
-                ""
-            }
-        ),
+    caption.push(format!(
+        "Slope: least-squares fit of ln(mean error) on ln N over N ≥ {from_n}{}, ± its 95% interval{}{}.",
+        if from_n == super::fit::fit_from(&plan.samples) {
+            " (the upper half of the N grid)"
+        } else {
+            " (fit_from_n)"
+        },
+        if reasons.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; n/a: no rate to state ({}; numbers in fits.csv)",
+                reasons.join("; ")
+            )
+        },
+        if any_exact {
+            "; exact: error 0 up to rounding (≤ 1e-12·I), not drawn"
+        } else {
+            ""
+        }
     ));
+    if let Some((ei, _, _)) = &guide {
+        caption.push(format!(
+            "Dashed grey line: ∝ N^(−1/2), the Monte Carlo rate, through {}'s mean error at its smallest N.",
+            labels[*ei]
+        ));
+    }
+    caption.extend(coincident);
 
     style::svg_figure(
         &plan.title,
         &subtitle(&name, truth, plan.trials),
         CHART_HEIGHT,
         &legend,
+        &caption,
         |root, area| {
             let mut chart = style::log_log_chart(root, area, &x, &y)?;
 
-            // Bands first, all of them, so that no band covers another series' line or markers.
-            // Light fills keep overlaps close to white; the dashed edges in the series' colour say
-            // whose band is whose.
-            for (ei, s) in series.iter().enumerate() {
+            // Bands first, so that no band covers another series' line or markers. Light fills
+            // keep overlaps close to white; the dashed edges in the series' colour say whose band
+            // is whose.
+            for (ei, s) in series.iter().enumerate().filter(|(ei, _)| banded(*ei)) {
                 let colour = style::colour(ei);
                 let edge = colour.mix(0.8).stroke_width(1);
                 for r in runs(s.len(), |i| ok(s[i].q90_abs_error)) {
@@ -239,19 +308,27 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
                     }
                 }
             }
-            if let Some((_, line)) = &guide {
-                style::draw_guide(&mut chart, line.clone())?;
-            }
             for (ei, s) in series.iter().enumerate() {
-                let colour = style::colour(ei);
+                let style = styles[ei];
+                let colour = style::colour(style.colour);
                 // Exact (or non-finite) means are gaps in the line, not points at an axis floor.
                 for r in runs(s.len(), |i| ok(s[i].mean_abs_error)) {
                     let line: Vec<(f64, f64)> = s[r].iter().map(|c| (c.n as f64, c.mean_abs_error)).collect();
-                    chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
+                    if style.dashed {
+                        chart.draw_series(DashedLineSeries::new(line, 8, 5, colour.stroke_width(2)))?;
+                    } else {
+                        chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
+                    }
                 }
+            }
+            // The guide over the lines (it lies on MC's), under the markers.
+            if let Some((_, _, line)) = &guide {
+                style::draw_guide(&mut chart, line.clone())?;
+            }
+            for (ei, s) in series.iter().enumerate() {
                 for c in s.iter().filter(|c| ok(c.mean_abs_error)) {
                     let at = chart.backend_coord(&(c.n as f64, c.mean_abs_error));
-                    style::draw_marker(root, ei, at, colour)?;
+                    style::draw_styled_marker(root, styles[ei], at)?;
                 }
             }
             Ok(())
@@ -259,24 +336,17 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<St
     )
 }
 
-/// An error axis's description, `<what> of ∫ f dω  [sr]`, or `<what>  [sr]` when that would not
-/// fit along a chart `chart_height` pixels high (a render-scene pixel's long name; the subtitle
-/// names the integrand either way).
-pub(super) fn error_axis_label(what: &str, name: &str, chart_height: u32) -> String {
-    let short = format!("{what}  [sr]");
-    style::fitting_label(
-        format!("{what} of ∫ {name} dω  [sr]"),
-        &short,
-        style::AXIS_FONT,
-        style::plot_height(chart_height),
-    )
+/// An error axis's description, `<what>  [sr]`: one style for every error plot (the subtitle
+/// names the integrand and its integral).
+pub(super) fn error_axis_label(what: &str) -> String {
+    format!("{what}  [sr]")
 }
 
-/// The error plot's subtitle: `integrand f: ∫ f dω = I sr; T trials per N`, or, when a long
-/// name (a render-scene pixel) would make that run past the figure, the name once:
-/// `integrand f; integral I sr; T trials per N`.
+/// The error plot's subtitle, the integrand named once (the title names the comparison):
+/// `∫ f dω = I sr; T trials per N`, or, when a long name (a render-scene pixel) would make that
+/// run past the figure, `integrand f; integral I sr; T trials per N`.
 fn subtitle(name: &str, truth: f64, trials: usize) -> String {
-    let full = format!("integrand {name}: ∫ {name} dω = {truth:.6} sr; {trials} trials per N");
+    let full = format!("∫ {name} dω = {truth:.6} sr; {trials} trials per N");
     if style::estimated_width(&full, 18.0) <= (style::WIDTH - 40) as f64 {
         full
     } else {
@@ -294,7 +364,8 @@ mod tests {
     #[test]
     fn subtitles_name_a_long_integrand_once() {
         let s = subtitle("cos³θ", std::f64::consts::FRAC_PI_2, 300);
-        assert_eq!(s, "integrand cos³θ: ∫ cos³θ dω = 1.570796 sr; 300 trials per N");
+        assert_eq!(s, "∫ cos³θ dω = 1.570796 sr; 300 trials per N");
+        assert_eq!(s.matches("cos³θ").count(), 1);
         let name = "pixel (128, 168) of 256×256, sphere, sky, g";
         let s = subtitle(name, 0.046001, 300);
         assert_eq!(s.matches(name).count(), 1, "{s}");

@@ -43,6 +43,58 @@ pub struct ExperimentSpec {
     /// half of the grid (the N at or above the median).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit_from_n: Option<u64>,
+    /// How the figures are drawn: `{"bands": …}` ([`PlotSpec`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plot: Option<PlotSpec>,
+}
+
+/// `"plot": {"bands": "all"}`: how an experiment's figures are drawn.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSpec {
+    /// Which estimators get their 10–90% quantile band in the error plots: `"all"`, `"none"`,
+    /// or a list of estimator labels. Default: every estimator when there are at most three,
+    /// none when there are more (overlapping bands hide each other and the lines).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bands: Option<BandsSpec>,
+}
+
+/// `"all"`, `"none"`, or a list of estimator labels.
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum BandsSpec {
+    Named(BandsName),
+    Labels(Vec<String>),
+}
+
+/// `"all"` or `"none"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum BandsName {
+    /// Every estimator has its band.
+    All,
+    /// No estimator has one.
+    None,
+}
+
+impl<'de> Deserialize<'de> for BandsSpec {
+    /// By hand rather than `untagged`, whose error ("did not match any variant") hides what is
+    /// accepted.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let expected = "\"all\", \"none\" or a list of estimator labels";
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::String(s) => match s.as_str() {
+                "all" => Ok(BandsSpec::Named(BandsName::All)),
+                "none" => Ok(BandsSpec::Named(BandsName::None)),
+                _ => Err(D::Error::custom(format!("expected {expected}, got \"{s}\""))),
+            },
+            v @ serde_json::Value::Array(_) => serde_json::from_value(v)
+                .map(BandsSpec::Labels)
+                .map_err(|e| D::Error::custom(format!("expected {expected}: {e}"))),
+            other => Err(D::Error::custom(format!("expected {expected}, got {other}"))),
+        }
+    }
 }
 
 /// One estimator of the comparison.

@@ -58,7 +58,7 @@ pub fn describe(plan: &plan::Plan) -> String {
             tolerant.len()
         );
     }
-    s += &serde_json::to_string_pretty(&export::plan_json(plan)).expect("plan serializes");
+    s += &serde_json::to_string_pretty(&export::plan_json_with_plot(plan)).expect("plan serializes");
     s.push('\n');
     s
 }

@@ -5,8 +5,9 @@
 //! dashed guide, binomial band around a level, interval bars).
 
 use super::{
-    AXIS_FONT, FONT, GUIDE, HEADER_HEIGHT, LegendEntry, TICK_FONT, Ticks, WIDTH, chart_minor_ticks, colour,
-    draw_header, draw_legend, draw_marker, format_count, format_tick, layout, legend_height,
+    AXIS_FONT, FONT, Figure, GUIDE, HEADER_HEIGHT, LegendEntry, SeriesStyle, TICK_FONT, Ticks, WIDTH,
+    caption_text, chart_minor_ticks, colour, draw_header, draw_legend, draw_styled_marker, format_count,
+    format_tick, layout, legend_height,
 };
 use plotters::coord::Shift;
 use plotters::coord::combinators::{LogCoord, WithKeyPoints};
@@ -47,7 +48,7 @@ pub fn on_log_axis(v: f64) -> bool {
 pub enum Labels {
     /// A count (N, spp): the integer ([`format_count`]).
     Count,
-    /// A log tick `m·10^k`: decimals (`0.05`) when `decimal`, else `5e-2` ([`format_tick`]).
+    /// A log tick `m·10^k`: decimals (`0.05`) when `decimal`, else `5×10⁻²` ([`format_tick`]).
     Log { decimal: bool },
     /// A fixed number of decimals (a share: `0.95`).
     Fixed(usize),
@@ -88,7 +89,7 @@ impl<T: Ranged<ValueType = f64>> F64Coord for T {}
 
 impl Axis {
     /// A log axis of values (errors, seconds, tolerances) over `range`: [`super::log_ticks`],
-    /// labelled in decimals or `1e-2` notation as [`super::decimal_axis`] says.
+    /// labelled in decimals or as powers of ten (`10⁻²`) as [`super::decimal_axis`] says.
     pub fn log_values(range: (f64, f64), desc: impl Into<String>) -> Self {
         Axis {
             range,
@@ -201,16 +202,18 @@ pub fn log_log_chart<'a, DB: DrawingBackend>(
     Ok(chart)
 }
 
-/// An SVG figure [`WIDTH`] wide as a string: the title block (`title`, `subtitle`), a chart area
-/// `chart_height` pixels high that `draw_chart` fills (given the whole page, for markers drawn
-/// in pixels, and the chart area), and `legend` below.
+/// An SVG figure [`WIDTH`] wide and its caption: the title block (`title`, `subtitle`), a chart
+/// area `chart_height` pixels high that `draw_chart` fills (given the whole page, for markers
+/// drawn in pixels, and the chart area), and `legend` below; `caption` (one paragraph each)
+/// goes into the caption after the title and subtitle ([`caption_text`]), not into the SVG.
 pub fn svg_figure(
     title: &str,
     subtitle: &str,
     chart_height: u32,
     legend: &[LegendEntry],
+    caption: &[String],
     draw_chart: impl for<'s> FnOnce(&SvgArea<'s>, &SvgArea<'s>) -> FigureResult<()>,
-) -> FigureResult<String> {
+) -> FigureResult<Figure> {
     let height = HEADER_HEIGHT + chart_height + legend_height(legend);
     let mut svg = String::new();
     {
@@ -221,7 +224,10 @@ pub fn svg_figure(
         draw_legend(&legend_area, legend)?;
         root.present()?;
     }
-    Ok(svg)
+    Ok(Figure {
+        svg,
+        caption: caption_text(title, subtitle, caption),
+    })
 }
 
 /// Series `i`'s line through `points` in its colour, then its marker at each point.
@@ -231,10 +237,24 @@ pub fn draw_line_with_markers<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
     i: usize,
     points: &[(f64, f64)],
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let c = colour(i);
-    chart.draw_series(LineSeries::new(points.to_vec(), c.stroke_width(2)))?;
+    draw_styled_line(chart, root, SeriesStyle::of(i), points)
+}
+
+/// A series' line through `points` in `style` (solid or dashed), then its marker at each point.
+pub fn draw_styled_line<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
+    chart: &mut Chart<'_, DB, X, Y>,
+    root: &DrawingArea<DB, Shift>,
+    style: SeriesStyle,
+    points: &[(f64, f64)],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let c = colour(style.colour);
+    if style.dashed {
+        chart.draw_series(DashedLineSeries::new(points.to_vec(), 8, 5, c.stroke_width(2)))?;
+    } else {
+        chart.draw_series(LineSeries::new(points.to_vec(), c.stroke_width(2)))?;
+    }
     for p in points {
-        draw_marker(root, i, chart.backend_coord(p), c)?;
+        draw_styled_marker(root, style, chart.backend_coord(p))?;
     }
     Ok(())
 }
@@ -282,7 +302,7 @@ mod tests {
     #[test]
     fn labels_read_as_counts_log_ticks_or_fixed_decimals() {
         assert_eq!(Labels::Count.format(64.0), "64");
-        assert_eq!(Labels::Log { decimal: false }.format(1e-3), "1e-3");
+        assert_eq!(Labels::Log { decimal: false }.format(1e-3), "10⁻³");
         assert_eq!(Labels::Log { decimal: true }.format(0.05), "0.05");
         assert_eq!(Labels::Fixed(2).format(0.954), "0.95");
         assert_eq!(Labels::Fixed(2).format(1.0), "1.00");
@@ -294,11 +314,15 @@ mod tests {
     fn figures_stack_header_chart_and_legend() {
         let legend = [LegendEntry::series(0, "MC")];
         let mut seen = (0, 0);
-        let svg = svg_figure("t", "s", 300, &legend, |_, area| {
+        let figure = svg_figure("t", "s", 300, &legend, &["what it means".into()], |_, area| {
             seen = area.dim_in_pixel();
             Ok(())
         })
         .unwrap();
+        let svg = figure.svg;
+        // The caption is beside the figure, not in it.
+        assert_eq!(figure.caption, "t\ns\n\nwhat it means\n");
+        assert!(!svg.contains("what it means"));
         assert_eq!(seen, (WIDTH, 300));
         let height = HEADER_HEIGHT + 300 + legend_height(&legend);
         assert!(svg.contains(&format!("height=\"{height}\"")), "{svg}");

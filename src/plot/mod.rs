@@ -65,27 +65,51 @@ pub fn draw_marker<DB: DrawingBackend>(
     at: (i32, i32),
     colour: RGBColor,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    draw_marker_scaled(area, i, at, colour, 1.0)
+}
+
+/// The marker of a series in `style` at pixel `at`: its shape and colour, enlarged by
+/// [`SeriesStyle::marker_scale`] when later series lie on it, so that theirs, drawn over it,
+/// leave its outline showing.
+pub fn draw_styled_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    style: SeriesStyle,
+    at: (i32, i32),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    draw_marker_scaled(area, style.marker, at, colour(style.colour), style.marker_scale())
+}
+
+/// [`draw_marker`] with every size multiplied by `scale`.
+fn draw_marker_scaled<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    i: usize,
+    at: (i32, i32),
+    colour: RGBColor,
+    scale: f64,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (x, y) = at;
+    let px = |v: f64| (v * scale).round() as i32;
+    let (r, t) = (px(4.0), px(6.0));
     let fill = colour.filled();
     let stroke = colour.stroke_width(2);
     // Open shapes get a white inside so that a band or line behind them does not show through.
     let white = WHITE.filled();
     match marker_shape(i) {
-        0 => area.draw(&Circle::new(at, 4, fill)),
-        1 => area.draw(&TriangleMarker::new(at, 6, fill)),
-        2 => area.draw(&Cross::new(at, 4, stroke)),
+        0 => area.draw(&Circle::new(at, r, fill)),
+        1 => area.draw(&TriangleMarker::new(at, t, fill)),
+        2 => area.draw(&Cross::new(at, r, stroke)),
         3 => {
-            area.draw(&Circle::new(at, 4, white))?;
-            area.draw(&Circle::new(at, 4, stroke))
+            area.draw(&Circle::new(at, r, white))?;
+            area.draw(&Circle::new(at, r, stroke))
         }
-        4 => area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], fill)),
+        4 => area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], fill)),
         5 => area.draw(&Polygon::new(
-            vec![(x, y - 6), (x + 5, y), (x, y + 6), (x - 5, y)],
+            vec![(x, y - t), (x + px(5.0), y), (x, y + t), (x - px(5.0), y)],
             fill,
         )),
         _ => {
-            area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], white))?;
-            area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], stroke))
+            area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], white))?;
+            area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], stroke))
         }
     }
 }
@@ -164,11 +188,69 @@ pub fn decimal_axis(lo: f64, hi: f64) -> bool {
     lo >= 1e-3 && hi < 1e4 && hi / lo < 1e3
 }
 
-/// A tick label: the shortest decimal when `decimal`, else `1e-2`, `5e-3`, … (one significant
-/// digit is all a log tick at `m·10^k` has).
+/// A tick label: the shortest decimal when `decimal`, else `10⁻²`, `5×10⁻³`, … (one
+/// significant digit is all a log tick at `m·10^k` has), the exponent in Unicode superscript
+/// digits and minus, which every SVG viewer and `rsvg-convert` draw as plain text.
 pub fn format_tick(v: f64, decimal: bool) -> String {
-    // Both forms are Rust's shortest round-trip ones: `0.05`, `1e-2`, `2.5e-3`.
-    if decimal { format!("{v}") } else { format!("{v:e}") }
+    if decimal {
+        // Rust's shortest round-trip form: `0.05`, `0.2`, `3`.
+        return format!("{v}");
+    }
+    // `{:e}` is the shortest round-trip form `m e k`: `1e-2`, `5e-3`, `2.5e-3`.
+    let s = format!("{v:e}");
+    let (mantissa, exponent) = s.split_once('e').expect("{:e} has an exponent");
+    let power = format!("10{}", superscript(exponent));
+    if mantissa == "1" {
+        power
+    } else {
+        format!("{mantissa}×{power}")
+    }
+}
+
+/// `text` (digits and `-`) in Unicode superscript: `-12` → `⁻¹²`.
+fn superscript(text: &str) -> String {
+    text.chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            '0' => '⁰',
+            '1' => '¹',
+            '2' => '²',
+            '3' => '³',
+            '4' => '⁴',
+            '5' => '⁵',
+            '6' => '⁶',
+            '7' => '⁷',
+            '8' => '⁸',
+            '9' => '⁹',
+            other => other,
+        })
+        .collect()
+}
+
+/// The value of a tick label written by [`format_tick`] (`0.05`, `10⁻²`, `5×10⁻³`), or `None`
+/// for other text: for checks that read a figure's ticks back.
+pub fn parse_tick(label: &str) -> Option<f64> {
+    if let Ok(v) = label.parse::<f64>() {
+        return Some(v);
+    }
+    let (mantissa, power) = match label.split_once('×') {
+        Some((m, p)) => (m.parse::<f64>().ok()?, p),
+        None => (1.0, label),
+    };
+    let exponent: String = power
+        .strip_prefix("10")?
+        .chars()
+        .map(|c| match c {
+            '⁻' => Some('-'),
+            '⁰' => Some('0'),
+            '¹' => Some('1'),
+            '²' => Some('2'),
+            '³' => Some('3'),
+            '⁴'..='⁹' => char::from_digit(c as u32 - '⁴' as u32 + 4, 10),
+            _ => None,
+        })
+        .collect::<Option<String>>()?;
+    format!("{mantissa}e{exponent}").parse().ok()
 }
 
 /// Pixels per em of a plotters font size (plotters writes `size / 1.24` into the SVG).
@@ -197,7 +279,7 @@ fn char_em(c: char) -> f64 {
     match c {
         ' '..='~' => ASCII_EM[c as usize - ' ' as usize],
         '·' | 'Î' => 0.318,
-        '²' | '³' | '₀' | '₁' => 0.401,
+        '²' | '³' | '₀' | '₁' | '⁰' | '¹' | '⁴'..='⁹' | '⁻' => 0.401,
         '°' | '–' => 0.5,
         '∫' => 0.521,
         'λ' | 'σ' => 0.592,
@@ -378,61 +460,247 @@ pub fn draw_header<DB: DrawingBackend>(
     Ok(())
 }
 
+/// How a series is drawn: its colour (an index into [`PALETTE`]), its marker shape (an index
+/// for [`draw_marker`]) and whether its line is dashed. Series `i` is by default
+/// [`SeriesStyle::of`]`(i)`; figures that group series (by method, by first stage) or draw one
+/// series over another (coincident series) choose the parts apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SeriesStyle {
+    /// The colour: [`colour`]`(colour)`.
+    pub colour: usize,
+    /// The marker: [`draw_marker`]'s shape `marker`.
+    pub marker: usize,
+    /// A dashed line (dashes of 8 px, gaps of 5 px) rather than a solid one.
+    pub dashed: bool,
+    /// How many later series lie on this one ([`coincidences`]): its markers grow with it.
+    pub grow: usize,
+}
+
+impl SeriesStyle {
+    /// Series `i`'s default: colour `i`, marker `i`, a solid line.
+    pub fn of(i: usize) -> Self {
+        SeriesStyle {
+            colour: i,
+            marker: i,
+            dashed: false,
+            grow: 0,
+        }
+    }
+
+    /// The markers' size factor: 1, and 1.5 or 2 for a series one or more later series lie on,
+    /// so that the markers of a coincident group nest, the first largest.
+    pub fn marker_scale(self) -> f64 {
+        1.0 + 0.5 * self.grow.min(2) as f64
+    }
+}
+
 /// The sample drawn before a legend entry's text.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Swatch {
     /// Series `i`: a line in [`colour`]`(i)` with [`draw_marker`]'s shape `i`.
     Series(usize),
+    /// A series in its own style ([`SeriesStyle`]).
+    Styled(SeriesStyle),
     /// A dashed grey reference line.
     Guide,
     /// A light grey band with dashed edges (what a quantile band is).
     Band,
     /// A vertical grey bar with caps (what an interval bar is).
     Bar,
-    /// No sample: a line of explanation.
-    Text,
 }
 
-/// One legend entry.
+/// One legend entry: a sample and a short text. What the entry means at length goes in the
+/// figure's caption file, not in the figure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LegendEntry {
     /// The sample drawn before the text.
     pub swatch: Swatch,
-    /// The text (wide entries are wrapped at words).
+    /// The text, one line.
     pub text: String,
-    /// Takes a whole row (explanations) rather than a column.
-    pub wide: bool,
 }
 
 impl LegendEntry {
-    /// Series `i`'s entry, in a column.
+    /// Series `i`'s entry.
     pub fn series(i: usize, text: impl Into<String>) -> Self {
         LegendEntry {
             swatch: Swatch::Series(i),
             text: text.into(),
-            wide: false,
         }
     }
 
-    /// An entry that takes whole rows (an explanation, wrapped at words).
-    pub fn wide(swatch: Swatch, text: impl Into<String>) -> Self {
+    /// An entry with any sample: a guide, a band, bars, a styled series.
+    pub fn key(swatch: Swatch, text: impl Into<String>) -> Self {
         LegendEntry {
             swatch,
             text: text.into(),
-            wide: true,
         }
     }
+}
+
+/// A drawn figure: the SVG, and its caption — what the figure's marks mean at length, written
+/// beside it as `<plot>.caption.txt` ([`caption_name`]), so that the figure keeps only its
+/// title, axes and legend.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Figure {
+    /// The SVG document.
+    pub svg: String,
+    /// The caption: the title and subtitle on the first two lines, then one paragraph per
+    /// line, paragraphs separated by blank lines; ends with a newline.
+    pub caption: String,
+}
+
+/// The caption file of the figure `svg_name`: `cos3.svg` → `cos3.caption.txt`.
+pub fn caption_name(svg_name: &str) -> String {
+    format!(
+        "{}.caption.txt",
+        svg_name.strip_suffix(".svg").unwrap_or(svg_name)
+    )
+}
+
+/// The caption text of a figure titled `title` (subtitle `subtitle`) with paragraphs `prose`.
+pub fn caption_text(title: &str, subtitle: &str, prose: &[String]) -> String {
+    let mut s = format!("{title}\n{subtitle}\n");
+    for p in prose {
+        s.push('\n');
+        s.push_str(p);
+        s.push('\n');
+    }
+    s
+}
+
+/// Writes `figure` into `folder`: the SVG as `name` and its caption as [`caption_name`]`(name)`,
+/// both listed in the manifest.
+pub fn write_figure(
+    folder: &mut crate::files::result_folder::ResultFolder,
+    name: &str,
+    description: &str,
+    figure: &Figure,
+) -> crate::Result<()> {
+    folder.write(name, description, figure.svg.as_bytes())?;
+    folder.write(
+        &caption_name(name),
+        &format!("the caption of {name}: what its marks mean, and series drawn over one another"),
+        figure.caption.as_bytes(),
+    )
+}
+
+/// [`write_figure`] for a machine-dependent figure (listed in `timings.json`, not committed).
+pub fn write_figure_local(
+    folder: &mut crate::files::result_folder::ResultFolder,
+    name: &str,
+    description: &str,
+    figure: &Figure,
+) -> crate::Result<()> {
+    folder.write_local(name, description, figure.svg.as_bytes())?;
+    folder.write_local(
+        &caption_name(name),
+        &format!("the caption of {name} (machine-dependent; not committed)"),
+        figure.caption.as_bytes(),
+    )
+}
+
+/// Where two series drawn on the same axes would hide each other: the x values at which both
+/// have a point and their points lie within `px` pixels, given `to_px` (a y value to its pixel
+/// row). For the caption's note on coincident series and to draw the later one distinguishably.
+pub fn coincident_at(a: &[(f64, f64)], b: &[(f64, f64)], to_px: impl Fn(f64) -> f64, px: f64) -> Vec<f64> {
+    a.iter()
+        .filter_map(|&(x, ya)| {
+            let &(_, yb) = b.iter().find(|p| p.0 == x)?;
+            ((to_px(ya) - to_px(yb)).abs() <= px).then_some(x)
+        })
+        .collect()
+}
+
+/// The pixel row of `y` on a log axis over `range` drawn `height` pixels high (0 at the bottom).
+pub fn log_px(range: (f64, f64), height: f64) -> impl Fn(f64) -> f64 {
+    move |y: f64| (y.ln() - range.0.ln()) / (range.1.ln() - range.0.ln()) * height
+}
+
+/// Markers closer than this (in pixels) hide each other: a marker is 8–12 px wide.
+pub const COINCIDENT_PX: f64 = 4.0;
+
+/// `xs` as a short list for a caption: `N = 32, 64, 128`.
+pub fn list_values(xs: &[f64]) -> String {
+    xs.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ")
+}
+
+/// Whether the x values `at` include two neighbours of `series` (its points in x order): then
+/// the two series share a line segment there and one hides the other. Lines that merely cross
+/// (one shared point) stay apart by their markers' shapes.
+fn shares_a_segment(series: &[(f64, f64)], at: &[f64]) -> bool {
+    series
+        .windows(2)
+        .any(|w| at.contains(&w[0].0) && at.contains(&w[1].0))
+}
+
+/// Which series of a figure lie on one another, and what the caption says about it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coincidences {
+    /// Per series, whether it lies on an earlier one (drawn dashed over it).
+    pub over: Vec<bool>,
+    /// Per series, how many later series lie on it (its markers grow).
+    pub under: Vec<usize>,
+    /// The caption's sentences, one per pair.
+    pub notes: Vec<String>,
+}
+
+impl Coincidences {
+    /// Series `i`'s style from `base`: dashed if it lies on an earlier series, its markers
+    /// grown by the number of later ones on it.
+    pub fn style(&self, i: usize, base: SeriesStyle) -> SeriesStyle {
+        SeriesStyle {
+            dashed: base.dashed || self.over.get(i).copied().unwrap_or(false),
+            grow: self.under.get(i).copied().unwrap_or(0),
+            ..base
+        }
+    }
+}
+
+/// Which series (their points, in drawing order) lie on an earlier one along at least one
+/// segment (two neighbouring points within [`COINCIDENT_PX`]): those are drawn dashed over it,
+/// and the earlier one's markers grow, so that nested markers of different shapes show every
+/// series. The caption's sentence for each pair: `"BMCP lies on BMC at N = 32, 64 (markers
+/// within 4 px): …"`.
+pub fn coincidences(
+    names: &[String],
+    points: &[Vec<(f64, f64)>],
+    to_px: impl Fn(f64) -> f64,
+    x_name: &str,
+) -> Coincidences {
+    let mut c = Coincidences {
+        over: vec![false; points.len()],
+        under: vec![0; points.len()],
+        notes: Vec::new(),
+    };
+    for j in 0..points.len() {
+        for i in 0..j {
+            let at = coincident_at(&points[i], &points[j], &to_px, COINCIDENT_PX);
+            if !shares_a_segment(&points[i], &at) {
+                continue;
+            }
+            c.over[j] = true;
+            c.under[i] += 1;
+            c.notes.push(format!(
+                "{} lies on {} at {x_name} = {} (markers within {COINCIDENT_PX} px): it is drawn over it, dashed, \
+                 and {}'s markers are drawn larger, so that both stay visible.",
+                names[j],
+                names[i],
+                list_values(&at),
+                names[i]
+            ));
+        }
+    }
+    c
 }
 
 const SWATCH_WIDTH: i32 = 34;
 const ROW_HEIGHT: u32 = 24;
 const LEGEND_PAD: u32 = 10;
 
-/// Columns for the narrow entries: as many as fit in the width, at most 3.
+/// Columns for the entries: as many as fit in the width, at most 3.
 fn legend_columns(entries: &[LegendEntry]) -> usize {
     let widest = entries
         .iter()
-        .filter(|e| !e.wide)
         .map(|e| SWATCH_WIDTH as f64 + 8.0 + legend_text_width(&e.text))
         .fold(0.0, f64::max);
     let usable = (WIDTH - 2 * LEGEND_PAD) as f64;
@@ -440,9 +708,8 @@ fn legend_columns(entries: &[LegendEntry]) -> usize {
 }
 
 fn legend_rows(entries: &[LegendEntry]) -> (usize, usize) {
-    let narrow = entries.iter().filter(|e| !e.wide).count();
     let columns = legend_columns(entries);
-    (narrow.div_ceil(columns), columns)
+    (entries.len().div_ceil(columns), columns)
 }
 
 /// Estimated width in pixels of legend text (DejaVu Sans letters, spaces and digits average
@@ -451,36 +718,13 @@ fn legend_text_width(text: &str) -> f64 {
     text.chars().count() as f64 * 0.55 * em(LEGEND_FONT)
 }
 
-/// The lines of a wide entry: words wrapped so that no line is estimated wider than the legend.
-fn wrap(entry: &LegendEntry) -> Vec<String> {
-    let indent = if entry.swatch == Swatch::Text {
-        0
-    } else {
-        SWATCH_WIDTH + 8
-    };
-    let max = (WIDTH - 2 * LEGEND_PAD) as f64 - 24.0 - indent as f64;
-    let mut lines: Vec<String> = Vec::new();
-    for word in entry.text.split(' ') {
-        match lines.last_mut() {
-            Some(line) if legend_text_width(&format!("{line} {word}")) <= max => {
-                line.push(' ');
-                line.push_str(word);
-            }
-            _ => lines.push(word.to_string()),
-        }
-    }
-    lines
-}
-
 /// Height in pixels of the legend block for `entries`.
 pub fn legend_height(entries: &[LegendEntry]) -> u32 {
     let (rows, _) = legend_rows(entries);
-    let wide: usize = entries.iter().filter(|e| e.wide).map(|e| wrap(e).len()).sum();
-    (rows + wide) as u32 * ROW_HEIGHT + 2 * LEGEND_PAD
+    rows as u32 * ROW_HEIGHT + 2 * LEGEND_PAD
 }
 
-/// Draws the legend block (below the chart, framed): the narrow entries in columns, row by
-/// row, then each wide entry on its own row.
+/// Draws the legend block (below the chart, framed): the entries in columns, row by row.
 pub fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
@@ -497,50 +741,16 @@ pub fn draw_legend<DB: DrawingBackend>(
         .into_font()
         .color(&BLACK)
         .pos(Pos::new(HPos::Left, VPos::Center));
-    let mut row: i32 = 0;
-    let mut col = 0;
-    // Where the next entry goes; a wide entry takes `lines` whole rows.
-    let mut place = |wide: bool, lines: usize| {
-        let at = if wide {
-            if col > 0 {
-                row += 1;
-                col = 0;
-            }
-            let at = (left, row);
-            row += lines as i32;
-            at
-        } else {
-            let at = (left + col as i32 * column_width, row);
-            col += 1;
-            if col == columns {
-                col = 0;
-                row += 1;
-            }
-            at
-        };
-        (
-            at.0,
-            LEGEND_PAD as i32 + at.1 * ROW_HEIGHT as i32 + ROW_HEIGHT as i32 / 2,
-        )
-    };
-    // Narrow entries first, then the wide ones, whatever order they were given in.
-    let ordered = entries
-        .iter()
-        .filter(|e| !e.wide)
-        .chain(entries.iter().filter(|e| e.wide));
-    for e in ordered {
-        let lines = if e.wide { wrap(e) } else { vec![e.text.clone()] };
-        let (x, y) = place(e.wide, lines.len());
+    for (k, e) in entries.iter().enumerate() {
+        let (row, col) = (k / columns, k % columns);
+        let x = left + col as i32 * column_width;
+        let y = LEGEND_PAD as i32 + row as i32 * ROW_HEIGHT as i32 + ROW_HEIGHT as i32 / 2;
         draw_swatch(area, e.swatch, x, y)?;
-        let text_x = if e.swatch == Swatch::Text {
-            x
-        } else {
-            x + SWATCH_WIDTH + 8
-        };
-        for (k, line) in lines.into_iter().enumerate() {
-            let line_y = y + k as i32 * ROW_HEIGHT as i32;
-            area.draw(&Text::new(line, (text_x, line_y), font.clone()))?;
-        }
+        area.draw(&Text::new(
+            e.text.clone(),
+            (x + SWATCH_WIDTH + 8, y),
+            font.clone(),
+        ))?;
     }
     Ok(())
 }
@@ -553,10 +763,15 @@ fn draw_swatch<DB: DrawingBackend>(
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let w = SWATCH_WIDTH;
     match swatch {
-        Swatch::Series(i) => {
-            let c = colour(i);
-            area.draw(&PathElement::new(vec![(x, y), (x + w, y)], c.stroke_width(2)))?;
-            draw_marker(area, i, (x + w / 2, y), c)?;
+        Swatch::Series(i) => draw_swatch(area, Swatch::Styled(SeriesStyle::of(i)), x, y)?,
+        Swatch::Styled(style) => {
+            let c = colour(style.colour);
+            if style.dashed {
+                dashed(area, x, x + w, y, c.stroke_width(2))?;
+            } else {
+                area.draw(&PathElement::new(vec![(x, y), (x + w, y)], c.stroke_width(2)))?;
+            }
+            draw_styled_marker(area, style, (x + w / 2, y))?;
         }
         Swatch::Guide => dashed(area, x, x + w, y, GUIDE.stroke_width(2))?,
         Swatch::Band => {
@@ -574,7 +789,6 @@ fn draw_swatch<DB: DrawingBackend>(
             area.draw(&PathElement::new(vec![(m - 4, y - 8), (m + 4, y - 8)], s))?;
             area.draw(&PathElement::new(vec![(m - 4, y + 8), (m + 4, y + 8)], s))?;
         }
-        Swatch::Text => {}
     }
     Ok(())
 }
@@ -626,10 +840,10 @@ mod tests {
         assert!(estimated_width(long, font) <= room);
         assert_eq!(fitted_font(&"x".repeat(1000), 25.0, 15.0, room), 15.0);
         // In the SVG: plotters writes size / 1.24.
-        let svg = svg_figure(long, "s", 100, &[], |_, _| Ok(())).unwrap();
+        let svg = svg_figure(long, "s", 100, &[], &[], |_, _| Ok(())).unwrap().svg;
         assert!(svg.contains(&format!("font-size=\"{}\"", font / 1.24)), "{svg}");
         assert!(!svg.contains(&format!("font-size=\"{}\"", 25.0 / 1.24)), "{svg}");
-        let svg = svg_figure(short, "s", 100, &[], |_, _| Ok(())).unwrap();
+        let svg = svg_figure(short, "s", 100, &[], &[], |_, _| Ok(())).unwrap().svg;
         assert!(svg.contains(&format!("font-size=\"{}\"", 25.0 / 1.24)), "{svg}");
     }
 
@@ -661,7 +875,7 @@ mod tests {
         let t = log_ticks(3e-5, 2.0);
         assert_eq!(t.labelled, [1e-4, 1e-3, 1e-2, 1e-1, 1.0]);
         assert!(t.minor.contains(&5e-5) && t.minor.contains(&2.0) && !t.minor.contains(&1e-3));
-        assert_eq!(format_tick(1e-3, false), "1e-3");
+        assert_eq!(format_tick(1e-3, false), "10⁻³");
         // Less than two decades: 2 and 5 join in, in decimals.
         let t = log_ticks(0.018, 0.13);
         assert_eq!(t.labelled, [0.02, 0.05, 0.1]);
@@ -721,29 +935,60 @@ mod tests {
         }
     }
 
+    /// Issue 22 item 4: powers of ten read `10⁻³`, other multiples `5×10⁻³`, positive
+    /// exponents `10²`; [`parse_tick`] reads every form back.
     #[test]
-    fn wide_legend_entries_wrap_and_take_their_rows() {
-        let long = LegendEntry {
-            swatch: Swatch::Text,
-            text: "word ".repeat(80).trim().to_string(),
-            wide: true,
-        };
-        let lines = wrap(&long);
-        assert!(lines.len() >= 2);
+    fn ticks_read_as_powers_of_ten_with_superscript_exponents() {
+        assert_eq!(format_tick(1e-1, false), "10⁻¹");
+        assert_eq!(format_tick(5e-3, false), "5×10⁻³");
+        assert_eq!(format_tick(2.5e-12, false), "2.5×10⁻¹²");
+        assert_eq!(format_tick(1.0, false), "10⁰");
+        assert_eq!(format_tick(100.0, false), "10²");
+        assert_eq!(format_tick(4e7, false), "4×10⁷");
+        assert_eq!(format_tick(0.05, true), "0.05");
+        for v in [1e-1, 5e-3, 2.5e-12, 1.0, 100.0, 4e7, 6e-9, 8e-10] {
+            assert_eq!(parse_tick(&format_tick(v, false)), Some(v), "{v}");
+        }
+        assert_eq!(parse_tick("0.05"), Some(0.05));
+        assert_eq!(parse_tick("MC"), None);
+        assert_eq!(parse_tick("10x"), None);
+    }
+
+    /// Every legend entry takes one row slot; the block's height follows the rows.
+    #[test]
+    fn legend_entries_fill_columns_row_by_row() {
+        let entries: Vec<LegendEntry> = (0..7).map(|i| LegendEntry::series(i, "short")).collect();
+        let (rows, columns) = legend_rows(&entries);
+        assert_eq!((rows, columns), (3, 3));
+        assert_eq!(legend_height(&entries), 3 * ROW_HEIGHT + 2 * LEGEND_PAD);
+    }
+
+    /// Series whose points lie within [`COINCIDENT_PX`] of an earlier series' are found, named in
+    /// a note with where, and marked to be drawn over it; apart, nothing is said.
+    #[test]
+    fn coincident_series_are_found_and_noted() {
+        let to_px = log_px((1e-3, 1.0), 500.0);
+        let a = vec![(16.0, 0.1), (32.0, 0.01), (64.0, 0.002)];
+        let b = vec![(16.0, 0.2), (32.0, 0.0101), (64.0, 0.00201)];
+        let c = vec![(16.0, 0.5), (32.0, 0.5), (64.0, 0.5)];
+        assert_eq!(coincident_at(&a, &b, &to_px, COINCIDENT_PX), [32.0, 64.0]);
+        let names = ["BMC".to_string(), "BMCP".into(), "MC".into(), "X".into()];
+        // X crosses BMC at one point only: a crossing, not a coincidence.
+        let crossing = vec![(16.0, 0.5), (32.0, 0.0101), (64.0, 0.5)];
+        let found = coincidences(&names, &[a, b, c, crossing], &to_px, "N");
+        assert_eq!(found.over, [false, true, false, false]);
+        assert_eq!(found.under, [1, 0, 0, 0]);
+        assert_eq!(found.notes.len(), 1);
         assert!(
-            lines
-                .iter()
-                .all(|l| legend_text_width(l) <= (WIDTH - 2 * LEGEND_PAD) as f64)
+            found.notes[0].starts_with("BMCP lies on BMC at N = 32, 64"),
+            "{}",
+            found.notes[0]
         );
-        let one = legend_height(std::slice::from_ref(&long));
-        let short = LegendEntry {
-            text: "short".into(),
-            ..long
-        };
-        assert_eq!(
-            one - legend_height(&[short]),
-            (lines.len() as u32 - 1) * ROW_HEIGHT
-        );
+        // BMC's markers grow, BMCP's line is dashed; the others keep their default.
+        assert_eq!(found.style(0, SeriesStyle::of(0)).marker_scale(), 1.5);
+        assert!(found.style(1, SeriesStyle::of(1)).dashed);
+        assert_eq!(found.style(2, SeriesStyle::of(2)), SeriesStyle::of(2));
+        assert_eq!(caption_name("cos3.svg"), "cos3.caption.txt");
     }
 
     #[test]

@@ -290,7 +290,8 @@ impl AdaptiveImage {
         hits as f64 / total.max(1) as f64
     }
 
-    /// The spp map as a scalar image for [`Image::error_png`]: each pixel `[v, v, v] / √3` so
+    /// The spp map as a scalar image for [`crate::render::image::scalar_png`] (its
+    /// [`Image::error_norms`] against the black image): each pixel `[v, v, v] / √3` so
     /// that its norm is `v = spp`, drawn against black up to `max_spp` with a colour bar.
     pub fn spp_as_norms(&self) -> (Image, Image) {
         let k = 1.0 / 3f64.sqrt();

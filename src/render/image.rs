@@ -53,6 +53,13 @@ pub struct ErrorImage {
     pub clamped: usize,
 }
 
+/// The colour bar's title on an error image: the per-pixel error norm, in radiance units.
+pub const ERROR_TITLE: &str = "|error| (radiance)";
+/// The colour bar's title on an sd image: the per-pixel posterior sd norm, in radiance units.
+pub const SD_TITLE: &str = "sd (radiance)";
+/// The colour bar's title on an adaptive render's spp map.
+pub const SPP_TITLE: &str = "samples per pixel";
+
 /// How an error image shows the scaled error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ColourMap {
@@ -179,7 +186,7 @@ impl Image {
     /// (normalised) or `e / max_error` (absolute), clamped to `[0, 1]`, in grey or through
     /// viridis, with a colour bar on the right labelled 0 and the top of the scale (followed by
     /// `+` when pixels are clamped there), so that the colours can be read without the command
-    /// line that made them.
+    /// line that made them, and titled [`ERROR_TITLE`] along its right edge.
     pub fn error_png(
         &self,
         reference: &Image,
@@ -194,13 +201,15 @@ impl Image {
             scale,
             max_error,
             map,
+            ERROR_TITLE,
         )
     }
 }
 
 /// A non-negative per-pixel quantity `e` (row-major, `width × height`) as a picture with a
 /// colour bar, scaled like [`Image::error_png`] (which draws error norms with it; the sd image
-/// draws sd norms on the same scale, so the two can be compared colour for colour).
+/// draws sd norms on the same scale, so the two can be compared colour for colour). `title`
+/// (what the values are, with their unit) runs up the bar's right edge.
 pub fn scalar_png(
     e: &[f64],
     width: usize,
@@ -208,6 +217,7 @@ pub fn scalar_png(
     scale: ErrorScale,
     max_error: f64,
     map: ColourMap,
+    title: &str,
 ) -> crate::Result<ErrorImage> {
     assert_eq!(e.len(), width * height, "one value per pixel");
     let (max_i, max) = e
@@ -228,7 +238,7 @@ pub fn scalar_png(
     if clamped > 0 {
         label.push('+');
     }
-    let bar = ColourBar::new(height, &label);
+    let bar = ColourBar::new(height, &label, title);
     let buf = RgbImage::from_fn((width + bar.width) as u32, height as u32, |x, y| {
         let (x, y) = (x as usize, y as usize);
         if x < width {
@@ -312,7 +322,8 @@ pub fn short_number(v: f64) -> String {
 
 /// The colour bar strip right of an error image: white, with a vertical gradient from the
 /// colour of 0 (bottom) to that of 1 (top) and the labels `0` and the scale's top beside its
-/// ends, in a 5×7 bitmap font (the `image` crate draws no text).
+/// ends, and its title running bottom to top along its right edge, in a 5×7 bitmap font (the
+/// `image` crate draws no text).
 struct ColourBar {
     /// Width of the whole strip in pixels.
     width: usize,
@@ -325,20 +336,34 @@ struct ColourBar {
     rows: std::ops::Range<usize>,
     /// The top label; `None` if the image is too low for labels.
     top_label: Option<String>,
+    /// The title, its first column in the strip, its font scale and the row its text starts
+    /// from (reading upwards); `None` if the image is too low for it.
+    title: Option<(String, usize, usize, usize)>,
 }
 
 impl ColourBar {
-    fn new(height: usize, top_label: &str) -> ColourBar {
+    fn new(height: usize, top_label: &str, title: &str) -> ColourBar {
         // Font pixels grow with the image so the labels stay legible at a glance.
         let s = (height / 96).clamp(1, 3);
         let labelled = height >= 2 * (GLYPH_H * s + 2 * s) + 4;
         let gap = 4 * s;
         let bar = gap..gap + 10 * s;
         let chars = top_label.chars().count().max(1);
-        let width = if labelled {
+        let labels_end = if labelled {
             bar.end + 3 * s + chars * GLYPH_ADVANCE * s + 2 * s
         } else {
             bar.end + 2 * s
+        };
+        // The title at the labels' scale, or smaller if it is too long for the image's height.
+        let length = |t: usize| (title.chars().count() * GLYPH_ADVANCE).saturating_sub(1) * t;
+        let title_scale = (1..=s).rev().find(|&t| length(t) + 4 * t <= height);
+        let (width, title) = match title_scale {
+            Some(t) if !title.is_empty() => {
+                let x0 = labels_end + 2 * s;
+                let start = (height + length(t)) / 2;
+                (x0 + GLYPH_H * t + 3 * s, Some((title.to_string(), x0, t, start)))
+            }
+            _ => (labels_end, None),
         };
         // The labels are centred on the ends of the gradient, so those sit half a glyph in.
         let inset = if labelled {
@@ -353,6 +378,7 @@ impl ColourBar {
             bar,
             rows: inset..height - inset,
             top_label: labelled.then(|| top_label.to_string()),
+            title,
         }
     }
 
@@ -370,6 +396,15 @@ impl ColourBar {
             if glyph_pixel(top, x, y, x0, top_y, self.s) || glyph_pixel("0", x, y, x0, bottom_y, self.s) {
                 return [0, 0, 0];
             }
+        }
+        // The title turned a quarter counter-clockwise: its text runs up from row `start`, the
+        // glyphs' tops facing the bar.
+        if let Some((title, x0, t, start)) = &self.title
+            && x >= *x0
+            && y <= *start
+            && glyph_pixel(title, start - y, x - x0, 0, 0, *t)
+        {
+            return [0, 0, 0];
         }
         debug_assert!(y < self.height);
         [255, 255, 255]
@@ -395,7 +430,8 @@ fn glyph_pixel(text: &str, x: usize, y: usize, x0: usize, y0: usize, s: usize) -
 }
 
 /// Rows of a 5×7 glyph, most significant of the five bits on the left; unknown characters are
-/// blank (only digits, `.`, `e`, `-` and `+` are ever drawn).
+/// blank (labels draw digits, `.`, `e`, `-` and `+`; the colour bars' titles the letters of
+/// [`ERROR_TITLE`], [`SD_TITLE`] and [`SPP_TITLE`], `|`, parentheses and spaces).
 fn glyph(c: char) -> [u8; GLYPH_H] {
     match c {
         '0' => [0b01110, 0b10001, 0b10011, 0b10101, 0b11001, 0b10001, 0b01110],
@@ -412,6 +448,21 @@ fn glyph(c: char) -> [u8; GLYPH_H] {
         'e' => [0, 0, 0b01110, 0b10001, 0b11111, 0b10000, 0b01110],
         '-' => [0, 0, 0, 0b11111, 0, 0, 0],
         '+' => [0, 0b00100, 0b00100, 0b11111, 0b00100, 0b00100, 0],
+        'a' => [0, 0, 0b01110, 0b00001, 0b01111, 0b10001, 0b01111],
+        'c' => [0, 0, 0b01110, 0b10000, 0b10000, 0b10001, 0b01110],
+        'd' => [0b00001, 0b00001, 0b01101, 0b10011, 0b10001, 0b10001, 0b01111],
+        'i' => [0b00100, 0, 0b01100, 0b00100, 0b00100, 0b00100, 0b01110],
+        'l' => [0b01100, 0b00100, 0b00100, 0b00100, 0b00100, 0b00100, 0b01110],
+        'm' => [0, 0, 0b11010, 0b10101, 0b10101, 0b10001, 0b10001],
+        'n' => [0, 0, 0b10110, 0b11001, 0b10001, 0b10001, 0b10001],
+        'o' => [0, 0, 0b01110, 0b10001, 0b10001, 0b10001, 0b01110],
+        'p' => [0, 0, 0b11110, 0b10001, 0b11110, 0b10000, 0b10000],
+        'r' => [0, 0, 0b10110, 0b11001, 0b10000, 0b10000, 0b10000],
+        's' => [0, 0, 0b01110, 0b10000, 0b01110, 0b00001, 0b11110],
+        'x' => [0, 0, 0b10001, 0b01010, 0b00100, 0b01010, 0b10001],
+        '|' => [0b00100; GLYPH_H],
+        '(' => [0b00010, 0b00100, 0b01000, 0b01000, 0b01000, 0b00100, 0b00010],
+        ')' => [0b01000, 0b00100, 0b00010, 0b00010, 0b00010, 0b00100, 0b01000],
         _ => [0; GLYPH_H],
     }
 }
@@ -529,7 +580,7 @@ mod tests {
             let png = decode(&e.png);
             assert!(png.width() as usize > a.width, "no strip");
             assert_eq!(png.height() as usize, a.height);
-            let bar = ColourBar::new(a.height, "0.25+");
+            let bar = ColourBar::new(a.height, "0.25+", ERROR_TITLE);
             assert_eq!(png.width() as usize, a.width + bar.width);
             let colour = |t: f64| match map {
                 ColourMap::Grey => [to_u8(t); 3],
@@ -550,8 +601,46 @@ mod tests {
                     .any(|(x, y)| png.get_pixel(x as u32, y as u32).0 == [0, 0, 0])
             };
             assert!(ink(0..top + 5) && ink(bottom - 4..a.height));
-            assert!(!ink(top + 10..bottom - 10), "ink between the labels");
+            // Between the labels, ink only in the title's column, right of the labels.
+            let title_x = bar.title.as_ref().map_or(bar.width, |t| t.1);
+            let ink_before = |ys: std::ops::Range<usize>, end: usize| {
+                ys.flat_map(|y| (a.width + bar.bar.end..a.width + end).map(move |x| (x, y)))
+                    .any(|(x, y)| png.get_pixel(x as u32, y as u32).0 == [0, 0, 0])
+            };
+            assert!(
+                !ink_before(top + 10..bottom - 10, title_x),
+                "ink between the labels"
+            );
         }
+    }
+
+    /// Issue 22 item 9: the colour bar has a title with its unit, running up its right edge in
+    /// its own column; an image too low for the title at any scale goes without it.
+    #[test]
+    fn the_colour_bar_has_a_title_with_its_unit() {
+        let bar = ColourBar::new(256, "0.25+", ERROR_TITLE);
+        let (title, x0, t, start) = bar.title.clone().expect("room for a title");
+        assert_eq!((title.as_str(), t), (ERROR_TITLE, 2));
+        // Centred: as much room above the text as below.
+        let length = (ERROR_TITLE.chars().count() * GLYPH_ADVANCE - 1) * t;
+        assert!(start < 256 && start + 1 >= length && (256 - start).abs_diff(start + 1 - length) <= 1);
+        let white = [255u8; 3];
+        let ink: usize = (0..bar.width)
+            .flat_map(|x| (0..256).map(move |y| (x, y)))
+            .filter(|&(x, y)| x >= x0 && bar.pixel(x, y, &|_| white) == [0, 0, 0])
+            .count();
+        assert!(ink > 100, "{ink} ink pixels in the title column");
+        // Every title's letters have glyphs.
+        for c in [ERROR_TITLE, SD_TITLE, SPP_TITLE]
+            .concat()
+            .chars()
+            .filter(|c| *c != ' ')
+        {
+            assert_ne!(glyph(c), [0; GLYPH_H], "{c:?} has no glyph");
+        }
+        assert!(ColourBar::new(30, "0.25", SPP_TITLE).title.is_none());
+        let untitled = ColourBar::new(256, "0.25+", "");
+        assert!(untitled.title.is_none() && untitled.width < bar.width);
     }
 
     #[test]

@@ -74,6 +74,7 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
     reference_json["cache"] = cache_path(plan, results).display().to_string().into();
     let json = serde_json::json!({
         "spec": plan.file.display().to_string(),
+        "title": plan.title,
         "scene": SCENE_VERSION,
         "seed": plan.seed,
         "width": plan.width,

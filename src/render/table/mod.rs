@@ -128,10 +128,11 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         "table.csv laid out like thesis Table 4.1",
         table_md.as_bytes(),
     )?;
-    folder.write(
+    crate::plot::write_figure(
+        &mut folder,
         "rmse_vs_spp.svg",
         "mean RMSE against spp, log-log, with the intervals",
-        plot::plot_svg(plan, &cells)?.as_bytes(),
+        &plot::plot_svg(plan, &cells)?,
     )?;
     let times_md = export::times_md(plan, &cells);
     folder.write_local(

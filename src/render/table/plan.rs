@@ -89,6 +89,8 @@ impl ReferencePlan {
 pub struct TablePlan {
     pub file: PathBuf,
     pub name: String,
+    /// The RMSE plot's title (`title`, default the name).
+    pub title: String,
     pub seed: u64,
     pub width: usize,
     pub height: usize,
@@ -221,6 +223,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     Ok(TablePlan {
         file: path.to_path_buf(),
         name: spec.name.clone(),
+        title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
         seed,
         width,
         height,
@@ -571,7 +574,7 @@ mod tests {
     fn errors_name_file_path_and_value() {
         let base = r#""name": "t", "variants": [{"integrator": "mc"}]"#;
         assert!(err(&format!("{{{base}, \"colour\": 1}}")).starts_with(
-            "t.json: colour: unknown field `colour`, expected one of `$schema`, `name`, `seed`"
+            "t.json: colour: unknown field `colour`, expected one of `$schema`, `name`, `title`, `seed`"
         ));
         assert_eq!(
             err(r#"{"name": "t", "variants": [{"integrator": "bmx"}]}"#),

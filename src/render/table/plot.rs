@@ -1,10 +1,11 @@
-//! `rmse_vs_spp.svg`: mean RMSE against spp, log–log, one line per variant (distinct colour and
-//! marker) with its 95% intervals as bars, a dashed spp^(−1/2) guide through MC, and a legend
-//! below the chart that says what the bars and the reference are.
+//! `rmse_vs_spp.svg` and its caption: mean RMSE against spp, log–log, one line per variant
+//! (distinct colour and marker) at its true spp with its 95% intervals as bars, a dashed
+//! spp^(−1/2) guide through MC, and a legend below the chart. Variants that lie on an earlier
+//! one are drawn dashed over it and named in the caption; nothing is moved off its spp.
 
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
-use crate::plot::{self as style, Axis, LegendEntry, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, SeriesStyle, Swatch};
 use crate::render::integrator::IntegratorKind;
 use plotters::prelude::*;
 
@@ -12,7 +13,7 @@ use plotters::prelude::*;
 const CHART_HEIGHT: u32 = 500;
 
 /// Mean RMSE against spp, log–log, one line per variant, with the 95% intervals as bars.
-pub fn plot_svg(plan: &TablePlan, cells: &[Cell]) -> crate::Result<String> {
+pub fn plot_svg(plan: &TablePlan, cells: &[Cell]) -> crate::Result<style::Figure> {
     draw(plan, cells).map_err(|e| crate::Error::Encode(format!("drawing the RMSE plot: {e}")))
 }
 
@@ -22,14 +23,6 @@ fn guide_variant(plan: &TablePlan) -> Option<usize> {
         .iter()
         .position(|v| v.kind == IntegratorKind::MC)
         .or_else(|| plan.variants.iter().position(|v| v.kind.method.is_monte_carlo()))
-}
-
-/// The factor each variant's spp is drawn at: 1 ± k·step around the middle, the step 2%, less
-/// with many variants so that the spread stays within ±6%.
-fn dodge_factors(variants: usize) -> Vec<f64> {
-    let step = 0.02f64.min(0.12 / variants.max(1) as f64);
-    let middle = (variants as f64 - 1.0) / 2.0;
-    (0..variants).map(|v| 1.0 + step * (v as f64 - middle)).collect()
 }
 
 /// The caption's second line: what the RMSE is measured against.
@@ -47,10 +40,9 @@ pub fn reference_caption(plan: &TablePlan) -> String {
 }
 
 /// What the plot shows, computed before drawing: each variant's cells in spp order, the
-/// side-by-side factors, the guide, and the axes.
+/// guide, and the axes.
 struct Frame<'a> {
     per_variant: Vec<Vec<&'a Cell>>,
-    dodge: Vec<f64>,
     guide: Option<(usize, Vec<(f64, f64)>)>,
     x: Axis,
     y: Axis,
@@ -73,16 +65,11 @@ fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
         .collect();
     let x_min = *plan.spp.iter().min().expect("spp") as f64;
     let x_max = *plan.spp.iter().max().expect("spp") as f64;
-    let dodge = dodge_factors(plan.variants.len());
-    // Drawn at the MC variant's shifted spp, so that it starts on MC's first point.
+    // Through the MC variant's first point.
     let guide = guide_variant(plan).and_then(|v| {
         let c = per_variant[v].iter().find(|c| ok(c.mean))?;
         let a = c.mean * (c.spp as f64).sqrt();
-        let d = dodge[v];
-        Some((
-            v,
-            vec![(x_min * d, a / x_min.sqrt()), (x_max * d, a / x_max.sqrt())],
-        ))
+        Some((v, vec![(x_min, a / x_min.sqrt()), (x_max, a / x_max.sqrt())]))
     });
     let drawn: Vec<f64> = cells
         .iter()
@@ -100,7 +87,6 @@ fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
     let (x0, x1) = style::padded_log_range(&[x_min, x_max], 1.12);
     Frame {
         per_variant,
-        dodge,
         guide,
         x: Axis::counts(&plan.spp, (x0, x1), "samples per pixel (spp)"),
         y: Axis::log_values((y0, y1), RMSE_AXIS),
@@ -119,16 +105,26 @@ pub fn variant_entries(plan: &TablePlan) -> Vec<LegendEntry> {
         .collect()
 }
 
-/// One entry per variant, the guide, and what the points and bars are.
-fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<LegendEntry> {
-    let mut legend = variant_entries(plan);
-    if let Some((v, _)) = guide {
-        legend.push(LegendEntry {
-            swatch: Swatch::Guide,
-            text: format!("∝ spp^(−1/2) through {}", plan.variants[*v].label),
-            wide: false,
-        });
+/// The legend (one entry per variant, drawn dashed where it lies on an earlier one, the guide,
+/// the bars) and the caption (what the points, bars and guide are; which variants coincide).
+fn legend_and_caption(
+    plan: &TablePlan,
+    frame: &Frame,
+    found: &style::Coincidences,
+    coincident: Vec<String>,
+) -> (Vec<LegendEntry>, Vec<String>) {
+    let mut legend: Vec<LegendEntry> = variant_entries(plan)
+        .into_iter()
+        .enumerate()
+        .map(|(v, e)| LegendEntry::key(Swatch::Styled(found.style(v, SeriesStyle::of(v))), e.text))
+        .collect();
+    if let Some((v, _)) = &frame.guide {
+        legend.push(LegendEntry::key(
+            Swatch::Guide,
+            format!("∝ spp^(−1/2) through {}", plan.variants[*v].label),
+        ));
     }
+    legend.push(LegendEntry::key(Swatch::Bar, "95% interval of the mean RMSE"));
     let repetitions = plan
         .spp
         .iter()
@@ -136,68 +132,150 @@ fn legend(plan: &TablePlan, guide: &Option<(usize, Vec<(f64, f64)>)>) -> Vec<Leg
         .map(|(s, r)| format!("{r} at {s}"))
         .collect::<Vec<_>>()
         .join(", ");
-    legend.push(LegendEntry::wide(
-        Swatch::Bar,
-        format!(
-            "points: mean RMSE; bars: its 95% Student-t interval over the repetitions ({repetitions} spp); variants set side by side (spp × 1 ± {:.0}% at most) so that none hides another",
-            100.0 * dodge_factors(plan.variants.len()).last().map_or(0.0, |d| d - 1.0)
-        ),
-    ));
-    legend
+    let mut caption = vec![format!(
+        "Points: the mean RMSE of each variant at each spp, drawn at that spp; bars: its 95% Student-t \
+         interval over the repetitions ({repetitions} spp). Variants share the spp values; their markers differ \
+         in shape as well as colour."
+    )];
+    if let Some((v, _)) = &frame.guide {
+        caption.push(format!(
+            "Dashed grey line: ∝ spp^(−1/2), the Monte Carlo rate, through {}'s mean RMSE at its smallest spp.",
+            plan.variants[*v].label
+        ));
+    }
+    caption.extend(coincident);
+    (legend, caption)
 }
 
-/// The guide, then every variant's bars, then its line and markers (so no bar hides a marker).
+/// Every variant's bars, then its line and markers (so no bar hides a marker), all at the
+/// variants' true spp, then the guide.
 fn draw_variants<'s, X: style::F64Coord, Y: style::F64Coord>(
     chart: &mut style::Chart<'_, SVGBackend<'s>, X, Y>,
     root: &style::SvgArea<'s>,
     per_variant: &[Vec<&Cell>],
-    dodge: &[f64],
+    found: &style::Coincidences,
     guide: &Option<(usize, Vec<(f64, f64)>)>,
 ) -> style::FigureResult<()> {
-    if let Some((_, line)) = &guide {
-        style::draw_guide(chart, line.clone())?;
-    }
-    // Variants are set side by side — points, lines and bars shifted by a small factor in
-    // spp — so that variants with equal RMSE (BMC and BMCP with the same sets) do not hide
-    // each other's markers and intervals. The shift is at most ±6% and said in the legend.
     for (v, mine) in per_variant.iter().enumerate() {
-        let bars = mine.iter().filter(|c| finite_interval(c)).map(|c| {
-            (
-                c.spp as f64 * dodge[v],
-                c.mean - c.half_width,
-                c.mean + c.half_width,
-            )
-        });
+        let bars = mine
+            .iter()
+            .filter(|c| finite_interval(c))
+            .map(|c| (c.spp as f64, c.mean - c.half_width, c.mean + c.half_width));
         style::draw_bars(chart, v, bars)?;
     }
-    for (v, mine) in per_variant.iter().enumerate() {
-        let points: Vec<(f64, f64)> = mine
-            .iter()
-            .filter(|c| ok(c.mean))
-            .map(|c| (c.spp as f64 * dodge[v], c.mean))
-            .collect();
-        style::draw_line_with_markers(chart, root, v, &points)?;
+    for (v, points) in points_of(per_variant).iter().enumerate() {
+        style::draw_styled_line(chart, root, found.style(v, SeriesStyle::of(v)), points)?;
+    }
+    // Over the lines: it lies on MC's.
+    if let Some((_, line)) = &guide {
+        style::draw_guide(chart, line.clone())?;
     }
     Ok(())
 }
 
-fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<String> {
-    let Frame {
-        per_variant,
-        dodge,
-        guide,
-        x,
-        y,
-    } = frame(plan, cells);
-    let legend = legend(plan, &guide);
+/// Each variant's drawn points: `(spp, mean RMSE)` at its true spp, where the mean can stand on
+/// the log axis.
+fn points_of(per_variant: &[Vec<&Cell>]) -> Vec<Vec<(f64, f64)>> {
+    per_variant
+        .iter()
+        .map(|mine| {
+            mine.iter()
+                .filter(|c| ok(c.mean))
+                .map(|c| (c.spp as f64, c.mean))
+                .collect()
+        })
+        .collect()
+}
+
+fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> {
+    let frame = frame(plan, cells);
+    let names: Vec<String> = plan.variants.iter().map(|v| v.label.clone()).collect();
+    let to_px = style::log_px(frame.y.range, style::plot_height(CHART_HEIGHT));
+    let found = style::coincidences(&names, &points_of(&frame.per_variant), &to_px, "spp");
+    let mut coincident = found.notes.clone();
+    if let Some((v, line)) = &frame.guide {
+        let mine = &points_of(&frame.per_variant)[*v];
+        let (x0, y0) = line[0];
+        let on_guide: Vec<(f64, f64)> = mine.iter().map(|&(x, _)| (x, y0 * (x0 / x).sqrt())).collect();
+        let at = style::coincident_at(mine, &on_guide, &to_px, style::COINCIDENT_PX);
+        if !at.is_empty() {
+            coincident.push(format!(
+                "The spp^(−1/2) guide lies on {} at spp = {} (within {} px): it is drawn over that line, grey and \
+                 dashed.",
+                names[*v],
+                style::list_values(&at),
+                style::COINCIDENT_PX
+            ));
+        }
+    }
+    let (legend, caption) = legend_and_caption(plan, &frame, &found, coincident);
     style::svg_figure(
-        &format!("{}: mean RMSE against samples per pixel", plan.name),
+        &format!("{}: mean RMSE against samples per pixel", plan.title),
         &reference_caption(plan),
         CHART_HEIGHT,
         &legend,
+        &caption,
         |root, area| {
-            let mut chart = style::log_log_chart(root, area, &x, &y)?;
-            draw_variants(&mut chart, root, &per_variant, &dodge, &guide)
+            let mut chart = style::log_log_chart(root, area, &frame.x, &frame.y)?;
+            draw_variants(&mut chart, root, &frame.per_variant, &found, &frame.guide)
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(variant: usize, spp: usize, mean: f64) -> Cell {
+        Cell {
+            variant,
+            spp,
+            n: 4,
+            mean,
+            sd: 0.01,
+            half_width: 0.005,
+            edges_mean: mean,
+            edges_half_width: 0.005,
+            coverage95: 0.95,
+            coverage95_edges: 0.95,
+            seconds: 1.0,
+        }
+    }
+
+    /// Issue 22 item 7: every variant's points are drawn at their true spp (no side offsets),
+    /// equal means included; the variants stay apart by line style and marker instead.
+    #[test]
+    fn points_sit_at_their_true_spp() {
+        let cells = [
+            cell(0, 20, 0.2),
+            cell(1, 20, 0.2),
+            cell(0, 40, 0.1),
+            cell(1, 40, 0.1),
+        ];
+        let per_variant: Vec<Vec<&Cell>> = (0..2)
+            .map(|v| cells.iter().filter(|c| c.variant == v).collect())
+            .collect();
+        let points = points_of(&per_variant);
+        assert_eq!(points[0], [(20.0, 0.2), (40.0, 0.1)]);
+        assert_eq!(points[1], points[0]);
+        let found = style::coincidences(
+            &["MC".into(), "BMC".into()],
+            &points,
+            style::log_px((0.05, 0.5), 400.0),
+            "spp",
+        );
+        assert_eq!(
+            (found.over.clone(), found.under.clone()),
+            (vec![false, true], vec![1, 0])
+        );
+        assert!(
+            found.notes[0].starts_with("BMC lies on MC at spp = 20, 40"),
+            "{}",
+            found.notes[0]
+        );
+        assert_ne!(
+            found.style(0, SeriesStyle::of(0)),
+            found.style(1, SeriesStyle::of(1))
+        );
+    }
 }

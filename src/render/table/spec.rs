@@ -25,6 +25,9 @@ pub struct TableSpec {
     pub schema: Option<String>,
     /// Output folder name under the results folder: A–Z, a–z, 0–9, `-`, `_`.
     pub name: String,
+    /// The RMSE plot's title; defaults to the name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
     /// Master seed; default 0.
     #[serde(default)]
     pub seed: Option<u64>,

@@ -33,6 +33,7 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
     );
     assert_eq!(rows.len(), 4);
     let svg = std::fs::read_to_string(dir.path().join("results/f/cos3.svg")).unwrap();
+    let caption = std::fs::read_to_string(dir.path().join("results/f/cos3.caption.txt")).unwrap();
     for r in rows.iter().filter(|r| r[0] == "cos3") {
         // Median of 8…128 is 32: the upper half is N ≥ 32, three points.
         assert_eq!((r[2].as_str(), r[3].as_str(), r[4].as_str()), ("32", "128", "3"));
@@ -48,7 +49,7 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
         assert!(svg.contains(&shown), "legend lacks {shown:?}");
         let wide = hi - slope >= slope.abs();
         assert_eq!(r[9] == "wide_interval", wide && slope <= -0.1, "{r:?}");
-        // The footnote explains each reason for "n/a" the legend uses.
+        // The caption explains each reason for "n/a" the legend uses.
         for (flag, why) in [
             (
                 "wide_interval",
@@ -57,7 +58,7 @@ fn fits_match_the_legend_and_follow_fit_from_n() {
             ("plateau", "plateau: the slope is above −0.1"),
         ] {
             if r[9] == flag {
-                assert!(svg.contains(why), "legend lacks {why:?}");
+                assert!(caption.contains(why), "caption lacks {why:?}");
             }
         }
     }

@@ -129,7 +129,7 @@ fn manifest_files(dir: &Path) -> Vec<String> {
 
 /// Whether `name` is one of the wall-clock files `.gitignore` keeps out of `results/`.
 fn git_ignored(name: &str) -> bool {
-    name.starts_with("timings") || name.ends_with("-cost.svg")
+    name.starts_with("timings") || name.ends_with("-cost.svg") || name.ends_with("-cost.caption.txt")
 }
 
 #[test]
@@ -146,11 +146,17 @@ fn results_folder_holds_one_run_after_another_experiment() {
     assert_eq!(
         listing(&d.join("o")),
         [
+            "cos-cost.caption.txt",
             "cos-cost.svg",
+            "cos-coverage.caption.txt",
             "cos-coverage.svg",
+            "cos.caption.txt",
             "cos.svg",
+            "cos2-cost.caption.txt",
             "cos2-cost.svg",
+            "cos2-coverage.caption.txt",
             "cos2-coverage.svg",
+            "cos2.caption.txt",
             "cos2.svg",
             "fits.csv",
             "manifest.json",

@@ -1,6 +1,7 @@
 //! The figures through the binary: the SVGs are well-formed and say what they show (display
-//! names, the fitting range, exact series as exact, the guide's anchor, what the reference is),
-//! and the error image carries a colour bar on a common scale.
+//! names, the fitting range, exact series as exact, the guide's anchor, what the reference is)
+//! with their prose in a caption file beside them, and the error image carries a titled colour
+//! bar on a common scale.
 
 use crate::common::*;
 use std::path::Path;
@@ -179,31 +180,90 @@ fn error_plots_say_what_they_show() {
     let cos = svg_texts(&out.join("cos.svg"));
     let cos0 = svg_texts(&out.join("cos0.svg"));
     let cos3 = svg_texts(&out.join("cos3.svg"));
+    let caption = |name: &str| std::fs::read_to_string(out.join(format!("{name}.caption.txt"))).unwrap();
     assert!(has(&cos, "∫ cos θ dω") && has(&cos0, "∫ 1 dω") && has(&cos3, "∫ cos³θ dω"));
-    for texts in [&cos, &cos0, &cos3] {
+    for (name, texts) in [("cos", &cos), ("cos0", &cos0), ("cos3", &cos3)] {
         assert!(!has(texts, "cos3") && !has(texts, "cos0"));
         // Never a fitted zero slope; the range is stated: N ≥ the median of 4 … 64.
         assert!(!has(texts, "slope 0.00") && !has(texts, "slope −0.00"));
         // (With 6 trials some slopes are `n/a (wide interval, N ≥ 16)`: still the range.)
-        assert!(has(texts, "N ≥ 16)") && has(texts, "over N ≥ 16"), "{texts:#?}");
-        // The band is explained once.
+        assert!(has(texts, "N ≥ 16)"), "{texts:#?}");
+        // The band has one legend entry; what it is, is said in the caption, as is the fit.
         assert_eq!(texts.iter().filter(|t| t.text.contains("10–90%")).count(), 1);
-        // No tick label at a fake floor: exact points are left out, not clamped.
+        let caption = caption(name);
         assert!(
-            texts
-                .iter()
-                .filter_map(|t| t.text.parse::<f64>().ok())
-                .all(|v| v > 1e-10),
-            "a tick at the floor"
+            caption.contains("over N ≥ 16") && caption.contains("10–90% quantiles"),
+            "{caption}"
         );
+        // The prose is in the caption file, not in the figure.
+        assert!(!has(texts, "least-squares") && caption.contains("least-squares"));
+        // No tick label at a fake floor: exact points are left out, not clamped.
+        let ticks: Vec<f64> = texts
+            .iter()
+            .filter_map(|t| workbench::plot::parse_tick(&t.text))
+            .collect();
+        assert!(ticks.len() >= 2 + 5, "error and N ticks: {texts:#?}");
+        assert!(ticks.iter().all(|&v| v > 1e-10), "a tick at the floor");
+        // Ticks read as powers of ten, never in e-notation.
+        assert!(texts.iter().all(|t| !t.text.contains("e-")), "{texts:#?}");
     }
     assert!(has(&cos, "MC-cos: exact at every N") && has(&cos, "MC: slope"));
     assert!(has(&cos0, "MC: exact at every N") && has(&cos0, "BMCP: exact at every N"));
-    assert!(has(&cos0, "MC-cos: slope") && has(&cos0, "exact: error 0 up to rounding"));
+    assert!(has(&cos0, "MC-cos: slope") && caption("cos0").contains("exact: error 0 up to rounding"));
     assert!(!has(&cos3, "exact"));
     // The guide goes through uniform MC, and is left out when MC has no error to go through.
     assert!(has(&cos, "∝ N^(−1/2) through MC") && has(&cos3, "∝ N^(−1/2) through MC"));
     assert!(!has(&cos0, "N^(−1/2)"));
+    // One axis and subtitle style: the integrand is named once, in the subtitle's integral.
+    for texts in [&cos, &cos0, &cos3] {
+        assert!(has(texts, "absolute error |Î − I|  [sr]"));
+        assert!(!has(texts, "integrand "), "{texts:#?}");
+    }
+}
+
+/// Issue 22 item 1: bands are drawn for at most three estimators by default, for those
+/// `plot.bands` names, and `validate` shows which.
+#[test]
+fn bands_follow_plot_bands_and_default_to_none_beyond_three_estimators() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = |plot: &str| {
+        format!(
+            r#"{{ "name": "b", "integrands": ["cos3"], "samples": [4, 8, 16], "trials": 5, "seed": 1,
+                 "estimators": [ {{"label": "MC", "method": "mc"}}, {{"label": "BMC", "method": "bmc"}},
+                                 {{"label": "BMCP", "method": "bmcp"}}, {{"label": "BSQ", "method": "bsq"}} ]{plot} }}"#
+        )
+    };
+    let bands = |plot: &str| -> (usize, String, String) {
+        std::fs::write(dir.path().join("b.json"), spec(plot)).unwrap();
+        let o = workbench(dir.path(), &["run", "b.json", "-q", "--out", "b"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let svg = std::fs::read_to_string(dir.path().join("b/cos3.svg")).unwrap();
+        let caption = std::fs::read_to_string(dir.path().join("b/cos3.caption.txt")).unwrap();
+        let v = workbench(dir.path(), &["validate", "b.json"]);
+        // A band is a polygon filled at 6% opacity.
+        (
+            svg.matches("<polygon opacity=\"0.06\"").count(),
+            caption,
+            String::from_utf8_lossy(&v.stdout).into(),
+        )
+    };
+    let (n, caption, validate) = bands("");
+    assert_eq!(n, 0, "four estimators: no bands by default");
+    assert!(caption.contains("No quantile bands are drawn"), "{caption}");
+    assert!(validate.contains("\"bands\": []"), "{validate}");
+    let (n, caption, validate) = bands(r#", "plot": {"bands": ["MC", "BMC"]}"#);
+    assert_eq!(n, 2);
+    assert!(caption.contains("drawn for MC, BMC"), "{caption}");
+    assert!(validate.contains("\"MC\",\n      \"BMC\""), "{validate}");
+    assert_eq!(bands(r#", "plot": {"bands": "all"}"#).0, 4);
+    std::fs::write(dir.path().join("b.json"), spec(r#", "plot": {"bands": ["XY"]}"#)).unwrap();
+    let o = workbench(dir.path(), &["validate", "b.json"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("plot.bands") && stderr(&o).contains("\"XY\""),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -223,11 +283,14 @@ fn the_rmse_plot_names_its_reference_and_keeps_the_legend_off_the_data() {
     let texts = svg_texts(&d.join("r/t/rmse_vs_spp.svg"));
     assert!(has(&texts, "reference rendered with uniform MC at 32 spp"));
     assert!(has(&texts, "∝ spp^(−1/2) through MC"));
-    assert!(has(&texts, "95% Student-t interval"));
+    let caption = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.caption.txt")).unwrap();
+    assert!(caption.contains("95% Student-t interval") && !has(&texts, "Student-t"));
+    // No title given: the plot is titled with the table's name (render-table files set `title`).
+    assert!(has(&texts, "t: mean RMSE against samples per pixel"));
     // The legend is below the plotting area: every label sits lower than every tick label.
     let lowest_tick = texts
         .iter()
-        .filter(|t| t.text.parse::<f64>().is_ok())
+        .filter(|t| workbench::plot::parse_tick(&t.text).is_some())
         .filter_map(|t| t.attr("y"))
         .fold(0.0, f64::max);
     for label in ["MC", "MC cos", "BMC"] {

@@ -1,5 +1,5 @@
 //! Runs past one process: `run --shard i/n` + `merge`, and `run --resume`, must end with the
-//! same bytes as one uninterrupted run (the wall-clock `timings*` files and `*-cost.svg` aside).
+//! same bytes as one uninterrupted run (the wall-clock `timings*` files and `*-cost.svg` with its caption aside).
 
 use crate::common::*;
 use std::path::Path;
@@ -42,7 +42,9 @@ fn deterministic_files(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|n| !n.starts_with("timings") && !n.ends_with("-cost.svg"))
+        .filter(|n| {
+            !n.starts_with("timings") && !n.ends_with("-cost.svg") && !n.ends_with("-cost.caption.txt")
+        })
         .collect();
     names.sort();
     names

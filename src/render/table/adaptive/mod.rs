@@ -77,10 +77,11 @@ pub fn run(
         "table.csv as three Markdown grids",
         table_md.as_bytes(),
     )?;
-    folder.write(
+    crate::plot::write_figure(
+        folder,
         "rmse_vs_spp.svg",
         "mean RMSE against mean spp per target, log-log, with the intervals",
-        plot::plot_svg(plan, targets, &cells)?.as_bytes(),
+        &plot::plot_svg(plan, targets, &cells)?,
     )?;
     let times_md = export::times_md(plan, targets, &cells);
     folder.write_local(
@@ -115,8 +116,16 @@ impl runner::AdaptiveSink for super::FileSink<'_> {
         self.folder.write(
             &adaptive_png_name(label, target, "-spp"),
             &format!("its samples per pixel, viridis from 0 to max_spp = {max_spp}"),
-            &map.error_png(&black, ErrorScale::Absolute, max_spp as f64, ColourMap::Viridis)?
-                .png,
+            &crate::render::image::scalar_png(
+                &map.error_norms(&black),
+                map.width,
+                map.height,
+                ErrorScale::Absolute,
+                max_spp as f64,
+                ColourMap::Viridis,
+                crate::render::image::SPP_TITLE,
+            )?
+            .png,
         )?;
         super::write_error_png(
             self.folder,

@@ -11,12 +11,12 @@ use crate::render::table::plot::{RMSE_AXIS, reference_caption, variant_entries};
 const CHART_HEIGHT: u32 = 500;
 
 /// Mean RMSE against mean spp, one line per variant, its points the targets.
-pub fn plot_svg(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> crate::Result<String> {
+pub fn plot_svg(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> crate::Result<style::Figure> {
     draw(plan, targets, cells)
         .map_err(|e| crate::Error::Encode(format!("drawing the adaptive RMSE plot: {e}")))
 }
 
-fn draw(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> style::FigureResult<String> {
+fn draw(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> style::FigureResult<style::Figure> {
     let drawn: Vec<&AdaptiveCell> = cells
         .iter()
         .filter(|c| style::on_log_axis(c.mean) && style::on_log_axis(c.mean_spp))
@@ -56,21 +56,20 @@ fn draw(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> style::Fig
         .map(|t| t.to_string())
         .collect::<Vec<_>>()
         .join(", ");
-    legend.push(LegendEntry::wide(
-        Swatch::Bar,
-        format!(
-            "points: mean RMSE at each target sd T = {listed} (a smaller T takes more samples, further right); bars: \
-             its 95% Student-t interval over the repetitions; x: mean samples per pixel the rule took"
-        ),
-    ));
+    legend.push(LegendEntry::key(Swatch::Bar, "95% interval of the mean RMSE"));
+    let caption = [format!(
+        "Points: the mean RMSE at each target sd T = {listed} (a smaller T takes more samples, further right); bars: \
+             its 95% Student-t interval over the repetitions; x: mean samples per pixel the rule took."
+    )];
     style::svg_figure(
         &format!(
             "{}: adaptive sampling, mean RMSE against mean samples per pixel",
-            plan.name
+            plan.title
         ),
         &reference_caption(plan),
         CHART_HEIGHT,
         &legend,
+        &caption,
         |root, area| {
             let mut chart = style::log_log_chart(root, area, &x, &y)?;
             for v in 0..plan.variants.len() {
