@@ -32,13 +32,17 @@ impl Lock {
         // and locked under a name of our own, then hard-linked into place, which fails if a
         // file is there. So a refused command always finds the pid to name (creating the file
         // at `path` and then writing the pid left a moment in which it was empty).
+        // Unique within the process too: two threads asking at the same clock reading got the
+        // same name, and one then found "its own" file locked by the other.
+        static TAKEN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let own = dir.join(format!(
-            "{}{}-lock-{}.tmp",
+            "{}{}-lock-{}-{}.tmp",
             crate::files::atomic::HIDDEN_PREFIX,
             crate::files::atomic::writer(std::process::id()),
             std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.as_nanos())
+                .map_or(0, |d| d.as_nanos()),
+            TAKEN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
         ));
         // A releasing holder unlinks the file before unlocking it, so the file we lock may
         // no longer be the one at `path`; then we try again with the new one.
