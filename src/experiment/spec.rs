@@ -142,7 +142,8 @@ pub struct EstimatorSpec {
 /// `"tolerance": {"abs": 1e-3, "max_n": 1024}`: double N (keeping the earlier points) from the
 /// larger of the sample count and `min_n` until `inflate ×` the half-width of the interval at
 /// `level` is at most `abs`, or `max_n` is reached. A stage with zero evidence (a fitted
-/// amplitude or MC sample sd of exactly 0) never stops the rule.
+/// amplitude or MC sample sd of exactly 0, or a fitted amplitude on samples all equal) never
+/// stops the rule.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ToleranceSpec {
