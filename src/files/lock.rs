@@ -44,9 +44,17 @@ impl Lock {
                 .map_or(0, |d| d.as_nanos()),
             TAKEN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
         ));
+        let refused = |holder: Option<u32>| -> Error {
+            let holder = holder.map_or(String::new(), |pid| format!(" (pid {pid})"));
+            InputError::new(format!(
+                "{what}: another workbench{holder} is writing it; wait for it to finish, or {fix}"
+            ))
+            .into()
+        };
+        let mut last_holder: Option<u32> = None;
         // A releasing holder unlinks the file before unlocking it, so the file we lock may
         // no longer be the one at `path`; then we try again with the new one.
-        for _ in 0..100 {
+        for _ in 0..1000 {
             let mut file = OpenOptions::new()
                 .read(true)
                 .write(true)
@@ -89,34 +97,30 @@ impl Lock {
             let Ok(theirs) = OpenOptions::new().read(true).open(&path) else {
                 continue;
             };
+            // From the file we opened, not the path: a releasing holder may have unlinked it
+            // meanwhile, but its content is the holder's pid (it was written before the link).
+            let mut text = String::new();
+            last_holder = std::io::Read::read_to_string(&mut &theirs, &mut text)
+                .ok()
+                .and_then(|_| text.trim().parse::<u32>().ok())
+                .or(last_holder);
             match theirs.try_lock() {
                 Ok(()) => {
                     if same_inode(&theirs, &path) {
                         let _ = std::fs::remove_file(&path);
                     }
                 }
-                Err(TryLockError::WouldBlock) => {
-                    // From the file we opened, not the path: a releasing holder may have
-                    // unlinked it meanwhile, but its content is the holder's pid.
-                    let mut text = String::new();
-                    let holder = std::io::Read::read_to_string(&mut &theirs, &mut text)
-                        .ok()
-                        .and_then(|_| text.trim().parse::<u32>().ok())
-                        .map_or(String::new(), |pid| format!(" (pid {pid})"));
-                    return Err(InputError::new(format!(
-                        "{what}: another workbench{holder} is writing it; wait for it to finish, or {fix}"
-                    ))
-                    .into());
-                }
+                Err(TryLockError::WouldBlock) => return Err(refused(last_holder)),
                 Err(TryLockError::Error(e)) => {
                     return Err(Error::io(format!("locking {}", path.display()), e));
                 }
             }
+            std::thread::yield_now();
         }
-        Err(Error::io(
-            format!("locking {}", path.display()),
-            std::io::Error::other("the lock file kept being replaced"),
-        ))
+        // Every try found a lock file that was released and replaced before we could take it:
+        // other commands are taking and releasing the folder as fast as we look, so it is as
+        // busy as a held lock (a tight loop of commands, or threads of one test).
+        Err(refused(last_holder))
     }
 }
 
