@@ -268,28 +268,19 @@ def write_md(path, name, rows, meta):
         f"warm renders (s). Pixels: {meta['pixels']}. RMSE over all pixels and channels of the linear image, the root of the "
         f"mean squared error over those {meta['repeats']} independent renders; *clamped*: both "
         "images clamped to [0, 1] first (what a PNG shows).",
-        "",
-        "RMSE (time s) at equal spp:",
-        "",
-        "| method | " + " | ".join(f"N = {n}" for n in spps) + " |",
-        "|---|" + "---:|" * len(spps),
     ]
-    for m in METHODS:
-        cells = []
-        for n in spps:
-            r = next(x for x in rows if x["method"] == m and x["spp"] == n)
-            cells.append(f"{r['rmse']:.4f} ({r['seconds']:.3f})")
-        lines.append(f"| {m} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "RMSE of the clamped images at equal spp:",
-        "",
-        "| method | " + " | ".join(f"N = {n}" for n in spps) + " |",
-        "|---|" + "---:|" * len(spps),
-    ]
-    for m in METHODS:
-        cells = [f"{next(x for x in rows if x['method'] == m and x['spp'] == n)['rmse_clamped']:.4f}" for n in spps]
-        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+
+    def method_table(heading, cell):
+        """A table of one cell per (method, N) under `heading`; `cell` formats a row of `rows`."""
+        out = ["", heading, "", "| method | " + " | ".join(f"N = {n}" for n in spps) + " |",
+               "|---|" + "---:|" * len(spps)]
+        for m in METHODS:
+            cells = [cell(next(x for x in rows if x["method"] == m and x["spp"] == n)) for n in spps]
+            out.append(f"| {m} | " + " | ".join(cells) + " |")
+        return out
+
+    lines += method_table("RMSE (time s) at equal spp:", lambda r: f"{r['rmse']:.4f} ({r['seconds']:.3f})")
+    lines += method_table("RMSE of the clamped images at equal spp:", lambda r: f"{r['rmse_clamped']:.4f}")
     if meta.get("pixels", "").startswith("centres"):
         lines += ["", "No equal-time table here: at pixel centres `direct` runs through this "
                   "script's own driver (its N samples per pixel reduced in a separate pass), not "

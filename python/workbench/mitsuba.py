@@ -186,26 +186,30 @@ def _integrator_class():
                         quad += yi * qy
                     amplitude = _clamp_at_zero(quad / self.n)
                 sd = dr.sqrt(amplitude * self.var1)
-            elif self.symbolic:
-                estimate, sd = self._mc_symbolic(scene, sampler, si, bsdf, ctx, env, hit, incident)
             else:
-                total = mi.Color3f(0.0)
-                total_sq = mi.Color3f(0.0)
-                for _ in range(self.n):
+                def mc_term(smp):
+                    """One MC term f/p: a cosine-weighted direction, or the BSDF's own sample."""
                     if self.method == "mc_cosine":
-                        wo = mi.warp.square_to_cosine_hemisphere(sampler.next_2d(hit))
+                        wo = mi.warp.square_to_cosine_hemisphere(smp.next_2d(hit))
                         pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-                        term = dr.select(pdf > 0, incident(wo, hit) / pdf, mi.Color3f(0.0))
-                    else:
-                        bs, weight = bsdf.sample(ctx, si, sampler.next_1d(hit), sampler.next_2d(hit), hit)
-                        ok = hit & (bs.pdf > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
-                        wo_world = si.sh_frame.to_world(bs.wo)
-                        visible = ok & _not(scene.ray_test(si.spawn_ray(wo_world), ok))
-                        si_env = dr.zeros(mi.SurfaceInteraction3f)
-                        si_env.wi = -wo_world
-                        term = dr.select(visible, env.eval(si_env, visible) * weight, mi.Color3f(0.0))
-                    total += term
-                    total_sq += term * term
+                        return dr.select(pdf > 0, incident(wo, hit) / pdf, mi.Color3f(0.0))
+                    bs, weight = bsdf.sample(ctx, si, smp.next_1d(hit), smp.next_2d(hit), hit)
+                    ok = hit & (bs.pdf > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
+                    wo_world = si.sh_frame.to_world(bs.wo)
+                    visible = ok & _not(scene.ray_test(si.spawn_ray(wo_world), ok))
+                    si_env = dr.zeros(mi.SurfaceInteraction3f)
+                    si_env.wi = -wo_world
+                    return dr.select(visible, env.eval(si_env, visible) * weight, mi.Color3f(0.0))
+
+                if self.symbolic:
+                    total, total_sq = self._mc_symbolic(sampler, mc_term)
+                else:
+                    total = mi.Color3f(0.0)
+                    total_sq = mi.Color3f(0.0)
+                    for _ in range(self.n):
+                        term = mc_term(sampler)
+                        total += term
+                        total_sq += term * term
                 estimate = total / self.n
                 variance = _clamp_at_zero(total_sq / self.n - estimate * estimate) * (self.n / (self.n - 1))
                 sd = dr.sqrt(variance / self.n)
@@ -251,34 +255,20 @@ def _integrator_class():
                 amplitude = _clamp_at_zero(quad / n)
             return estimate, dr.sqrt(amplitude * self._var1)
 
-        def _mc_symbolic(self, scene, sampler, si, bsdf, ctx, env, hit, incident):
-            """The MC baselines with a symbolic loop over the N samples (JIT variants); the
-            same estimator as the unrolled loop of the scalar variant."""
+        def _mc_symbolic(self, sampler, mc_term):
+            """The MC baselines' sums Σ f/p and Σ (f/p)² with a symbolic loop over the N samples
+            (JIT variants); the same terms as the unrolled loop of the scalar variant."""
             n = self.n
-            cosine = self.method == "mc_cosine"
 
             def body(i, total, total_sq, sampler):
-                if cosine:
-                    wo = mi.warp.square_to_cosine_hemisphere(sampler.next_2d(hit))
-                    pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-                    term = dr.select(pdf > 0, incident(wo, hit) / pdf, mi.Color3f(0.0))
-                else:
-                    bs, weight = bsdf.sample(ctx, si, sampler.next_1d(hit), sampler.next_2d(hit), hit)
-                    ok = hit & (bs.pdf > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
-                    wo_world = si.sh_frame.to_world(bs.wo)
-                    visible = ok & ~scene.ray_test(si.spawn_ray(wo_world), ok)
-                    si_env = dr.zeros(mi.SurfaceInteraction3f)
-                    si_env.wi = -wo_world
-                    term = dr.select(visible, env.eval(si_env, visible) * weight, mi.Color3f(0.0))
+                term = mc_term(sampler)
                 return i + 1, total + term, total_sq + term * term, sampler
 
             _, total, total_sq, sampler = dr.while_loop(
                 (mi.UInt32(0), mi.Color3f(0.0), mi.Color3f(0.0), sampler),
                 lambda i, t, t2, smp: i < n, body, label="workbench_mc",
             )
-            estimate = total / n
-            variance = _clamp_at_zero(total_sq / n - estimate * estimate) * (n / (n - 1))
-            return estimate, dr.sqrt(variance / n)
+            return total, total_sq
 
     def _clamp_at_zero(x):
         # dr.select rather than dr.maximum: the LLVM versions Debian ships (14, 15) cannot

@@ -169,17 +169,14 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         .collect();
     let mut coincident = found.notes;
     if let Some((ei, a, _)) = &guide {
-        let on_guide: Vec<(f64, f64)> = means[*ei].iter().map(|&(n, _)| (n, a / n.sqrt())).collect();
-        let at = style::coincident_at(&means[*ei], &on_guide, &to_px, style::COINCIDENT_PX);
-        if !at.is_empty() {
-            coincident.push(format!(
-                "The N^(−1/2) guide lies on {} at N = {} (within {} px): it is drawn over that line, grey and \
-                 dashed.",
-                labels[*ei],
-                style::list_values(&at),
-                style::COINCIDENT_PX
-            ));
-        }
+        let on_guide = |n: f64| a / n.sqrt();
+        coincident.extend(style::guide_note(
+            &means[*ei],
+            on_guide,
+            &to_px,
+            &labels[*ei],
+            "N",
+        ));
     }
 
     let mut legend: Vec<LegendEntry> = plan

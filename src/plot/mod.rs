@@ -611,6 +611,27 @@ pub fn coincident_at(a: &[(f64, f64)], b: &[(f64, f64)], to_px: impl Fn(f64) -> 
         .collect()
 }
 
+/// The caption's note when an `x^(−1/2)` guide line hides `series` (named `name`): the x values
+/// (`axis`: `N`, `spp`) at which the guide's value `on_guide(x)` lies within [`COINCIDENT_PX`]
+/// of the series' point, or None where it hides nothing.
+pub fn guide_note(
+    series: &[(f64, f64)],
+    on_guide: impl Fn(f64) -> f64,
+    to_px: impl Fn(f64) -> f64,
+    name: &str,
+    axis: &str,
+) -> Option<String> {
+    let guide: Vec<(f64, f64)> = series.iter().map(|&(x, _)| (x, on_guide(x))).collect();
+    let at = coincident_at(series, &guide, to_px, COINCIDENT_PX);
+    (!at.is_empty()).then(|| {
+        format!(
+            "The {axis}^(−1/2) guide lies on {name} at {axis} = {} (within {COINCIDENT_PX} px): it is \
+             drawn over that line, grey and dashed.",
+            list_values(&at)
+        )
+    })
+}
+
 /// The pixel row of `y` on a log axis over `range` drawn `height` pixels high (0 at the bottom).
 pub fn log_px(range: (f64, f64), height: f64) -> impl Fn(f64) -> f64 {
     move |y: f64| (y.ln() - range.0.ln()) / (range.1.ln() - range.0.ln()) * height

@@ -194,19 +194,10 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> 
     let found = style::coincidences(&names, &points_of(&frame.per_variant), &to_px, "spp");
     let mut coincident = found.notes.clone();
     if let Some((v, line)) = &frame.guide {
-        let mine = &points_of(&frame.per_variant)[*v];
         let (x0, y0) = line[0];
-        let on_guide: Vec<(f64, f64)> = mine.iter().map(|&(x, _)| (x, y0 * (x0 / x).sqrt())).collect();
-        let at = style::coincident_at(mine, &on_guide, &to_px, style::COINCIDENT_PX);
-        if !at.is_empty() {
-            coincident.push(format!(
-                "The spp^(−1/2) guide lies on {} at spp = {} (within {} px): it is drawn over that line, grey and \
-                 dashed.",
-                names[*v],
-                style::list_values(&at),
-                style::COINCIDENT_PX
-            ));
-        }
+        let on_guide = |x: f64| y0 * (x0 / x).sqrt();
+        let mine = &points_of(&frame.per_variant)[*v];
+        coincident.extend(style::guide_note(mine, on_guide, &to_px, &names[*v], "spp"));
     }
     let (legend, caption) = legend_and_caption(plan, &frame, &found, coincident);
     style::svg_figure(

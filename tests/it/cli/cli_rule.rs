@@ -169,6 +169,37 @@ fn a_closed_stdout_is_a_quiet_exit() {
     assert!(!err.contains("panicked") && !err.contains("Error"), "{err}");
 }
 
+/// `workbench rule --n N --seed 3 --method M --scale S` into `dir`: the rule's rows and the
+/// text of its `--summary`.
+fn rule_with_summary(
+    dir: &std::path::Path,
+    n: &str,
+    method: &str,
+    scale: &str,
+) -> (Vec<Vec<String>>, String) {
+    let o = workbench(
+        dir,
+        &[
+            "rule",
+            "--n",
+            n,
+            "--seed",
+            "3",
+            "--method",
+            method,
+            "--scale",
+            scale,
+            "--out",
+            "r.csv",
+            "--summary",
+            "r.json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (_, rows) = read_csv(&dir.join("r.csv"));
+    (rows, std::fs::read_to_string(dir.join("r.json")).unwrap())
+}
+
 /// `--method bsq` writes the Bayes–Sard rule on the same points: weights summing to 2π to
 /// rounding, and §8's Var₁ = BMC's + (2π − Σw_BMC)² / 1ᵀQ⁻¹1, so never below BMC's. It needs
 /// two points; `--scale` is recorded with its interval law.
@@ -176,28 +207,8 @@ fn a_closed_stdout_is_a_quiet_exit() {
 fn bayes_sard_rule_sums_to_two_pi() {
     let dir = tempfile::tempdir().unwrap();
     let run = |method: &str, scale: &str| {
-        let o = workbench(
-            dir.path(),
-            &[
-                "rule",
-                "--n",
-                "40",
-                "--seed",
-                "3",
-                "--method",
-                method,
-                "--scale",
-                scale,
-                "--out",
-                "r.csv",
-                "--summary",
-                "r.json",
-            ],
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-        let (_, rows) = read_csv(&dir.path().join("r.csv"));
-        let s: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+        let (rows, text) = rule_with_summary(dir.path(), "40", method, scale);
+        let s: serde_json::Value = serde_json::from_str(&text).unwrap();
         let sum: f64 = rows.iter().map(|r| r[3].parse::<f64>().unwrap()).sum();
         (sum, s)
     };
@@ -233,24 +244,7 @@ fn null_student_t_dof_rule_summary_leaves_it_out_under_unit_and_loo() {
     let dir = tempfile::tempdir().unwrap();
     for method in ["bmc", "bsq"] {
         for scale in ["unit", "loo", "ml"] {
-            let o = workbench(
-                dir.path(),
-                &[
-                    "rule",
-                    "--n",
-                    "16",
-                    "--method",
-                    method,
-                    "--scale",
-                    scale,
-                    "--out",
-                    "r.csv",
-                    "--summary",
-                    "r.json",
-                ],
-            );
-            assert!(o.status.success(), "{}", stderr(&o));
-            let text = std::fs::read_to_string(dir.path().join("r.json")).unwrap();
+            let (_, text) = rule_with_summary(dir.path(), "16", method, scale);
             assert!(!text.contains("null"), "{method} {scale}: {text}");
             let s: serde_json::Value = serde_json::from_str(&text).unwrap();
             let sc = &s["scale"];
