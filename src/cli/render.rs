@@ -10,11 +10,12 @@ use std::time::Instant;
 use workbench::bq::weights::Scale;
 use workbench::error::InputError;
 use workbench::files::file_set::FileSet;
+use workbench::render::env::Lookup;
 use workbench::render::exact;
 use workbench::render::image::{ColourMap, ErrorScale, Image, short_number};
 use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
 use workbench::render::uncertainty::{PixelSds, coverage, coverage_map_png};
-use workbench::render::{Environment, Integrator, Renderer, check_size};
+use workbench::render::{Environment, Integrator, Renderer, SceneKind, check_size};
 
 /// `--spp` when none is given.
 const DEFAULT_SPP: usize = 40;
@@ -36,7 +37,8 @@ pub struct RenderArgs {
     #[arg(
         value_name = "SPEC.json",
         conflicts_with_all = ["out", "integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
-                              "env", "seed", "reference", "sd_out", "scale", "target_sd", "max_spp"]
+                              "env", "env_lookup", "scene", "seed", "reference", "sd_out", "scale", "target_sd",
+                              "max_spp"]
     )]
     pub spec: Option<PathBuf>,
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
@@ -46,7 +48,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<usize>,
     /// `--integrator exact` only: absolute tolerance per pixel and channel of the certified
-    /// quadrature [default: 1e-9].
+    /// quadrature [default: 1e-9 under `sky` and `white`, 1e-6 under a map (the texel sum)].
     #[arg(long)]
     pub tolerance: Option<f64>,
     /// Number of BMC sample sets ("GPs"); one is picked at random per pixel [default: 4].
@@ -55,15 +57,23 @@ pub struct RenderArgs {
     /// Do not rotate the BMC sample set by a random azimuth per pixel.
     #[arg(long)]
     pub no_rotate: bool,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 256)]
-    pub width: usize,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 256)]
-    pub height: usize,
+    /// Image width in pixels [default: the scene's, 256 (workbench) or 500 (thesis)].
+    #[arg(long)]
+    pub width: Option<usize>,
+    /// Image height in pixels [default: the scene's, 256 (workbench) or 500 (thesis)].
+    #[arg(long)]
+    pub height: Option<usize>,
+    /// The scene: `workbench` (docs/render-scene.md) or `thesis` (the thesis code's sphere on a
+    /// green parallelogram, camera at the origin; docs/guide/thesis-images.md).
+    #[arg(long, default_value = "workbench", value_parser = parse_scene)]
+    pub scene: SceneKind,
     /// Lighting: `sky`, `white`, or an equirectangular Radiance .hdr / OpenEXR file.
     #[arg(long, default_value = "sky")]
     pub env: String,
+    /// How a map is looked up (math.md §10): `mitsuba`, bilinear between texel centres, or
+    /// `thesis`, the thesis code's nearest texel [default: mitsuba]; maps only.
+    #[arg(long, value_parser = parse_lookup)]
+    pub env_lookup: Option<Lookup>,
     /// Master seed: sample sets and per-pixel streams derive from it [default: 0]; not with
     /// `exact`, which draws nothing.
     #[arg(long)]
@@ -118,6 +128,35 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+impl RenderArgs {
+    /// `--width`, or the scene's default.
+    pub fn width(&self) -> usize {
+        self.width.unwrap_or(self.scene.default_size().0)
+    }
+
+    /// `--height`, or the scene's default.
+    pub fn height(&self) -> usize {
+        self.height.unwrap_or(self.scene.default_size().1)
+    }
+
+    /// The environment of `--env` under `--env-lookup`.
+    pub fn environment(&self) -> Result<Environment, InputError> {
+        let env = Environment::from_arg(&self.env)?;
+        match self.env_lookup {
+            Some(lookup) => env.with_lookup(lookup, "--env-lookup"),
+            None => Ok(env),
+        }
+    }
+}
+
+fn parse_scene(name: &str) -> Result<SceneKind, String> {
+    SceneKind::from_name(name, "--scene").map_err(|e| e.0.trim_start_matches("--scene: ").to_string())
+}
+
+fn parse_lookup(name: &str) -> Result<Lookup, String> {
+    Lookup::from_name(name, "--env-lookup").map_err(|e| e.0.trim_start_matches("--env-lookup: ").to_string())
 }
 
 /// What computes each pixel: an estimator of the family ([`IntegratorKind`]) or the certified
@@ -218,9 +257,11 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             spp: args.spp,
             gps: args.gps,
             no_rotate: args.no_rotate,
-            width: args.width,
-            height: args.height,
+            width: args.width(),
+            height: args.height(),
             env: &args.env,
+            env_lookup: args.env_lookup,
+            scene: args.scene,
             seed: args.seed,
             out: args.out.as_ref().expect("clap requires --out without a spec"),
             reference: args.reference.as_ref(),
@@ -242,7 +283,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     image_files::check_exr_out(out)?;
-    check_size(args.width, args.height)?;
+    check_size(args.width(), args.height())?;
     let (kind, spp, seed, gps) = check_sampling_options(args)?;
     if args.results_dir.is_some() {
         return Err(InputError::new(
@@ -298,7 +339,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         outputs.push(("--sd-out (its coverage map)", coverage_png));
     }
     image_files::check_outputs_apart(&outputs, args.reference.as_deref(), &args.env)?;
-    let env = Environment::from_arg(&args.env)?;
+    let env = args.environment()?;
     image_files::check_out_dir_writable(out)?;
     let model_start = Instant::now();
     let model = if kind.is_some_and(|k| k.uses_sets()) {
@@ -306,8 +347,9 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    let reference = image_files::read_optional_reference(args.reference.as_deref(), args.width, args.height)?;
-    let renderer = Renderer::new(args.width, args.height, env);
+    let reference =
+        image_files::read_optional_reference(args.reference.as_deref(), args.width(), args.height())?;
+    let renderer = Renderer::for_scene(args.scene, args.width(), args.height(), env);
     // The image and its PNGs are one set: no other command may write them meanwhile.
     let mut files = FileSet::lock(&outputs, "use another --out")?;
 
@@ -334,8 +376,8 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         files.stage(sd_out, &sds.sd.to_exr()?)?;
         let e = workbench::render::image::scalar_png(
             &sds.norms(),
-            args.width,
-            args.height,
+            args.width(),
+            args.height(),
             error_scale,
             error_max,
             error_colours,
@@ -352,8 +394,8 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     status!(
         "render: {what}, {}×{}: {} {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
-        args.width,
-        args.height,
+        args.width(),
+        args.height(),
         if kind.is_some() {
             "sample sets + render"
         } else {
@@ -369,7 +411,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
         status!(
             "render: error image → {} ({})",
             error_png.display(),
-            error_summary(e, error_scale, args.width * args.height)
+            error_summary(e, error_scale, args.width() * args.height())
         );
     }
     if let (Some(sds), Some(e), Some(sd_out), Some((sd_png, coverage_png))) =
@@ -384,7 +426,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
             },
             sd_out.display(),
             sd_png.display(),
-            error_summary(e, error_scale, args.width * args.height).replace("error", "sd norm")
+            error_summary(e, error_scale, args.width() * args.height()).replace("error", "sd norm")
         );
         if sds.zero_amplitude > 0 {
             status!(
@@ -535,7 +577,7 @@ fn render_image(
             if args.sd_out.is_some() {
                 integrator = integrator.with_uncertainty(scale, model)?;
             }
-            bar.start("rows", (renderer.passes(&integrator) * args.height) as u64);
+            bar.start("rows", (renderer.passes(&integrator) * args.height()) as u64);
             let (image, sds) = if args.sd_out.is_some() {
                 let (image, sds) = pool.install(|| renderer.render_with_sd(&integrator, seed, &bar));
                 (image, Some(sds))
@@ -546,8 +588,8 @@ fn render_image(
             (image, sds, format!("{kind} {spp} spp"))
         }
         None => {
-            let tol = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
-            bar.start("rows", args.height as u64);
+            let tol = args.tolerance.unwrap_or(exact::default_tolerance(&renderer.env));
+            bar.start("rows", args.height() as u64);
             let (image, stats) = pool.install(|| renderer.render_exact(tol, &bar));
             bar.finish();
             let limited = if stats.depth_limited > 0 {
@@ -562,8 +604,9 @@ fn render_image(
                 image,
                 None,
                 format!(
-                    "exact (tolerance {tol:e}; largest error estimate {:.1e} at pixel ({}, {}){limited})",
-                    stats.max_error, stats.worst_pixel.0, stats.worst_pixel.1
+                    "exact (tolerance {tol:e}; largest error estimate {:.1e} at pixel ({}, {}){limited}; {:.3e} \
+                     integrand evaluations)",
+                    stats.max_error, stats.worst_pixel.0, stats.worst_pixel.1, stats.evaluations as f64
                 ),
             )
         }

@@ -27,6 +27,8 @@ pub struct AdaptiveArgs<'a> {
     pub width: usize,
     pub height: usize,
     pub env: &'a str,
+    pub env_lookup: Option<workbench::render::env::Lookup>,
+    pub scene: workbench::render::SceneKind,
     pub seed: Option<u64>,
     pub out: &'a PathBuf,
     pub reference: Option<&'a PathBuf>,
@@ -118,14 +120,17 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     ];
     super::image_files::check_outputs_apart(&outputs, args.reference.map(PathBuf::as_path), args.env)?;
     let error_max = super::image_files::check_error_max(args.error_max)?;
-    let env = Environment::from_arg(args.env)?;
+    let env = match args.env_lookup {
+        Some(lookup) => Environment::from_arg(args.env)?.with_lookup(lookup, "--env-lookup")?,
+        None => Environment::from_arg(args.env)?,
+    };
     super::image_files::check_out_dir_writable(out)?;
     let reference = super::image_files::read_optional_reference(
         args.reference.map(PathBuf::as_path),
         args.width,
         args.height,
     )?;
-    let renderer = Renderer::new(args.width, args.height, env);
+    let renderer = Renderer::for_scene(args.scene, args.width, args.height, env);
     let model = if kind.uses_sets() {
         Some(args.model.build()?)
     } else {

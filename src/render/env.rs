@@ -2,10 +2,12 @@
 //! the procedural sky, a constant white environment, or an equirectangular map.
 
 use super::scene::Rgb;
+use super::texel::cells::CellTable;
 use crate::error::InputError;
 use crate::util::geometry::Vec3;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
+use std::sync::{Arc, OnceLock};
 
 /// The radiance `env(ω)` arriving from direction `ω` (unit) when nothing is in the way.
 #[derive(Clone, Debug)]
@@ -29,12 +31,33 @@ impl Environment {
         }
     }
 
-    /// What determines the lighting, for cache keys: `sky`, `white` or `map:<hash of the texels>`.
+    /// What determines the lighting, for cache keys: `sky`, `white` or `map:<hash of the texels>`
+    /// (with `:thesis` appended under the thesis lookup).
     pub fn key(&self) -> String {
         match self {
             Environment::Sky => "sky".into(),
             Environment::White => "white".into(),
-            Environment::Map(m) => format!("map:{}x{}:{:016x}", m.width, m.height, m.hash),
+            Environment::Map(m) => {
+                let key = format!("map:{}x{}:{:016x}", m.width, m.height, m.hash);
+                match m.lookup {
+                    Lookup::Mitsuba => key,
+                    Lookup::Thesis => key + ":thesis",
+                }
+            }
+        }
+    }
+
+    /// The same environment with a map looked up by `lookup` (`what` names the option or field
+    /// in the error): only maps have lookups, so `thesis` for `sky` or `white` is refused.
+    pub fn with_lookup(self, lookup: Lookup, what: &str) -> Result<Self, InputError> {
+        match self {
+            Environment::Map(m) => Ok(Environment::Map(m.with_lookup(lookup))),
+            other if lookup == Lookup::Mitsuba => Ok(other),
+            other => Err(InputError::new(format!(
+                "{what}: the {} lookup applies to environment map files, not to `{}`",
+                lookup.name(),
+                other.key()
+            ))),
         }
     }
 
@@ -72,13 +95,49 @@ pub fn sky(w: &Vec3) -> Rgb {
     [0, 1, 2].map(|c| base[c] + SUN[c] * lobe)
 }
 
-/// An equirectangular map of `W × H` texels (linear RGB), looked up like Mitsuba 3's `envmap`.
+/// How a direction finds its radiance in a lat-long map (math.md §10, "Lookups").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Lookup {
+    /// Mitsuba 3's `envmap`: bilinear between texel centres (render-scene.md).
+    #[default]
+    Mitsuba,
+    /// The thesis code's: `u = (1 + atan2(d.x, −d.z)/π)/2`, `v = arccos(d.y)/π`, the nearest
+    /// texel `(⌊v(H − 1)⌋, ⌊u(W − 1)⌋)`, no interpolation.
+    Thesis,
+}
+
+impl Lookup {
+    pub const ALL: [Lookup; 2] = [Lookup::Mitsuba, Lookup::Thesis];
+
+    /// `mitsuba` or `thesis`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Lookup::Mitsuba => "mitsuba",
+            Lookup::Thesis => "thesis",
+        }
+    }
+
+    /// Parses [`Lookup::name`]; `what` names the option or field in the error.
+    pub fn from_name(name: &str, what: &str) -> Result<Self, InputError> {
+        Self::ALL.into_iter().find(|l| l.name() == name).ok_or_else(|| {
+            InputError::new(format!(
+                "{what}: unknown map lookup {name:?}; the lookups are mitsuba, thesis"
+            ))
+        })
+    }
+}
+
+/// An equirectangular map of `W × H` texels (linear RGB), looked up by [`Lookup`].
 #[derive(Clone, Debug)]
 pub struct EnvMap {
     pub width: usize,
     pub height: usize,
     texels: Vec<[f32; 3]>,
     hash: u64,
+    /// How directions find texels ([`Lookup::Mitsuba`] unless chosen).
+    lookup: Lookup,
+    /// The map's cells under `lookup`, built on first use by the texel sum.
+    cells: OnceLock<Arc<CellTable>>,
 }
 
 impl EnvMap {
@@ -122,6 +181,8 @@ impl EnvMap {
             height: h,
             texels,
             hash,
+            lookup: Lookup::Mitsuba,
+            cells: OnceLock::new(),
         })
     }
 
@@ -133,13 +194,66 @@ impl EnvMap {
             height,
             texels,
             hash: 0,
+            lookup: Lookup::Mitsuba,
+            cells: OnceLock::new(),
         }
+    }
+
+    /// The same map looked up by `lookup`.
+    pub fn with_lookup(self, lookup: Lookup) -> Self {
+        EnvMap {
+            lookup,
+            cells: OnceLock::new(),
+            ..self
+        }
+    }
+
+    /// How directions find texels.
+    pub fn lookup_kind(&self) -> Lookup {
+        self.lookup
+    }
+
+    /// The map's cells under its lookup (math.md §10), built once and shared by clones made
+    /// after that.
+    pub fn cells(&self) -> &CellTable {
+        self.cells.get_or_init(|| {
+            let texel = |r: usize, c: usize| self.texel(r, c);
+            Arc::new(match self.lookup {
+                Lookup::Mitsuba => CellTable::bilinear(self.width, self.height, texel),
+                Lookup::Thesis => CellTable::constant(self.width, self.height, texel),
+            })
+        })
+    }
+
+    /// The texel in row `row` (0 at the zenith) and column `col`.
+    #[inline]
+    pub fn texel(&self, row: usize, col: usize) -> [f32; 3] {
+        self.texels[row * self.width + col]
+    }
+
+    /// `env(ω)` by the map's [`Lookup`].
+    #[inline]
+    pub fn lookup(&self, w: &Vec3) -> Rgb {
+        match self.lookup {
+            Lookup::Mitsuba => self.bilinear(w),
+            Lookup::Thesis => self.nearest(w),
+        }
+    }
+
+    /// The thesis code's lookup: `u = (1 + atan2(ω.x, −ω.z)/π)/2`, `v = arccos(ω.y)/π`, texel
+    /// `(⌊v(H − 1)⌋, ⌊u(W − 1)⌋)`.
+    pub fn nearest(&self, w: &Vec3) -> Rgb {
+        let u = (1.0 + w.x.atan2(-w.z) / PI) / 2.0;
+        let v = w.y.clamp(-1.0, 1.0).acos() / PI;
+        let col = ((u * (self.width - 1) as f64).floor() as usize).min(self.width - 1);
+        let row = ((v * (self.height - 1) as f64).floor() as usize).min(self.height - 1);
+        self.texel(row, col).map(f64::from)
     }
 
     /// Bilinear lookup at `u = frac(atan2(ω.x, −ω.z)/(2π))`, `v = arccos(ω.y)/π`; column
     /// coordinate `u·W − ½` (texel centres, wrapping), row coordinate `v·(H − 1)` (row 0 on the
     /// zenith, row `H − 1` on the nadir).
-    pub fn lookup(&self, w: &Vec3) -> Rgb {
+    pub fn bilinear(&self, w: &Vec3) -> Rgb {
         let u = (w.x.atan2(-w.z) / TAU).rem_euclid(1.0);
         let v = w.y.clamp(-1.0, 1.0).acos() / PI;
         let x = u * self.width as f64 - 0.5;
@@ -358,5 +472,29 @@ mod tests {
         // Nadir: row 2.
         let nadir = m.lookup(&Vec3::new(0.0, -1.0, 0.0))[0];
         assert!((nadir - 9.5).abs() < 1e-9, "{nadir}");
+    }
+
+    /// The thesis lookup takes texel `(⌊v(H − 1)⌋, ⌊u(W − 1)⌋)`: cell centres of the
+    /// `(H − 1) × (W − 1)` grid give their own texel, with no interpolation.
+    #[test]
+    fn thesis_lookup_takes_the_nearest_texel_below() {
+        let (w, h) = (5, 4);
+        let texels = (0..w * h).map(|k| [k as f32, 0.0, 0.0]).collect();
+        let m = EnvMap::from_texels(w, h, texels).with_lookup(Lookup::Thesis);
+        for row in 0..h - 1 {
+            for col in 0..w - 1 {
+                // Cell centre: θ = (row + ½)π/(H − 1), ψ = −π + 2π(col + ½)/(W − 1), where
+                // ψ = atan2(d.x, −d.z): d = (sin θ sin ψ, cos θ, −sin θ cos ψ).
+                let theta = (row as f64 + 0.5) * PI / (h - 1) as f64;
+                let psi = -PI + TAU * (col as f64 + 0.5) / (w - 1) as f64;
+                let d = Vec3::new(theta.sin() * psi.sin(), theta.cos(), -theta.sin() * psi.cos());
+                assert_eq!(m.lookup(&d)[0], (row * w + col) as f64, "cell ({row}, {col})");
+            }
+        }
+        // Row H − 1 and column W − 1 are reached on the boundary only: behind the camera
+        // (ψ = atan2(0, −1) = π, u = 1) at the horizon (v = ½, row ⌊1.5⌋ = 1) is texel (1, 4);
+        // the nadir (v = 1; ψ = atan2(0, −0) = π) is texel (3, 4).
+        assert_eq!(m.lookup(&Vec3::new(0.0, 0.0, 1.0))[0], 9.0);
+        assert_eq!(m.lookup(&Vec3::new(0.0, -1.0, 0.0))[0], 19.0);
     }
 }

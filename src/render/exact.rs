@@ -16,10 +16,8 @@
 //! - the ground square's edges seen from `x'` above the ground: for `θ > π/2` the ray meets the
 //!   plane at horizontal distance `ρ = x'_y tan(π − θ)`, so an edge `x = ±5` is
 //!   `ρ cos φ = ±5 − x'_x` and an edge `z = ±5` is `ρ sin φ = ±5 − x'_z`;
-//! - for an environment map (Mitsuba's lookup, render-scene.md), the bilinear cells: rows are
-//!   `θ = kπ/(H − 1)` and the kinks between columns `φ = 2π (c + ½)/W − π/2`, coordinate lines
-//!   here too, so maps are integrated exactly cell by cell (slowly for large maps: the work
-//!   grows with the number of cells a hemisphere covers).
+//! - (environment maps are integrated by the texel sum of [`super::texel`], which uses these
+//!   cuts with the map's rows as further θ breaks).
 //!
 //! For each `θ` the azimuths where any of these curves crosses split `[0, 2π)` into arcs; on
 //! each arc visibility and `H(n)` membership are constant, and decided at the arc's midpoint by
@@ -40,7 +38,7 @@ use super::env::Environment;
 use super::integrator::ShadingPoint;
 use super::scene::{Rgb, Scene};
 use crate::util::geometry::Vec3;
-use crate::util::quadrature::KRONROD21;
+use crate::util::quadrature::{GK21, Kronrod};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Version of the quadrature, part of the exact reference's cache key: change it whenever a
@@ -49,6 +47,24 @@ pub const VERSION: &str = "exact-quadrature v1";
 
 /// Default absolute tolerance for a pixel integral (every channel).
 pub const DEFAULT_TOLERANCE: f64 = 1e-9;
+
+/// The default tolerance under `env`: [`DEFAULT_TOLERANCE`], or the texel sum's
+/// ([`super::texel::DEFAULT_TOLERANCE`]) under a map.
+pub fn default_tolerance(env: &Environment) -> f64 {
+    match env {
+        Environment::Map(_) => super::texel::DEFAULT_TOLERANCE,
+        _ => DEFAULT_TOLERANCE,
+    }
+}
+
+/// The version of the method [`integrate`] uses under `env`, for cache keys: [`VERSION`], or
+/// the texel sum's ([`super::texel::VERSION`]) under a map.
+pub fn version(env: &Environment) -> &'static str {
+    match env {
+        Environment::Map(_) => super::texel::VERSION,
+        _ => VERSION,
+    }
+}
 
 /// The smallest tolerance accepted: below it rounding in the integrand (~1e-16 relative per
 /// value) dominates and the adaptive loop would split to its depth limit.
@@ -76,11 +92,14 @@ pub struct PixelIntegral {
 }
 
 /// The geometry of one shading point: what the cuts are computed from.
-struct Cuts<'a> {
+pub(super) struct Cuts<'a> {
     scene: &'a Scene,
     env: &'a Environment,
     p: &'a ShadingPoint,
     n: Vec3,
+    /// The azimuths of one circle's cuts, kept between calls of [`Cuts::arcs`] (which runs at
+    /// every quadrature node: no allocation there).
+    scratch: std::cell::RefCell<Vec<f64>>,
 }
 
 /// Pushes the solutions `φ ∈ [0, 2π)` of `a_x cos φ + a_z sin φ = b` (none when `|b| > A`).
@@ -114,9 +133,20 @@ fn push_tangencies(c: &Vec3, cos_beta: f64, out: &mut Vec<f64>) {
     }
 }
 
-impl Cuts<'_> {
-    /// The θ values where the arc structure changes or the integrand jumps or kinks in θ.
-    fn theta_breaks(&self) -> Vec<f64> {
+impl<'a> Cuts<'a> {
+    pub(super) fn new(p: &'a ShadingPoint, scene: &'a Scene, env: &'a Environment) -> Self {
+        Cuts {
+            scene,
+            env,
+            p,
+            n: p.frame.n,
+            scratch: std::cell::RefCell::new(Vec::with_capacity(16)),
+        }
+    }
+
+    /// The θ values where the arc structure changes or the integrand jumps or kinks in θ
+    /// (for a map, its rows too), sorted, within the band of θ that meets `H(n)`.
+    pub(super) fn theta_breaks(&self) -> Vec<f64> {
         let mut t = vec![0.0, FRAC_PI_2, PI];
         let o = self.p.origin;
         push_tangencies(&self.n, 0.0, &mut t);
@@ -134,22 +164,25 @@ impl Cuts<'_> {
             }
         }
         if let Some(g) = &self.scene.ground
-            && o.y > 0.0
+            && o.y > g.height
         {
-            // ρ = y tan(π − θ) ⇔ θ = π − atan(ρ / y): tangencies to the edge lines and the
-            // corners (where the arc's end points move from one edge to the next).
+            // ρ = y tan(π − θ) ⇔ θ = π − atan(ρ / y) (y the height above the ground):
+            // tangencies to the edge lines and the corners (where the arc's end points move
+            // from one edge to the next).
+            let y = o.y - g.height;
             let mut radii = Vec::new();
-            for e in [g.half - o.x, -g.half - o.x, g.half - o.z, -g.half - o.z] {
+            for e in [g.x[1] - o.x, g.x[0] - o.x, g.z[1] - o.z, g.z[0] - o.z] {
                 radii.push(e.abs());
             }
-            for cx in [g.half, -g.half] {
-                for cz in [g.half, -g.half] {
+            for cx in [g.x[1], g.x[0]] {
+                for cz in [g.z[1], g.z[0]] {
                     radii.push((cx - o.x).hypot(cz - o.z));
                 }
             }
-            t.extend(radii.into_iter().map(|r| PI - (r / o.y).atan()));
+            t.extend(radii.into_iter().map(|r| PI - (r / y).atan()));
         }
         if let Environment::Map(m) = self.env {
+            // Map rows (both lookups change their row, or their row weights' slope, there).
             let rows = m.height - 1;
             t.extend((1..rows).map(|k| k as f64 * PI / rows as f64));
         }
@@ -167,41 +200,44 @@ impl Cuts<'_> {
 
     /// The direction at `(θ, φ)` from `(cos θ, sin θ)`.
     #[inline]
-    fn dir(cos_t: f64, sin_t: f64, phi: f64) -> Vec3 {
+    pub(super) fn dir(cos_t: f64, sin_t: f64, phi: f64) -> Vec3 {
         let (s, c) = phi.sin_cos();
         Vec3::new(sin_t * c, cos_t, sin_t * s)
     }
 
-    /// The visible arcs `[φ₀, φ₁]` of the circle of constant θ (inside `H(n)`, not occluded), each
-    /// further split at the smoothness cuts (map columns) inside it.
-    fn arcs(&self, cos_t: f64, sin_t: f64, out: &mut Vec<(f64, f64)>) {
+    /// The visible arcs `[φ₀, φ₁]` of the circle of constant θ (inside `H(n)`, not occluded),
+    /// in increasing order within `[0, 2π]`.
+    pub(super) fn arcs(&self, cos_t: f64, sin_t: f64, out: &mut Vec<(f64, f64)>) {
         out.clear();
-        let mut cuts = vec![0.0, TAU];
+        let mut cuts = self.scratch.borrow_mut();
+        cuts.clear();
+        cuts.extend([0.0, TAU]);
+        let cuts = &mut *cuts;
         let o = self.p.origin;
         let n = self.n;
-        push_crossings(sin_t * n.x, sin_t * n.z, -n.y * cos_t, &mut cuts);
+        push_crossings(sin_t * n.x, sin_t * n.z, -n.y * cos_t, cuts);
         if let Some(s) = &self.scene.sphere {
             let d = s.centre - o;
             let dist = d.norm();
             if dist > s.radius {
                 let c = d / dist;
                 let cos_beta = (1.0 - (s.radius / dist).powi(2)).sqrt();
-                push_crossings(sin_t * c.x, sin_t * c.z, cos_beta - c.y * cos_t, &mut cuts);
+                push_crossings(sin_t * c.x, sin_t * c.z, cos_beta - c.y * cos_t, cuts);
             }
         }
         if let Some(g) = &self.scene.ground
-            && o.y > 0.0
+            && o.y > g.height
             && cos_t < 0.0
         {
-            let rho = o.y * sin_t / -cos_t;
-            for e in [g.half, -g.half] {
-                push_crossings(rho, 0.0, e - o.x, &mut cuts);
-                push_crossings(0.0, rho, e - o.z, &mut cuts);
+            let rho = (o.y - g.height) * sin_t / -cos_t;
+            for k in [1, 0] {
+                push_crossings(rho, 0.0, g.x[k] - o.x, cuts);
+                push_crossings(0.0, rho, g.z[k] - o.z, cuts);
             }
         }
         cuts.sort_by(f64::total_cmp);
-        // Membership of each piece, decided at its midpoint by the renderer's own tests.
-        let mut merged: Vec<(f64, f64)> = Vec::new();
+        // Membership of each piece, decided at its midpoint by the renderer's own tests;
+        // neighbouring visible pieces merged.
         for w in cuts.windows(2) {
             let (a, b) = (w[0], w[1]);
             if b <= a {
@@ -209,60 +245,45 @@ impl Cuts<'_> {
             }
             let mid = Self::dir(cos_t, sin_t, 0.5 * (a + b));
             if mid.dot(&n) > 0.0 && !self.scene.occluded(&o, &mid) {
-                match merged.last_mut() {
+                match out.last_mut() {
                     Some(last) if last.1 == a => last.1 = b,
-                    _ => merged.push((a, b)),
+                    _ => out.push((a, b)),
                 }
             }
-        }
-        match self.env {
-            Environment::Map(m) => {
-                // Kinks of the bilinear lookup between texel centres: u = (c + ½)/W with
-                // 2πu = φ + π/2.
-                let w = m.width;
-                let kinks: Vec<f64> = (0..w)
-                    .map(|c| (TAU * (c as f64 + 0.5) / w as f64 - FRAC_PI_2).rem_euclid(TAU))
-                    .collect();
-                for (a, b) in merged {
-                    let mut inner: Vec<f64> = kinks.iter().copied().filter(|&k| k > a && k < b).collect();
-                    inner.sort_by(f64::total_cmp);
-                    let mut prev = a;
-                    for k in inner {
-                        out.push((prev, k));
-                        prev = k;
-                    }
-                    out.push((prev, b));
-                }
-            }
-            _ => out.extend(merged),
         }
     }
 }
 
-/// Adaptive Gauss–Kronrod of a `K`-vector on `[a, b]`: on each interval the 21-point Kronrod
-/// value and its embedded 10-point Gauss value ([`KRONROD21`]) come from the same 21 integrand
-/// values; the interval is accepted when they differ by at most its share of `tol` in every one
+/// Adaptive Gauss–Kronrod of a `K`-vector on `[a, b]` with the pair `rule` ([`GK21`] here, the
+/// lighter [`crate::util::quadrature::GK7`] for the texel sum): on each interval the Kronrod
+/// value and its embedded Gauss value come from the same integrand values; the interval is accepted when they differ by at most its share of `tol` in every one
 /// of the first `checked` components (shares halve per bisection, so they add up to `tol`), else
 /// bisected. Returns the sum of the accepted Kronrod values, the sum of the accepted differences
 /// (the error estimate: each is an estimate of the Gauss value's error, far above the Kronrod
 /// value's for smooth pieces) and whether the depth limit was reached.
-fn adaptive<const K: usize>(
+pub(super) fn adaptive<const K: usize>(
+    rule: &Kronrod,
     a: f64,
     b: f64,
     tol: f64,
     checked: usize,
     f: &mut impl FnMut(f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
-    let (x, wk, wg) = KRONROD21;
+    let (x, wk, wg) = (rule.nodes, rule.kronrod, rule.gauss);
+    let m = x.len() - 1;
     let mut apply = |a: f64, b: f64| -> ([f64; K], f64) {
         let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
         let mut kr = [0.0; K];
         let mut ga = [0.0; K];
         let centre = f(c);
         for k in 0..K {
-            kr[k] = wk[10] * centre[k];
+            kr[k] = wk[m] * centre[k];
+            // (Only when the Gauss rule has a centre node, so that K21's sums are untouched.)
+            if rule.gauss_centre != 0.0 {
+                ga[k] = rule.gauss_centre * centre[k];
+            }
         }
-        for i in 0..10 {
+        for i in 0..m {
             let (l, r) = (f(c - h * x[i]), f(c + h * x[i]));
             for k in 0..K {
                 let s = l[k] + r[k];
@@ -301,13 +322,13 @@ fn adaptive<const K: usize>(
 
 /// `L_o` at the shading point `p` (surface normal `p.frame.n`) in every channel, to the absolute
 /// tolerance `tol` (see the module documentation for the method and what the error means).
+///
+/// Under a texel map the integral is the texel sum of [`super::texel`] instead (math.md §10).
 pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, tol: f64) -> PixelIntegral {
-    let cuts = Cuts {
-        scene,
-        env,
-        p,
-        n: p.frame.n,
-    };
+    if let Environment::Map(m) = env {
+        return super::texel::integrate(p, scene, env, m, tol);
+    }
+    let cuts = Cuts::new(p, scene, env);
     let breaks = cuts.theta_breaks();
     let span = PI;
     let mut value = [0.0; 3];
@@ -342,7 +363,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, tol: f64) -
                     let w = Cuts::dir(cos_t, sin_t, phi);
                     p.lit(env, &w, w.dot(&cuts.n))
                 };
-                let (r, e, l) = adaptive(a, b, arc_tol, 3, &mut f);
+                let (r, e, l) = adaptive(&GK21, a, b, arc_tol, 3, &mut f);
                 limited |= l;
                 for k in 0..3 {
                     s[k] += r[k];
@@ -351,7 +372,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, tol: f64) -
             }
             s.map(|x| x * sin_t * jac)
         };
-        let (r, e, l) = adaptive(-1.0, 1.0, piece_tol, 3, &mut outer);
+        let (r, e, l) = adaptive(&GK21, -1.0, 1.0, piece_tol, 3, &mut outer);
         limited |= l;
         for k in 0..3 {
             value[k] += r[k];

@@ -84,6 +84,19 @@ impl Image {
         (sum / (3 * self.data.len()) as f64).sqrt()
     }
 
+    /// The mean over pixels of the per-pixel RGB L2 norm `‖a − b‖₂` (the thesis code's error
+    /// measure, `error.csv` of `../shared/data/thesis/mc30`).
+    pub fn mean_l2(&self, reference: &Image) -> f64 {
+        assert_eq!((self.width, self.height), (reference.width, reference.height));
+        let sum: f64 = self
+            .data
+            .iter()
+            .zip(&reference.data)
+            .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>().sqrt())
+            .sum();
+        sum / self.data.len() as f64
+    }
+
     /// The RMSE over the pixels where `mask` (row-major) is true: `sqrt(mean((a − b)²))` over
     /// their three channels; NaN for an empty mask.
     pub fn rmse_masked(&self, reference: &Image, mask: &[bool]) -> f64 {

@@ -13,6 +13,7 @@ pub mod integrator;
 pub mod renderer;
 pub mod scene;
 pub mod table;
+pub mod texel;
 pub mod uncertainty;
 
 pub use camera::Camera;
@@ -20,4 +21,4 @@ pub use env::Environment;
 pub use image::Image;
 pub use integrator::{Integrator, IntegratorKind};
 pub use renderer::{Renderer, check_size};
-pub use scene::Scene;
+pub use scene::{Scene, SceneKind};

@@ -10,7 +10,7 @@ use super::integrator::neighbours::{
     NeighbourPrior, PixelGeometry, edge_aware_prior, first_pass, neighbour_prior,
 };
 use super::integrator::{Integrator, ShadingPoint};
-use super::scene::{Rgb, Scene};
+use super::scene::{Rgb, Scene, SceneKind};
 use super::uncertainty::PixelSds;
 use crate::bq::estimator::Uncertainty;
 use crate::error::InputError;
@@ -60,9 +60,14 @@ pub struct Renderer {
 impl Renderer {
     /// The default scene and camera (render-scene.md) at `width × height`.
     pub fn new(width: usize, height: usize, env: Environment) -> Self {
+        Self::for_scene(SceneKind::Workbench, width, height, env)
+    }
+
+    /// The scene `kind` seen through its camera at `width × height`.
+    pub fn for_scene(kind: SceneKind, width: usize, height: usize, env: Environment) -> Self {
         Renderer {
-            scene: Scene::default_scene(),
-            camera: Camera::default_for(width, height),
+            scene: kind.scene(),
+            camera: kind.camera(width, height),
             env,
             width,
             height,
@@ -197,7 +202,7 @@ impl Renderer {
     pub fn shading_point(&self, i: usize, j: usize) -> Option<ShadingPoint> {
         let dir = self.camera.ray(i, j);
         let hit = self.scene.intersect(&self.camera.origin, &dir)?;
-        Some(ShadingPoint::new(&hit))
+        Some(ShadingPoint::new(&hit, self.scene.rays.offset))
     }
 
     /// Pixel `(i, j)`'s integral by the certified quadrature ([`exact::integrate`]) to the

@@ -228,7 +228,10 @@ pub fn check_gps(gps: usize, what: &str) -> Result<(), InputError> {
     }
 }
 
-/// A shading point: the offset ray origin `x + 1e-4 n`, a frame taking `+z` to `n`, the albedo.
+/// A shading point: the shadow-ray origin `x + offset·n` (the scene's [`RayRule`]), a frame
+/// taking `+z` to `n`, the albedo.
+///
+/// [`RayRule`]: crate::render::scene::RayRule
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingPoint {
     pub origin: Vec3,
@@ -237,13 +240,13 @@ pub struct ShadingPoint {
 }
 
 impl ShadingPoint {
-    /// Offset of shadow-ray origins along the normal.
-    pub const EPSILON: f64 = 1e-4;
+    /// Offset of shadow-ray origins along the normal in the workbench scene.
+    pub const EPSILON: f64 = crate::render::scene::workbench::RAYS.offset;
 
-    /// The shading point of a primary hit.
-    pub fn new(hit: &Hit) -> Self {
+    /// The shading point of a primary hit, shadow rays starting `offset` along the normal.
+    pub fn new(hit: &Hit, offset: f64) -> Self {
         ShadingPoint {
-            origin: hit.point + hit.normal * Self::EPSILON,
+            origin: hit.point + hit.normal * offset,
             frame: Frame::from_normal(hit.normal),
             albedo: hit.albedo,
         }

@@ -6,7 +6,7 @@
 //! - `timings.csv`, `timings.md` — wall-clock seconds, machine-dependent and not committed.
 
 use super::plan::{TablePlan, VariantPlan};
-use super::reference::{SCENE_VERSION, cache_path};
+use super::reference::{cache_path, scene_version};
 use super::runner::Row;
 use super::summary::Cell;
 use std::fmt::Write as _;
@@ -70,12 +70,12 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
             j
         })
         .collect();
-    let mut reference_json = plan.reference.json();
+    let mut reference_json = plan.reference.json(&plan.env);
     reference_json["cache"] = cache_path(plan, results).display().to_string().into();
     let json = serde_json::json!({
         "spec": plan.file.display().to_string(),
         "title": plan.title,
-        "scene": SCENE_VERSION,
+        "scene": scene_version(plan),
         "seed": plan.seed,
         "width": plan.width,
         "height": plan.height,
@@ -94,6 +94,21 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
         },
     });
     let mut json = json;
+    if plan.scene != crate::render::SceneKind::Workbench {
+        json["scene_name"] = plan.scene.name().into();
+    }
+    if let Some(e) = &plan.external {
+        json["external"] = serde_json::json!({
+            "reference": e.reference_arg,
+            "images": e.images.iter().map(|i| serde_json::json!({"label": i.label, "image": i.arg})).collect::<Vec<_>>(),
+            "measures": "rmse over pixels × channels; mean_l2 the mean over pixels of the per-pixel RGB L2 norm",
+        });
+    }
+    if let crate::render::Environment::Map(m) = &plan.env
+        && m.lookup_kind() != crate::render::env::Lookup::Mitsuba
+    {
+        json["lookup"] = m.lookup_kind().name().into();
+    }
     if let Some(a) = &plan.adaptive {
         // An adaptive table's columns are its targets: no spp list, its own render seeds.
         if let Some(obj) = json.as_object_mut() {
@@ -139,10 +154,12 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
         "coverage95",
         "coverage95_edges",
     ];
-    w.write_record(VARIANT_COLUMNS.iter().chain(&head))
+    let external = plan.external.is_some();
+    let more: &[&str] = if external { &EXTERNAL_ROW_COLUMNS } else { &[] };
+    w.write_record(VARIANT_COLUMNS.iter().chain(&head).chain(more))
         .expect(IN_MEMORY);
     for r in rows {
-        let rest = [
+        let mut rest = vec![
             r.spp.to_string(),
             r.repetition.to_string(),
             r.seed.to_string(),
@@ -151,10 +168,31 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
             num(r.coverage95),
             num(r.coverage95_edges),
         ];
+        if let Some(m) = &r.external {
+            rest.extend([m.rmse_theirs, m.mean_l2_theirs, m.mean_l2_ours].map(num));
+        }
         w.write_record(variant_fields(&plan.variants[r.variant]).iter().chain(&rest))
             .expect(IN_MEMORY);
     }
     w.into_inner().expect(IN_MEMORY)
+}
+
+/// The columns `rmse.csv` gains in a table with `"external"`: each render's RMSE and mean
+/// per-pixel L2 against the external reference, and its mean L2 against the table's.
+pub const EXTERNAL_ROW_COLUMNS: [&str; 3] = ["rmse_theirs", "mean_l2_theirs", "mean_l2"];
+
+/// The columns `table.csv` gains in a table with `"external"`: the variant's model (kernel,
+/// noise, kernel means; empty for MC) and the means of [`EXTERNAL_ROW_COLUMNS`].
+pub const EXTERNAL_CELL_COLUMNS: [&str; 4] =
+    ["model", "rmse_theirs_mean", "mean_l2_theirs_mean", "mean_l2_mean"];
+
+/// A variant's resolved model as compact JSON (its own, or the table's), empty without weights.
+fn model_field(plan: &TablePlan, v: &VariantPlan) -> String {
+    if !v.kind.uses_sets() {
+        return String::new();
+    }
+    let json = v.model.as_ref().map(|m| &m.json).unwrap_or(&plan.model_json);
+    serde_json::to_string(json).expect("serialisable")
 }
 
 /// `x` in Rust's shortest round-trip form, empty when not finite.
@@ -185,10 +223,15 @@ pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
         "coverage95",
         "coverage95_edges",
     ];
-    w.write_record(VARIANT_COLUMNS.iter().chain(&head))
+    let more: &[&str] = if plan.external.is_some() {
+        &EXTERNAL_CELL_COLUMNS
+    } else {
+        &[]
+    };
+    w.write_record(VARIANT_COLUMNS.iter().chain(&head).chain(more))
         .expect(IN_MEMORY);
     for c in cells {
-        let rest = [
+        let mut rest = vec![
             c.spp.to_string(),
             c.n.to_string(),
             num(c.mean),
@@ -201,6 +244,10 @@ pub fn table_csv(plan: &TablePlan, cells: &[Cell]) -> Vec<u8> {
             num(c.coverage95),
             num(c.coverage95_edges),
         ];
+        if let Some(m) = &c.external {
+            rest.push(model_field(plan, &plan.variants[c.variant]));
+            rest.extend(m.map(num));
+        }
         w.write_record(variant_fields(&plan.variants[c.variant]).iter().chain(&rest))
             .expect(IN_MEMORY);
     }
@@ -237,6 +284,18 @@ pub fn table_md(plan: &TablePlan, cells: &[Cell]) -> String {
     md_grid(plan, cells, &mut s, |c| {
         format!("{:.3} / {:.3}", c.coverage95, c.coverage95_edges)
     });
+    if let Some(e) = &plan.external {
+        let _ = writeln!(
+            s,
+            "\nAgainst their reference ({}): mean RMSE / mean of the mean per-pixel RGB L2 norm; \
+             then the mean L2 against this table's reference:\n",
+            e.reference_arg
+        );
+        md_grid(plan, cells, &mut s, |c| match c.external {
+            Some([rmse, l2, l2_ours]) => format!("{rmse:.5} / {l2:.5}; {l2_ours:.5}"),
+            None => String::new(),
+        });
+    }
     s
 }
 

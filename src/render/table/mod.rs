@@ -25,6 +25,7 @@
 
 pub mod adaptive;
 pub mod export;
+pub mod external;
 pub mod plan;
 pub mod plot;
 pub mod reference;
@@ -84,7 +85,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         // The reference is written there after it is rendered: fail now, not then.
         crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
     }
-    let renderer = Renderer::new(plan.width, plan.height, plan.env.clone());
+    let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
 
     let reference = reference::reference(plan, &renderer, results, reporter)?;
     folder.write(
@@ -122,7 +123,42 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         "mean RMSE per (variant, spp) with its 95% Student-t interval",
         &export::table_csv(plan, &cells),
     )?;
-    let table_md = export::table_md(plan, &cells);
+    let mut table_md = export::table_md(plan, &cells);
+    if let Some(e) = &plan.external {
+        table_md.push_str(&external::external_md(e, &reference));
+        folder.write(
+            "external.csv",
+            "images made elsewhere against their reference and this table's",
+            &external::external_csv(e, &reference),
+        )?;
+        folder.write(
+            "their-reference.png",
+            "the external reference, tone-mapped",
+            &e.reference.to_png()?,
+        )?;
+        write_error_png(
+            &mut folder,
+            "reference-vs-theirs-error.png",
+            " (the external reference against this table's)",
+            &e.reference,
+            &reference,
+        )?;
+        for i in &e.images {
+            let name = plan::slug(&i.label);
+            folder.write(
+                &format!("theirs-{name}.png"),
+                &format!("{}, tone-mapped", i.label),
+                &i.image.to_png()?,
+            )?;
+            write_error_png(
+                &mut folder,
+                &format!("theirs-{name}-error.png"),
+                &format!(" ({} against this table's reference)", i.label),
+                &i.image,
+                &reference,
+            )?;
+        }
+    }
     folder.write(
         "table.md",
         "table.csv laid out like thesis Table 4.1",

@@ -7,7 +7,8 @@ use super::spec::{ReferenceMethod, Repetitions, TableSpec, VariantSpec};
 use crate::bq::model::BmcModel;
 use crate::bq::weights::Scale;
 use crate::error::InputError;
-use crate::render::env::Environment;
+use crate::render::SceneKind;
+use crate::render::env::{Environment, Lookup};
 use crate::render::integrator::{DEFAULT_GPS, IntegratorKind, MAX_MC_SPP, check_gps, check_spp};
 use crate::render::renderer::check_size;
 use std::path::{Path, PathBuf};
@@ -70,12 +71,12 @@ impl ReferencePlan {
         }
     }
 
-    /// What determines the image, for the manifest and the cache key.
-    pub fn json(&self) -> serde_json::Value {
+    /// What determines the image under `env`, for the manifest and the cache key.
+    pub fn json(&self, env: &Environment) -> serde_json::Value {
         match self {
             ReferencePlan::Exact { tolerance } => serde_json::json!({
                 "integrator": "exact", "tolerance": tolerance,
-                "quadrature": crate::render::exact::VERSION,
+                "quadrature": crate::render::exact::version(env),
             }),
             ReferencePlan::Mc { spp, seed } => {
                 serde_json::json!({"integrator": "mc", "spp": spp, "seed": seed})
@@ -94,6 +95,8 @@ pub struct TablePlan {
     pub seed: u64,
     pub width: usize,
     pub height: usize,
+    /// The scene (`scene`, default the workbench's).
+    pub scene: SceneKind,
     pub env: Environment,
     pub env_arg: String,
     pub spp: Vec<usize>,
@@ -107,6 +110,8 @@ pub struct TablePlan {
     /// The model's resolved parameters, for the manifest.
     pub model_json: serde_json::Value,
     pub variants: Vec<VariantPlan>,
+    /// Images made elsewhere (`"external"`), read and checked.
+    pub external: Option<super::external::ExternalPlan>,
 }
 
 /// Default spp list (thesis Table 4.1, Fig. 4.1b).
@@ -117,8 +122,6 @@ pub const DEFAULT_REPETITIONS: usize = 10;
 pub const MAX_REPETITIONS: usize = 10_000;
 /// Default spp of an MC reference (thesis §3.2.7).
 pub const DEFAULT_REFERENCE_SPP: usize = 3000;
-/// Default image size.
-pub const DEFAULT_SIZE: usize = 256;
 /// Longest variant label: it names PNG files, which file systems limit to 255 bytes.
 pub const MAX_LABEL: usize = 100;
 /// The reference's default seed is `mix(seed, [REFERENCE_SEED])`.
@@ -152,12 +155,23 @@ fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String 
 pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     check_name(&spec.name)?;
     let seed = spec.seed.unwrap_or(0);
-    let width = spec.width.unwrap_or(DEFAULT_SIZE as u64) as usize;
-    let height = spec.height.unwrap_or(DEFAULT_SIZE as u64) as usize;
+    let scene = match &spec.scene {
+        Some(name) => SceneKind::from_name(name, "scene").map_err(|e| e.0)?,
+        None => SceneKind::default(),
+    };
+    let (default_width, default_height) = scene.default_size();
+    let width = spec.width.unwrap_or(default_width as u64) as usize;
+    let height = spec.height.unwrap_or(default_height as u64) as usize;
     check_size(width, height)
         .map_err(|e| err("width/height", e.0.trim_start_matches("--width/--height: ")))?;
     let env_arg = spec.env.clone().unwrap_or_else(|| "sky".into());
     let env = Environment::from_arg(&env_arg).map_err(|e| err("env", e.0))?;
+    let env = match &spec.lookup {
+        Some(name) => env
+            .with_lookup(Lookup::from_name(name, "lookup").map_err(|e| e.0)?, "lookup")
+            .map_err(|e| e.0)?,
+        None => env,
+    };
     let adaptive = spec
         .adaptive
         .as_ref()
@@ -174,7 +188,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
             (spp, repetitions)
         }
     };
-    let reference = resolve_reference(spec, seed)?;
+    let reference = resolve_reference(spec, seed, &env)?;
 
     if spec.variants.is_empty() {
         return Err(err("variants", "must list at least one variant"));
@@ -219,6 +233,17 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
             }
         }
     }
+    let external = spec
+        .external
+        .as_ref()
+        .map(|e| super::external::resolve(e, width, height, &|arg| Ok(std::path::PathBuf::from(arg))))
+        .transpose()?;
+    if external.is_some() && adaptive.is_some() {
+        return Err(err(
+            "external",
+            "applies to fixed-spp tables, not to \"adaptive\" ones",
+        ));
+    }
     let needed = variants.iter().any(|v| v.kind.uses_sets());
     Ok(TablePlan {
         file: path.to_path_buf(),
@@ -227,6 +252,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         seed,
         width,
         height,
+        scene,
         env,
         env_arg,
         spp,
@@ -236,6 +262,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         model: needed.then(|| model.build()),
         model_json: model.to_json(),
         variants,
+        external,
     })
 }
 
@@ -322,7 +349,7 @@ fn resolve_repetitions(reps: Option<&Repetitions>, columns: usize, per: &str) ->
     }
 }
 
-fn resolve_reference(spec: &TableSpec, seed: u64) -> Result<ReferencePlan, String> {
+fn resolve_reference(spec: &TableSpec, seed: u64, env: &Environment) -> Result<ReferencePlan, String> {
     let r = spec.reference.unwrap_or(super::spec::ReferenceSpec {
         method: None,
         spp: None,
@@ -345,7 +372,9 @@ fn resolve_reference(spec: &TableSpec, seed: u64) -> Result<ReferencePlan, Strin
                 format!("{value}: applies to \"method\": \"mc\", not \"exact\""),
             ));
         }
-        let tolerance = r.tolerance.unwrap_or(crate::render::exact::DEFAULT_TOLERANCE);
+        let tolerance = r
+            .tolerance
+            .unwrap_or(crate::render::exact::default_tolerance(env));
         if !(crate::render::exact::MIN_TOLERANCE..=1e-2).contains(&tolerance) {
             return Err(err(
                 "reference.tolerance",
@@ -480,6 +509,12 @@ pub fn error_png_name(label: &str, spp: usize) -> String {
 
 /// `BMC 4 GP (no rotation)` at 40 spp → `bmc-4-gp-no-rotation-40spp.png`.
 pub fn png_name(label: &str, spp: usize) -> String {
+    format!("{}-{spp}spp.png", slug(label))
+}
+
+/// A label as a file-name part: lower-case ASCII letters and digits, runs of anything else
+/// one `-`, none at the ends.
+pub fn slug(label: &str) -> String {
     let mut slug = String::new();
     for c in label.chars() {
         if c.is_ascii_alphanumeric() {
@@ -488,7 +523,7 @@ pub fn png_name(label: &str, spp: usize) -> String {
             slug.push('-');
         }
     }
-    format!("{}-{spp}spp.png", slug.trim_end_matches('-'))
+    slug.trim_end_matches('-').to_string()
 }
 
 #[cfg(test)]

@@ -219,6 +219,7 @@ mod tests {
 
     fn cell(variant: usize, spp: usize, mean: f64) -> Cell {
         Cell {
+            external: None,
             variant,
             spp,
             n: 4,

@@ -3,6 +3,7 @@
 
 use super::plan::{ReferencePlan, TablePlan};
 use crate::files::atomic::write_atomic;
+use crate::render::SceneKind;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
 use crate::render::renderer::Renderer;
@@ -14,18 +15,29 @@ use std::time::Instant;
 /// Version of the scene definition; part of the reference cache key.
 pub const SCENE_VERSION: &str = "render-scene v1";
 
+/// Version of the thesis scene's definition ([`crate::render::scene::thesis`]).
+pub const THESIS_SCENE_VERSION: &str = "thesis-scene v1";
+
+/// The version of `plan`'s scene, for the cache key and the manifest.
+pub fn scene_version(plan: &TablePlan) -> &'static str {
+    match plan.scene {
+        SceneKind::Workbench => SCENE_VERSION,
+        SceneKind::Thesis => THESIS_SCENE_VERSION,
+    }
+}
+
 /// `(key, description)`: the description lists everything that determines the reference image;
 /// the key is its 64-bit FNV-1a hash in hex.
 pub fn reference_key(plan: &TablePlan) -> (String, String) {
     // The MC description is exactly the one used before exact references existed, so earlier
     // caches stay valid; the exact one adds the method, tolerance and quadrature version.
     let mut json = serde_json::json!({
-        "scene": SCENE_VERSION,
+        "scene": scene_version(plan),
         "env": plan.env.key(),
         "width": plan.width,
         "height": plan.height,
     });
-    for (k, v) in plan.reference.json().as_object().expect("an object") {
+    for (k, v) in plan.reference.json(&plan.env).as_object().expect("an object") {
         json[k] = v.clone();
     }
     let description = serde_json::to_string_pretty(&json).expect("serialisable");

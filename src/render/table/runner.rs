@@ -1,5 +1,6 @@
 //! Renders every variant × spp × repetition of a table against its reference.
 
+use super::external::ExternalMeasures;
 use super::plan::TablePlan;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
@@ -25,6 +26,8 @@ pub struct Row {
     pub coverage95_edges: f64,
     /// Wall-clock seconds (building the sets plus rendering); outside the stable outputs.
     pub seconds: f64,
+    /// The measures against an external reference (tables with `"external"`).
+    pub external: Option<ExternalMeasures>,
 }
 
 /// The seed of repetition `rep` at `spp`: the same for every variant (paired renders).
@@ -86,6 +89,10 @@ pub fn run(
                     coverage95: coverage(&image, reference, &sds, None).coverage95,
                     coverage95_edges: coverage(&image, reference, &sds, Some(edges)).coverage95,
                     seconds,
+                    external: plan
+                        .external
+                        .as_ref()
+                        .map(|e| ExternalMeasures::of(&image, &e.reference, reference)),
                 });
                 if rep == 0 {
                     sink.first_image(v, spp, &image)?;

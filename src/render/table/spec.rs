@@ -31,15 +31,23 @@ pub struct TableSpec {
     /// Master seed; default 0.
     #[serde(default)]
     pub seed: Option<u64>,
-    /// Image width in pixels; default 256.
+    /// Image width in pixels; default the scene's (256 for `workbench`, 500 for `thesis`).
     #[serde(default)]
     pub width: Option<u64>,
-    /// Image height in pixels; default 256.
+    /// Image height in pixels; default the scene's (256 for `workbench`, 500 for `thesis`).
     #[serde(default)]
     pub height: Option<u64>,
+    /// The scene: `workbench` (docs/render-scene.md) or `thesis` (the thesis code's); default
+    /// `workbench`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<String>,
     /// `sky`, `white` or an environment map file; default `sky`.
     #[serde(default)]
     pub env: Option<String>,
+    /// How the map is looked up (math.md §10): `mitsuba` (bilinear) or `thesis` (nearest
+    /// texel); default `mitsuba`. Maps only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lookup: Option<String>,
     /// Samples per pixel; default `[20, 40, 60, 80]`.
     #[serde(default)]
     pub spp: Option<Vec<u64>>,
@@ -57,6 +65,32 @@ pub struct TableSpec {
     #[serde(default)]
     pub model: Option<ModelSpec>,
     pub variants: Vec<VariantSpec>,
+    /// Images made elsewhere: another renderer's reference, against which every render is also
+    /// measured, and its renders, measured against both references.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub external: Option<ExternalSpec>,
+}
+
+/// `"external"`: another renderer's reference and renders, by catalogue name or path, at the
+/// table's size.
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalSpec {
+    /// Their reference (a Radiance .hdr or OpenEXR image).
+    pub reference: String,
+    /// Their renders, each measured against both references.
+    #[serde(default)]
+    pub images: Option<Vec<ExternalImageSpec>>,
+}
+
+/// One render made elsewhere.
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalImageSpec {
+    /// Its row label.
+    pub label: String,
+    /// The image (a Radiance .hdr or OpenEXR image), by catalogue name or path.
+    pub image: String,
 }
 
 /// One row of the table.

@@ -23,6 +23,9 @@ pub struct Cell {
     /// Mean wall-clock seconds per render (building the sets plus rendering); not part of the
     /// stable outputs.
     pub seconds: f64,
+    /// Means of the measures against an external reference (tables with `"external"`):
+    /// RMSE and mean L2 against theirs, mean L2 against ours.
+    pub external: Option<[f64; 3]>,
 }
 
 /// Mean, standard deviation and 95% Student-t half-width of the RMSE per (variant, spp), in
@@ -56,6 +59,17 @@ pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
                 coverage95: mean(&coverage),
                 coverage95_edges: mean(&coverage_edges),
                 seconds: mean(&seconds),
+                external: plan.external.as_ref().map(|_| {
+                    let of = |f: fn(&super::external::ExternalMeasures) -> f64| -> f64 {
+                        let v: Vec<f64> = cell.iter().filter_map(|r| r.external.as_ref().map(f)).collect();
+                        mean(&v)
+                    };
+                    [
+                        of(|m| m.rmse_theirs),
+                        of(|m| m.mean_l2_theirs),
+                        of(|m| m.mean_l2_ours),
+                    ]
+                }),
             });
         }
     }

@@ -187,7 +187,7 @@ fn clipped_square(half: f64, o: Vec3, n: Vec3) -> Vec<Vec3> {
 #[test]
 fn sphere_under_white_is_albedo_minus_what_the_square_hides() {
     let r = renderer(Scene::default_scene(), Environment::White);
-    let half = r.scene.ground.unwrap().half;
+    let half = r.scene.ground.unwrap().x[1];
     let lone = renderer(Scene::sphere_only(), Environment::White);
     let sphere: Vec<_> = hits(&r).into_iter().filter(|(_, p)| !on_ground(p)).collect();
     assert!(sphere.len() > 100);
@@ -232,10 +232,8 @@ fn sphere_under_white_is_albedo_minus_what_the_square_hides() {
 fn open_ground_under_the_sky_matches_the_closed_form() {
     let scene = Scene {
         sphere: None,
-        ground: Some(Ground {
-            half: 5.0,
-            albedo: [0.75; 3],
-        }),
+        ground: Some(Ground::square(5.0, [0.75; 3])),
+        ..Scene::default_scene()
     };
     let r = renderer(scene, Environment::Sky);
     let sy: f64 = 2.0 / 3.0;

@@ -5,3 +5,4 @@ mod render_cli;
 mod render_fitted;
 mod render_table;
 mod render_table_adaptive;
+mod texel;
