@@ -61,7 +61,9 @@ pub struct RenderArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 256)]
     pub height: usize,
-    /// Lighting: `sky`, `white`, or an equirectangular Radiance .hdr / OpenEXR file.
+    /// Lighting: `sky`, `white`, a catalogue map by name (`pisa`, `archi`, …; read from the data
+    /// folder, --data or WORKBENCH_DATA; `workbench data` lists them), or an equirectangular
+    /// Radiance .hdr / OpenEXR file (a path: anything with a `/`, or an existing file).
     #[arg(long, default_value = "sky")]
     pub env: String,
     /// Master seed: sample sets and per-pixel streams derive from it [default: 0]; not with

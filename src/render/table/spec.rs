@@ -37,7 +37,8 @@ pub struct TableSpec {
     /// Image height in pixels; default 256.
     #[serde(default)]
     pub height: Option<u64>,
-    /// `sky`, `white` or an environment map file; default `sky`.
+    /// `sky`, `white`, a catalogue map by name (`pisa`; from the data folder) or an environment
+    /// map file; default `sky`.
     #[serde(default)]
     pub env: Option<String>,
     /// Samples per pixel; default `[20, 40, 60, 80]`.
