@@ -5,6 +5,7 @@
 //! [`util::report::Reporter`], and errors are [`Error`]s. The command line lives in the binary.
 
 pub mod bq;
+pub mod data;
 pub mod error;
 pub mod experiment;
 pub mod files;

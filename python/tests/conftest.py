@@ -39,6 +39,24 @@ def cli(tmp_path):
     return run
 
 
+@pytest.fixture
+def data_dir():
+    """The external data folder, ``WORKBENCH_DATA`` (docs/guide/data.md), as an absolute path.
+    Unset, the test is skipped with the reason; with ``WORKBENCH_REQUIRE_DATA=1`` (as CI sets)
+    it fails instead, so that no data test silently does not run."""
+    folder = os.environ.get("WORKBENCH_DATA", "")
+    why = None
+    if not folder:
+        why = "WORKBENCH_DATA is not set (the external data folder, e.g. ../shared/data; docs/guide/data.md)"
+    elif not os.path.isdir(folder):
+        why = f"WORKBENCH_DATA={folder} is not a folder"
+    if why is not None:
+        if os.environ.get("WORKBENCH_REQUIRE_DATA") == "1":
+            pytest.fail(f"WORKBENCH_REQUIRE_DATA=1 but {why}")
+        pytest.skip(why)
+    return pathlib.Path(folder).resolve()
+
+
 def read_csv(path):
     """Header and rows of a CSV, as strings."""
     with open(path, newline="", encoding="utf-8") as f:

@@ -224,7 +224,11 @@ fn check_names(shown: &Shown) -> Result<(), String> {
                 if long.is_empty() || long == "help" {
                     continue;
                 }
-                if !sub.get_arguments().any(|a| a.get_long() == Some(long)) {
+                // Global options (`--data`) belong to the top-level command.
+                let global = cli
+                    .get_arguments()
+                    .any(|a| a.is_global_set() && a.get_long() == Some(long));
+                if !global && !sub.get_arguments().any(|a| a.get_long() == Some(long)) {
                     return Err(format!("{name} has no flag --{long}"));
                 }
             } else if let Some(short) = flag.strip_prefix('-')

@@ -1,6 +1,7 @@
 //! The command line (binary only): options → validated plan → run → export, and the one place
 //! that prints. Exit codes: 0 success, 1 a check failed (outputs still written), 2 any error.
 
+mod data;
 #[cfg(test)]
 mod docs_commands;
 mod image_files;
@@ -34,6 +35,10 @@ const EXIT_CODES: &str = "Exit codes: 0 success; 1 a check failed (outputs are s
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The folder of external data (maps named by catalogue name, e.g. `--env pisa`); default:
+    /// the environment variable WORKBENCH_DATA. `workbench data` lists and checks it.
+    #[arg(long, global = true, value_name = "DIR")]
+    data: Option<std::path::PathBuf>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -50,6 +55,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Print the JSON Schema (draft 2020-12) of experiment files or render tables.
     Schema(schema::SchemaArgs),
+    /// List the catalogue of external data (maps, the thesis's images, Mitsuba's scenes) and
+    /// check which files are present and intact in the data folder.
+    Data(data::DataArgs),
     /// Regenerate every figure and table: run each experiment file and render table of a
     /// folder (default experiments/) in turn, with a time estimate and one summary.
     Reproduce(reproduce::ReproduceArgs),
@@ -69,7 +77,11 @@ pub fn main() -> ExitCode {
             };
         }
     };
+    if let Some(dir) = cli.data {
+        workbench::data::set_folder(dir);
+    }
     let result = match cli.command {
+        Command::Data(args) => data::data(args),
         Command::Run(args) => run::run(args),
         Command::Validate(args) => run::validate(&args),
         Command::Merge(args) => merge::merge(args),

@@ -67,7 +67,9 @@ pub struct RenderArgs {
     /// green parallelogram, camera at the origin; docs/guide/thesis-images.md).
     #[arg(long, default_value = "workbench", value_parser = parse_scene)]
     pub scene: SceneKind,
-    /// Lighting: `sky`, `white`, or an equirectangular Radiance .hdr / OpenEXR file.
+    /// Lighting: `sky`, `white`, a catalogue map by name (`pisa`, `archi`, …; read from the data
+    /// folder, --data or WORKBENCH_DATA; `workbench data` lists them), or an equirectangular
+    /// Radiance .hdr / OpenEXR file (a path: anything with a `/`, or an existing file).
     #[arg(long, default_value = "sky")]
     pub env: String,
     /// How a map is looked up (math.md §10): `mitsuba`, bilinear between texel centres, or

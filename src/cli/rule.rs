@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use workbench::bq::estimator::Method;
 use workbench::files::file_set::FileSet;
+use workbench::files::read::{FileKind, read_text};
 use workbench::sampling::Design;
 use workbench::util::geometry::Vec3;
 
@@ -228,8 +229,8 @@ fn resolved_grid(model: &workbench::bq::model::ResolvedModel) -> Vec<(f64, f64)>
 fn read_values_csv(path: &Path, n: usize) -> Result<Vec<f64>, workbench::error::InputError> {
     let name = path.display();
     let in_file = |m: String| workbench::error::InputError::new(format!("{name}: {m}"));
-    let text = workbench::files::spec_json::read_text(path, MAX_POINTS_FILE_BYTES, "values files")
-        .map_err(in_file)?;
+    let text =
+        read_text(path, FileKind::Values).map_err(|e| workbench::error::InputError::new(e.to_string()))?;
     let values = parse_values_csv(&text).map_err(in_file)?;
     if values.len() != n {
         return Err(in_file(format!(
@@ -261,19 +262,14 @@ fn parse_values_csv(text: &str) -> Result<Vec<f64>, String> {
         .collect()
 }
 
-/// Largest points file read: [`workbench::bq::rule::MAX_POINTS`] rows of four shortest round-trip
-/// numbers take about 1.5 MiB, so anything near this is not a points file (and is not read into
-/// memory).
-const MAX_POINTS_FILE_BYTES: u64 = 16 << 20;
-
 /// Reads a CSV with header `x,y,z` (or a rule's `x,y,z,weight`, weights ignored) of unit vectors
 /// (`|‖p‖ − 1| ≤ 1e-9`) with `z ≥ 0`. The file must be UTF-8 (a byte-order mark is accepted);
 /// errors name the file and the line.
 fn read_points_csv(path: &Path) -> Result<Vec<Vec3>, workbench::error::InputError> {
     let name = path.display();
     let in_file = |m: String| workbench::error::InputError::new(format!("{name}: {m}"));
-    let text = workbench::files::spec_json::read_text(path, MAX_POINTS_FILE_BYTES, "points files")
-        .map_err(in_file)?;
+    let text =
+        read_text(path, FileKind::Points).map_err(|e| workbench::error::InputError::new(e.to_string()))?;
     parse_points_csv(&text).map_err(in_file)
 }
 

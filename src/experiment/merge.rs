@@ -37,7 +37,7 @@ pub fn write_shard(
         SHARD_UNITS,
         "this shard's rows in unit order: the trials.csv columns, then integrand evaluations and wall-clock seconds",
         &mut |w| {
-            let mut file = std::fs::File::open(log).map_err(|e| Error::io(format!("opening {}", log.display()), e))?;
+            let mut file = super::unit_log::bounded_open(log)?;
             std::io::copy(&mut file, w).map_err(|e| Error::io(format!("copying {}", log.display()), e))?;
             Ok(())
         },
@@ -80,7 +80,7 @@ struct ShardFolder {
 fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
     let shown = dir.display();
     let path = dir.join(SHARD_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|_| {
+    let text = crate::files::read::read_text(&path, crate::files::read::FileKind::Record).map_err(|_| {
         InputError::new(format!(
             "merge: {shown} is not a shard folder (no readable {SHARD_FILE}); make shards with `workbench run FILE --shard i/n --out DIR`"
         ))
@@ -114,9 +114,11 @@ fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
     // The log must be this shard's, and complete (checked while reading it).
     let units = dir.join(SHARD_UNITS);
     let mut first = String::new();
-    std::fs::File::open(&units)
+    super::unit_log::bounded_open(&units)
+        .ok()
         .map(BufReader::new)
-        .and_then(|mut r| r.read_line(&mut first))
+        .and_then(|mut r| r.read_line(&mut first).ok())
+        .ok_or(())
         .map_err(|_| InputError::new(format!("merge: {shown}: {SHARD_UNITS} is missing or unreadable")))?;
     if Identity::from_header(&first).as_ref() != Some(&identity) {
         return Err(InputError::new(format!(

@@ -14,6 +14,7 @@ use super::plan::Plan;
 use super::rows::{COST_HEADER, TRIALS_HEADER, parse_row};
 use super::summary::RowValues;
 use crate::error::{Error, InputError, Result};
+use crate::files::read::FileKind;
 use crate::provenance::Build;
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, Write};
@@ -172,6 +173,12 @@ impl LogWriter {
     }
 }
 
+/// A unit log opened for reading through [`crate::files::read`]: a regular file, at most
+/// [`FileKind::UnitLog`]'s limit.
+pub fn bounded_open(path: &Path) -> Result<crate::files::read::Bounded> {
+    crate::files::read::open(path, FileKind::UnitLog).map_err(|e| InputError::new(e.to_string()).into())
+}
+
 /// Opens the log at `path` for a run of `identity`'s units. Fresh (`resume` false, or no log
 /// there): writes its two header lines. Resuming: checks that the log was made from the same
 /// plan, seed, trials, build and shard, hands every row of its complete units to `each`
@@ -203,7 +210,7 @@ pub fn open(
         ))
         .into()
     };
-    let mut reader = BufReader::new(File::open(path).map_err(|e| io("opening", e))?);
+    let mut reader = BufReader::new(bounded_open(path)?);
     let mut line = String::new();
     reader.read_line(&mut line).map_err(|e| io("reading", e))?;
     let found = Identity::from_header(&line).ok_or_else(|| refuse("is not a workbench unit log".into()))?;
@@ -314,10 +321,7 @@ impl LogSet {
         let count = self.paths.len();
         let mut readers = Vec::with_capacity(count);
         for path in &self.paths {
-            let mut r = BufReader::with_capacity(
-                1 << 16,
-                File::open(path).map_err(|e| Error::io(format!("opening {}", path.display()), e))?,
-            );
+            let mut r = BufReader::with_capacity(1 << 16, bounded_open(path)?);
             let mut skip = String::new();
             for _ in 0..2 {
                 r.read_line(&mut skip)

@@ -441,7 +441,7 @@ fn listed_in(record: &serde_json::Value, itself: &str) -> Option<Vec<String>> {
 fn unexplained(dir: &Path, legacy: LegacyManifest) -> Option<String> {
     let entries = std::fs::read_dir(dir).ok()?;
     let read = |name: &str| {
-        std::fs::read(dir.join(name))
+        super::read::read(&dir.join(name), super::read::FileKind::Record)
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
     };

@@ -9,78 +9,24 @@
 //! (an empty file, `NaN`, numbers that do not fit a whole-number field) in one line each.
 
 use crate::error::InputError;
+use crate::files::read::FileKind;
 use serde::de::{self, DeserializeOwned, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde_json::{Map, Value};
 use std::cell::RefCell;
 use std::fmt::Write as _;
-use std::io::Read;
 use std::path::Path;
 
 /// Largest spec file read: real specs are a few kilobytes, and reading a file the user named
 /// by mistake (a gigabyte of data) must not exhaust memory.
-pub const MAX_SPEC_BYTES: u64 = 16 << 20;
+pub const MAX_SPEC_BYTES: u64 = FileKind::Spec.limit();
 
-/// Reads the spec file at `path` for [`parse`]: at most [`MAX_SPEC_BYTES`], UTF-8.
+/// Reads the spec file at `path` for [`parse`] through [`crate::files::read`]: a regular file
+/// of at most [`MAX_SPEC_BYTES`], UTF-8.
 ///
-/// Errors name the file: unreadable files and folders, files over the limit, and bytes that are
-/// not UTF-8 (with their line and column).
+/// Errors name the file: unreadable files, folders, pipes and devices, files over the limit, and
+/// bytes that are not UTF-8 (with their line and column).
 pub fn read_spec(path: &Path) -> Result<String, InputError> {
-    read_text(path, MAX_SPEC_BYTES, "spec files")
-        .map_err(|m| InputError::new(format!("{}: {m}", path.display())))
-}
-
-/// Reads a UTF-8 text file of at most `limit` bytes (`what` names such files in the message,
-/// e.g. "spec files"). A byte-order mark is kept; the parsers skip it.
-///
-/// Errors do not name the file (the caller adds it): `cannot read: …`, `is a folder, not a
-/// file`, the size and the limit, or `line L, column C: byte 0xFF is not UTF-8 …`.
-pub fn read_text(path: &Path, limit: u64, what: &str) -> Result<String, String> {
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
-    let meta = file.metadata().map_err(|e| format!("cannot read: {e}"))?;
-    if meta.is_dir() {
-        return Err("is a folder, not a file".into());
-    }
-    let too_big = |size: &str| format!("the file is {size}; {what} are limited to {}", bytes(limit));
-    if meta.is_file() && meta.len() > limit {
-        return Err(too_big(&bytes(meta.len())));
-    }
-    // Capped even for regular files: a pipe or a file that grows while read has no size.
-    let mut data = Vec::new();
-    file.take(limit + 1)
-        .read_to_end(&mut data)
-        .map_err(|e| format!("cannot read: {e}"))?;
-    if data.len() as u64 > limit {
-        return Err(too_big(&format!("over {}", bytes(limit))));
-    }
-    utf8(data)
-}
-
-/// `data` as a `String`, or an error naming the line, column and value of the first byte that
-/// is not UTF-8.
-pub fn utf8(data: Vec<u8>) -> Result<String, String> {
-    String::from_utf8(data).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let data = e.as_bytes();
-        let line = 1 + data[..at].iter().filter(|&&b| b == b'\n').count();
-        let line_start = data[..at].iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1);
-        format!(
-            "line {line}, column {}: byte 0x{:02X} is not UTF-8 text; save the file as UTF-8",
-            at - line_start + 1,
-            data[at]
-        )
-    })
-}
-
-/// `12.0 MiB`, `1.0 GiB`, `512 bytes`.
-fn bytes(n: u64) -> String {
-    const MIB: f64 = (1u64 << 20) as f64;
-    if n >= 1 << 30 {
-        format!("{:.1} GiB", n as f64 / (MIB * 1024.0))
-    } else if n >= 1 << 20 {
-        format!("{:.1} MiB", n as f64 / MIB)
-    } else {
-        format!("{n} bytes")
-    }
+    crate::files::read::read_text(path, FileKind::Spec).map_err(|e| InputError::new(e.to_string()))
 }
 
 /// The UTF-8 byte-order mark, which some editors put at the start of a file.
@@ -498,6 +444,7 @@ mod tests {
 
     #[test]
     fn non_utf8_bytes_name_the_line_and_value() {
+        use crate::files::read::utf8;
         assert_eq!(
             utf8(b"{\n  \"title\": \"a\xffb\"\n}".to_vec()).unwrap_err(),
             "line 2, column 14: byte 0xFF is not UTF-8 text; save the file as UTF-8"
@@ -509,8 +456,8 @@ mod tests {
     fn reading_is_bounded_and_refuses_folders() {
         let dir = tempfile::tempdir().unwrap();
         assert_eq!(
-            read_text(dir.path(), 100, "spec files").unwrap_err(),
-            "is a folder, not a file"
+            read_spec(dir.path()).unwrap_err().to_string(),
+            format!("{}: is a folder, not a file", dir.path().display())
         );
         let big = dir.path().join("big.json");
         // Sparse: the test needs the size, not a gigabyte of disk.

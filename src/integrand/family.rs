@@ -232,7 +232,8 @@ pub enum FamilySpec {
         cosine: bool,
     },
     /// The render scene's integrand at pixel `[i, j]` (column, row from the top left) of a
-    /// `width × height` image under `env` (`sky`, `white` or a map file), one `channel` (`r`,
+    /// `width × height` image under `env` (`sky`, `white`, a catalogue map by name or a map
+    /// file), one `channel` (`r`,
     /// `g`, `b`): math.md §1 "Scene integrands".
     Pixel {
         #[serde(default, skip_serializing_if = "Option::is_none")]

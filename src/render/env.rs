@@ -4,6 +4,7 @@
 use super::scene::Rgb;
 use super::texel::cells::CellTable;
 use crate::error::InputError;
+use crate::files::read::FileKind;
 use crate::util::geometry::Vec3;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
@@ -22,12 +23,22 @@ pub enum Environment {
 }
 
 impl Environment {
-    /// `sky`, `white`, or the path of a Radiance `.hdr` / OpenEXR map (whatever its name).
+    /// `sky`, `white`, a catalogue map's name (`pisa`, read from the data folder and checked
+    /// against its sha256; [`crate::data`]), or the path of a Radiance `.hdr` / OpenEXR map
+    /// (whatever its name; a path is anything with a `/` or an existing file). Errors start with
+    /// `--env ARG: `.
     pub fn from_arg(arg: &str) -> Result<Self, InputError> {
         match arg {
             "sky" => Ok(Environment::Sky),
             "white" => Ok(Environment::White),
-            path => EnvMap::load(Path::new(path)).map(Environment::Map),
+            _ => {
+                let failed =
+                    |e: crate::data::DataError| InputError::new(format!("--env {arg}: {}", e.reason()));
+                let bytes = crate::data::resolve(arg, crate::data::Kind::Map)
+                    .and_then(|source| source.read(FileKind::Map))
+                    .map_err(failed)?;
+                EnvMap::decode(arg, &bytes).map(Environment::Map)
+            }
         }
     }
 
@@ -145,9 +156,14 @@ impl EnvMap {
     /// other formats, unreadable and malformed files are [`InputError`]s naming the file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let name = path.display();
-        let bytes = std::fs::read(path)
-            .map_err(|e| InputError::new(format!("--env {name}: cannot read the environment map: {e}")))?;
-        let img = decode_hdr_image(&bytes).map_err(|m| {
+        let bytes = crate::files::read::read(path, FileKind::Map)
+            .map_err(|e| InputError::new(format!("--env {name}: {}", e.reason())))?;
+        Self::decode(&name.to_string(), &bytes)
+    }
+
+    /// [`EnvMap::load`] from the file's bytes; `name` is the map as the user named it.
+    pub fn decode(name: &str, bytes: &[u8]) -> Result<Self, InputError> {
+        let img = decode_hdr_image(bytes).map_err(|m| {
             InputError::new(format!(
                 "--env {name}: {m}; use `sky`, `white` or an equirectangular .hdr/.exr file"
             ))
@@ -397,13 +413,30 @@ pub fn decode_hdr_image(bytes: &[u8]) -> Result<::image::Rgb32FImage, String> {
         HdrFormat::Radiance => decode_as(bytes, ::image::ImageFormat::Hdr),
         HdrFormat::OpenExr => decode_as(bytes, ::image::ImageFormat::OpenExr),
     };
-    decoded.map_err(|e| format!("not a valid {} image ({e})", format.name()))
+    decoded.map_err(|e| match e {
+        ::image::ImageError::Limits(_) => format!(
+            "not a valid {} image: it declares more than the decoder's limits ({MAX_IMAGE_SIDE} texels a side, {} decoded)",
+            format.name(),
+            crate::files::read::bytes(MAX_DECODE_BYTES)
+        ),
+        e => format!("not a valid {} image ({e})", format.name()),
+    })
 }
 
+/// Largest width or height of a decoded image (a 32768 × 16384 lat-long map).
+pub const MAX_IMAGE_SIDE: u32 = 32768;
+/// Most the image decoder may allocate: a 16384 × 8192 RGBA float image is 2 GiB. A header
+/// that declares more (10⁶ × 10⁶ texels in a few bytes) is refused before anything is allocated.
+pub const MAX_DECODE_BYTES: u64 = 2 << 30;
+
 fn decode_as(bytes: &[u8], format: ::image::ImageFormat) -> ::image::ImageResult<::image::Rgb32FImage> {
-    ::image::ImageReader::with_format(std::io::Cursor::new(bytes), format)
-        .decode()
-        .map(|img| img.into_rgb32f())
+    let mut limits = ::image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    limits.max_alloc = Some(MAX_DECODE_BYTES);
+    let mut reader = ::image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+    reader.limits(limits);
+    reader.decode().map(|img| img.into_rgb32f())
 }
 
 #[cfg(test)]

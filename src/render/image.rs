@@ -157,8 +157,8 @@ impl Image {
     /// Reads an OpenEXR (or Radiance .hdr) image; errors name `what` and the file.
     pub fn read(path: &Path, what: &str) -> Result<Image, InputError> {
         let name = path.display();
-        let bytes =
-            std::fs::read(path).map_err(|e| InputError::new(format!("{what} {name}: cannot read: {e}")))?;
+        let bytes = crate::files::read::read(path, crate::files::read::FileKind::Image)
+            .map_err(|e| InputError::new(format!("{what} {name}: {}", e.reason())))?;
         // Recognised by content: an 8-bit PNG is not linear radiance, whatever its name.
         let img = crate::render::env::decode_hdr_image(&bytes)
             .map_err(|m| InputError::new(format!("{what} {name}: {m}")))?;

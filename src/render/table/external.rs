@@ -46,6 +46,19 @@ impl ExternalMeasures {
     }
 }
 
+/// The file an `"external"` image names: a path, or a catalogue image (`thesis-mc3000`) in the
+/// data folder, verified against its size and sha256 ([`crate::data`]).
+pub fn image_file(arg: &str) -> Result<PathBuf, String> {
+    use crate::data::{DataError, Kind, Source};
+    match crate::data::resolve(arg, Kind::Image).map_err(|e| format!("{arg}: {}", e.reason()))? {
+        Source::Path(path) => Ok(path),
+        Source::Entry(entry) => crate::data::folder()
+            .and_then(|folder| folder.ok_or(DataError::NoFolder { entry }))
+            .and_then(|folder| crate::data::check(&folder, entry))
+            .map_err(|e| format!("{arg}: {}", e.reason())),
+    }
+}
+
 /// Reads the spec's images; `resolve` turns a name or path into a file (the data catalogue),
 /// errors name the field.
 pub fn resolve(

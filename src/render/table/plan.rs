@@ -236,7 +236,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     let external = spec
         .external
         .as_ref()
-        .map(|e| super::external::resolve(e, width, height, &|arg| Ok(std::path::PathBuf::from(arg))))
+        .map(|e| super::external::resolve(e, width, height, &super::external::image_file))
         .transpose()?;
     if external.is_some() && adaptive.is_some() {
         return Err(err(

@@ -41,7 +41,8 @@ pub struct TableSpec {
     /// `workbench`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene: Option<String>,
-    /// `sky`, `white` or an environment map file; default `sky`.
+    /// `sky`, `white`, a catalogue map by name (`pisa`; from the data folder) or an environment
+    /// map file; default `sky`.
     #[serde(default)]
     pub env: Option<String>,
     /// How the map is looked up (math.md §10): `mitsuba` (bilinear) or `thesis` (nearest

@@ -1,4 +1,5 @@
 mod analytic;
+mod bad_maps;
 mod image_read;
 mod render_adaptive;
 mod render_cli;
