@@ -27,6 +27,10 @@ def scene(*args, **kwargs):
 
 
 def scene_dict(method, n, size=32, sphere=False, spp=1, scale="ml", **props):
+    """The test scene; BMC with one rule (``rules=1``) unless ``props`` say otherwise, so that
+    every pixel sample uses workbench.Rule(n)'s rule."""
+    if method == "bmc":
+        props.setdefault("rules", 1)
     d = {
         "type": "scene",
         "integrator": {"type": "workbench", "method": method, "n": n, "scale": scale, **props},
@@ -139,7 +143,7 @@ def test_the_symbolic_loops_give_the_unrolled_loops_pixels(method):
     d = scene(method, n, size=8, sphere=True)
     out = []
     for symbolic in [True, False]:
-        integ = mi.load_dict({"type": "workbench", "method": method, "n": n, "symbolic": symbolic})
+        integ = mi.load_dict({"type": "workbench", "method": method, "n": n, "symbolic": symbolic, "rules": 1})
         img = np.array(mi.render(d, integrator=integ, seed=5), dtype=np.float64)
         out.append((img[..., :3], img[..., 3:]))
     (a, a_sd), (b, b_sd) = out
@@ -168,6 +172,9 @@ def test_the_symbolic_loops_give_the_unrolled_loops_pixels(method):
         ({"noise": 0.0}, "noise: must be positive"),
         ({"max_depth": 3}, "max_depth: 3 is not implemented"),
         ({"glossy_points": -1.0}, "glossy_points: must be non-negative"),
+        ({"rules": 0}, "rules: must be at least 1, got 0"),
+        ({"rules": 40, "n": 1024}, "rules: 40 rules of n = 1024 points need 41943040 factor entries"),
+        ({"rules": 2, "symbolic": False}, "symbolic: false (the unrolled loops, for tests) needs rules = 1"),
     ],
 )
 def test_bad_properties_are_value_errors_naming_the_property(props, message):
@@ -399,3 +406,20 @@ def test_max_depth_one_renders_the_emitters_only():
     black = np.all(img == 0.0, axis=-1)
     assert np.all(sky | black)
     assert sky.sum() > 50 and black.sum() > 20  # the sphere: black, the sky: itself
+
+
+def test_each_camera_sample_uses_one_of_the_rules():
+    """``rules = K``: each pixel sample picks one of K rules (seeds 0 … K − 1) at random: on the
+    open ground every pixel (one sample) is one of the K rules' own estimates, and each occurs."""
+    n, k = 16, 4
+    img = np.array(mi.render(scene("bmc", n, rules=k)), dtype=np.float64)
+    ground = img[..., 4] > 0
+    wants = []
+    for seed in range(k):
+        rule = wb.Rule(n=n, seed=seed)
+        wants.append(rule.estimate(ALBEDO / math.pi * rule.points[:, 2], "bmc")[0])
+    values = img[..., 1][ground]
+    nearest = np.argmin(np.abs(values[:, None] - np.array(wants)[None, :]), axis=1)
+    assert np.allclose(values, np.array(wants)[nearest], rtol=1e-4)
+    counts = np.bincount(nearest, minlength=k)
+    assert np.all(counts > ground.sum() / k / 2), counts

@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 
 import drjit as dr
+import numpy as np
 import mitsuba as mi
 
 from . import light as _light
@@ -89,24 +90,21 @@ def integrator_class():
         # -- the rule on the device -------------------------------------------------------
 
         def _device_arrays(self):
-            """The rule as the loops read it: device arrays (symbolic loops; the points,
-            weights and factors gathered by index) or Python lists (unrolled loops: constants
-            in the traced kernel, or plain floats in scalar variants)."""
+            """The rules as the loops read them: device arrays (symbolic loops; the points,
+            weights and factors gathered by index, rule k's from offset k·N or k·N²) or Python
+            lists (unrolled loops: constants in the traced kernel, or plain floats in scalar
+            variants)."""
             pts = self.rules.points
             models = self.rules.models
             if self.symbolic:
-                self._p = [mi.Float(pts[:, k].tolist()) for k in range(3)]
-                self._w = [mi.Float(m.weights.tolist()) for m in models]
-                self._ct = [None if m.ct is None else mi.Float(m.ct.ravel().tolist()) for m in models]
-                # Opaque, so that another rule's numbers do not make another kernel.
-                self._var1 = [dr.opaque(mi.Float, m.var1) for m in models]
-                self._logdet = [dr.opaque(mi.Float, m.log_det_q) for m in models]
+                as_array = lambda a: mi.Float(np.asarray(a, dtype=np.float64).ravel().tolist())  # noqa: E731
             else:
-                self._p = [pts[:, k].tolist() for k in range(3)]
-                self._w = [m.weights.tolist() for m in models]
-                self._ct = [None if m.ct is None else m.ct.ravel().tolist() for m in models]
-                self._var1 = [m.var1 for m in models]
-                self._logdet = [m.log_det_q for m in models]
+                as_array = lambda a: np.asarray(a, dtype=np.float64).ravel().tolist()  # noqa: E731
+            self._p = [as_array(pts[:, k]) for k in range(3)]
+            self._w = [as_array(m.weights) for m in models]
+            self._ct = [None if m.ct is None else as_array(m.ct) for m in models]
+            self._var1 = [as_array(m.var1) for m in models]
+            self._logdet = [as_array(m.log_det_q) for m in models]
 
         def _get(self, array, i):
             return dr.gather(mi.Float, array, i) if self.symbolic else array[i]
@@ -237,13 +235,20 @@ def integrator_class():
             models = self.rules.models
             n_models = len(models)
             can_fall_back = not (isinstance(fallback, bool) and not fallback)
+            k_rules = self.rules.count
+            if k_rules > 1:
+                # One of the K rules at random for this camera sample.
+                rule = dr.minimum(mi.UInt32(sampler.next_1d(hit) * k_rules), k_rules - 1)
+            else:
+                rule = mi.UInt32(0) if self.symbolic else 0
+            self._rule, self._base = rule, rule * n
             phi = 2.0 * math.pi * sampler.next_1d(hit)
             c, s = dr.cos(phi), dr.sin(phi)
             rule_mask = hit & _not(fallback)
             ys = dr.alloc_local(mi.Color3f, n, mi.Color3f(0.0)) if self.symbolic else [None] * n
 
             def body(i, estimates, s1, s2, ys, smp):
-                px, py, pz = (self._get(a, i) for a in self._p)
+                px, py, pz = (self._get(a, self._base + i) for a in self._p)
                 wo_rule = mi.Vector3f(c * px - s * py, s * px + c * py, pz * side)
                 wo = wo_rule
                 if can_fall_back:
@@ -253,7 +258,7 @@ def integrator_class():
                 radiance = incident(wo, hit)
                 y = bsdf.eval(ctx, si, wo_rule, rule_mask) * radiance
                 ys[i] = y
-                estimates = [e + self._get(w, i) * y for e, w in zip(estimates, self._w)]
+                estimates = [e + self._get(w, self._base + i) * y for e, w in zip(estimates, self._w)]
                 if can_fall_back:
                     t = dr.select(fb & (bs.pdf > 0), weight * radiance, mi.Color3f(0.0))
                     s1, s2 = s1 + t, s2 + t * t
@@ -266,7 +271,7 @@ def integrator_class():
             need_quad = st.scale == "ml" or n_models > 1
             quads = [self._quad(k, ys) for k in range(n_models)] if need_quad else [None] * n_models
             # The fitted kernel: per channel, the model with the largest ℓ_m (the first on ties).
-            estimate, var1, quad = estimates[0], mi.Color3f(self._var1[0]), quads[0]
+            estimate, var1, quad = estimates[0], mi.Color3f(self._get(self._var1[0], rule)), quads[0]
             if n_models > 1:
                 best = self._log_likelihood(quads[0], 0)
                 for k in range(1, n_models):
@@ -274,7 +279,7 @@ def integrator_class():
                     better = ell > best
                     best = dr.select(better, ell, best)
                     estimate = dr.select(better, estimates[k], estimate)
-                    var1 = dr.select(better, mi.Color3f(self._var1[k]), var1)
+                    var1 = dr.select(better, mi.Color3f(self._get(self._var1[k], rule)), var1)
                     quad = dr.select(better, quads[k], quad)
             amplitude = mi.Color3f(1.0) if st.scale == "unit" else _clamp_at_zero(quad / n)
             sd = dr.sqrt(amplitude * var1)
@@ -288,25 +293,26 @@ def integrator_class():
         def _log_likelihood(self, quad, k):
             """ℓ = −(N/2) log(YᵀQ⁻¹Y / N) − ½ log det Q (math.md §9), per channel."""
             n = self.n
-            return -0.5 * n * dr.log(quad / n) - 0.5 * self._logdet[k]
+            return -0.5 * n * dr.log(quad / n) - 0.5 * self._get(self._logdet[k], self._rule)
 
         def _quad(self, k, ys):
             """YᵀQ_k⁻¹Y = ‖C_kᵀ Y‖² per channel: a triangular double loop (Cᵀ is upper
             triangular), N(N+1)/2 multiply-adds."""
             n = self.n
             ct = self._ct[k]
+            base = self._rule * (n * n)
             if not self.symbolic:
                 quad = mi.Color3f(0.0)
                 for row in range(n):
                     z = mi.Color3f(0.0)
                     for j in range(row, n):
-                        z += ct[row * n + j] * ys[j]
+                        z += ct[base + row * n + j] * ys[j]
                     quad += z * z
                 return quad
 
             def outer(row, quad, ys):
                 def inner(j, z, ys):
-                    return j + 1, z + dr.gather(mi.Float, ct, row * n + j) * ys[j], ys
+                    return j + 1, z + dr.gather(mi.Float, ct, base + row * n + j) * ys[j], ys
 
                 _, z, ys = dr.while_loop(
                     (row, mi.Color3f(0.0), ys), lambda j, z, ys: j < n, inner, label="workbench_whiten"

@@ -25,6 +25,13 @@ MAX_N_MC = 65536
 #: ``max_depth`` values the integrator implements: 1 = emitters seen directly, 2 = direct light
 #: (one bounce), as Mitsuba's ``path`` counts them. Indirect light is not implemented.
 MAX_DEPTHS = (1, 2)
+#: The most numbers the rules' whitening factors may hold in device memory (K·N² floats per model,
+#: 8 models for the fitted kernel): 2^25 floats, 128 MiB.
+MAX_FACTOR_ENTRIES = 1 << 25
+#: The default number of rules; fewer where K·N²·models would exceed MAX_FACTOR_ENTRIES.
+DEFAULT_RULES = 16
+#: Models of the fitted kernel's grid (rules.FITTED_S × rules.FITTED_NOISE).
+FITTED_MODELS = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,6 +47,8 @@ class Settings:
     max_depth: int = 2
     #: Fallback to BSDF sampling when a lobe is narrower than this many rule points (0: never).
     glossy_points: float = 2.0
+    #: How many rules (seeds seed, seed + 1, …) each camera sample picks one of at random.
+    rules: int = 16
     symbolic: bool = True
 
 
@@ -82,13 +91,13 @@ def read(props, designs: Optional[tuple] = None) -> Settings:
     n = _integer(props, "n", 64)
     if n < 2:
         raise ValueError(f"n: must be at least 2, got {n}")
+    kernel = _choice(props, "kernel", "sobolev", KERNELS)
     bound = MAX_N_BMC if method == "bmc" else MAX_N_MC
     if n > bound:
         raise ValueError(f"n: at most {bound} for method {method!r}, got {n}")
     design = _get(props, "design", "uniform")
     if designs is not None and design not in designs:
         raise ValueError(f"design: unknown design {design!r}; expected one of {designs}")
-    kernel = _choice(props, "kernel", "sobolev", KERNELS)
     s = _number(props, "s", 1.4)
     if not any(lo < s < lo + 1 for lo in (1, 2, 3)):
         # The library's Sobolev kernels (math.md §4, §9); s = 2 and 3 are logarithmic limits.
@@ -105,11 +114,24 @@ def read(props, designs: Optional[tuple] = None) -> Settings:
         raise ValueError(
             f"max_depth: {max_depth} is not implemented; 1 (emitters seen directly) or 2 (direct light)"
         )
+    per_rule = n * n * (FITTED_MODELS if kernel == "fitted" else 1)
+    symbolic = _flag(props, "symbolic", True)
+    default_rules = max(1, min(DEFAULT_RULES, MAX_FACTOR_ENTRIES // per_rule)) if symbolic else 1
+    rules = _integer(props, "rules", default_rules)
+    if rules < 1:
+        raise ValueError(f"rules: must be at least 1, got {rules}")
+    if method == "bmc" and rules * per_rule > MAX_FACTOR_ENTRIES:
+        raise ValueError(
+            f"rules: {rules} rules of n = {n} points need {rules * per_rule} factor entries, "
+            f"more than {MAX_FACTOR_ENTRIES} (128 MiB)"
+        )
+    if not symbolic and rules > 1:
+        raise ValueError("symbolic: false (the unrolled loops, for tests) needs rules = 1")
     glossy_points = _number(props, "glossy_points", 2.0)
     if glossy_points < 0:
         raise ValueError(f"glossy_points: must be non-negative, got {glossy_points!r}")
     return Settings(
         method=method, n=n, design=design, kernel=kernel, s=s, noise=noise, scale=scale, seed=seed,
         max_depth=max_depth,
-        glossy_points=glossy_points, symbolic=_flag(props, "symbolic", True),
+        glossy_points=glossy_points, rules=rules, symbolic=symbolic,
     )
