@@ -63,10 +63,21 @@ MIN_LLVM = 16
 def set_variant() -> str:
     """Selects ``llvm_ad_rgb`` (vectorised over pixels) if Mitsuba has it and Dr.Jit loaded an
     LLVM ≥ 16, else ``scalar_rgb`` (one pixel at a time; the same numbers, slowly); returns the
-    variant."""
+    variant. ``WORKBENCH_MITSUBA_VARIANT=scalar_rgb`` (or ``llvm_ad_rgb``) asks for one (to run
+    the tests in both)."""
+    import os
+
     import drjit as dr
 
     available = mi.variants()
+    wanted = os.environ.get("WORKBENCH_MITSUBA_VARIANT")
+    if wanted:
+        if wanted not in VARIANTS or wanted not in available:
+            raise ValueError(
+                f"WORKBENCH_MITSUBA_VARIANT: {wanted!r} is not one of {VARIANTS} that Mitsuba has ({available})"
+            )
+        mi.set_variant(wanted)
+        return wanted
     if "llvm_ad_rgb" in available:
         try:
             mi.set_variant("llvm_ad_rgb")
