@@ -51,6 +51,20 @@ from . import rules as _rules
 _not = _light._not
 
 
+#: Lobes the hemisphere rule has no points for: delta lobes and null (a mask's holes) …
+_DELTA = int(mi.BSDFFlags.Delta) | int(mi.BSDFFlags.Null)
+#: … and smooth transmission (rough and diffuse transmission, on the other side).
+_SMOOTH_TRANSMISSION = int(mi.BSDFFlags.GlossyTransmission) | int(mi.BSDFFlags.DiffuseTransmission)
+
+
+def _context(type_mask: int):
+    """A BSDF context restricted to some lobes: sampling then picks among those only, with
+    Mitsuba's weight f cos / p for that restriction (no selection among the other lobes)."""
+    ctx = mi.BSDFContext()
+    ctx.type_mask = type_mask
+    return ctx
+
+
 def _scene_bsdfs(scene):
     return [s.bsdf() for s in scene.shapes() if s.bsdf() is not None]
 
@@ -63,8 +77,9 @@ class SceneInfo:
     def __init__(self, scene):
         self.lighting = _light.Lighting(scene)
         flags = [int(b.flags()) for b in _scene_bsdfs(scene)]
-        unseen = int(mi.BSDFFlags.Delta) | int(mi.BSDFFlags.Null) | int(mi.BSDFFlags.Transmission)
-        self.sampled_part = any(f & unseen for f in flags)
+        self.delta = any(f & _DELTA for f in flags)
+        self.smooth_transmission = any(f & _SMOOTH_TRANSMISSION for f in flags)
+        self.sampled_part = self.delta or self.smooth_transmission
         self.glossy = any(f & int(mi.BSDFFlags.Glossy) for f in flags)
 
 
@@ -172,7 +187,7 @@ def integrator_class():
                     estimate, sd = self._mc(sampler, hit, si, bsdf, ctx, side, incident, full=False)
                 if info.sampled_part:
                     m = hit & _not(fallback)
-                    estimate = estimate + self._sampled_part(sampler, m, si, bsdf, ctx, side, incident)
+                    estimate = estimate + self._sampled_part(sampler, m, si, bsdf, side, incident, info)
             if lighting.delta:
                 estimate = estimate + lighting.delta_light(scene, si, bsdf, ctx, sampler.next_2d(hit), hit)
             result = dr.select(hit, result + estimate, result)
@@ -190,16 +205,24 @@ def integrator_class():
             peak = bsdf.pdf(ctx, si, mirror, hit)
             return peak > self.n / (2.0 * math.pi * self.settings.glossy_points)
 
-        def _sampled_part(self, sampler, m, si, bsdf, ctx, side, incident):
-            """One BSDF sample, kept where it lands on a delta (or null) lobe or on the other
-            side of the surface: f_r cos L / p over what the hemisphere rule leaves out."""
-            bs, weight = bsdf.sample(ctx, si, sampler.next_1d(m), sampler.next_2d(m), m)
-            delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta) | mi.has_flag(
-                bs.sampled_type, mi.BSDFFlags.Null
-            )
-            other_side = mi.Frame3f.cos_theta(bs.wo) * side <= 0
-            take = m & (bs.pdf > 0) & (delta | other_side)
-            return dr.select(take, weight * incident(bs.wo, take), mi.Color3f(0.0))
+        def _sampled_part(self, sampler, m, si, bsdf, side, incident, info):
+            """What the hemisphere rule leaves out, by BSDF sampling restricted to it: one sample
+            of the delta and null lobes (a smooth coat's reflection is then taken every time,
+            not with the probability of choosing the coat), and one sample of the smooth
+            transmission lobes kept where it lands on the other side: f_r cos L / p each."""
+            total = mi.Color3f(0.0)
+            if info.delta:
+                bs, weight = bsdf.sample(_context(_DELTA), si, sampler.next_1d(m), sampler.next_2d(m), m)
+                take = m & (bs.pdf > 0) & (mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+                                          | mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
+                total = total + dr.select(take, weight * incident(bs.wo, take), mi.Color3f(0.0))
+            if info.smooth_transmission:
+                ctx = _context(_SMOOTH_TRANSMISSION)
+                bs, weight = bsdf.sample(ctx, si, sampler.next_1d(m), sampler.next_2d(m), m)
+                other_side = mi.Frame3f.cos_theta(bs.wo) * side <= 0
+                take = m & (bs.pdf > 0) & other_side & _not(mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta))
+                total = total + dr.select(take, weight * incident(bs.wo, take), mi.Color3f(0.0))
+            return total
 
         def _mc(self, sampler, hit, si, bsdf, ctx, side, incident, full):
             """``(1/N) Σ f/p`` and ``s/√N``: cosine-weighted directions on ω_o's side
