@@ -264,14 +264,15 @@ def integrator_class():
                 rule = dr.minimum(mi.UInt32(sampler.next_1d(hit) * k_rules), k_rules - 1)
             else:
                 rule = mi.UInt32(0) if self.symbolic else 0
-            self._rule, self._base = rule, rule * n
+            # Locals, not attributes: scalar variants call sample() from several threads at once.
+            base = rule * n
             phi = 2.0 * math.pi * sampler.next_1d(hit)
             c, s = dr.cos(phi), dr.sin(phi)
             rule_mask = hit & _not(fallback)
             ys = dr.alloc_local(mi.Color3f, n, mi.Color3f(0.0)) if self.symbolic else [None] * n
 
             def body(i, estimates, s1, s2, ys, smp):
-                px, py, pz = (self._get(a, self._base + i) for a in self._p)
+                px, py, pz = (self._get(a, base + i) for a in self._p)
                 wo_rule = mi.Vector3f(c * px - s * py, s * px + c * py, pz * side)
                 wo = wo_rule
                 if can_fall_back:
@@ -281,7 +282,7 @@ def integrator_class():
                 radiance = incident(wo, hit)
                 y = bsdf.eval(ctx, si, wo_rule, rule_mask) * radiance
                 ys[i] = y
-                estimates = [e + self._get(w, self._base + i) * y for e, w in zip(estimates, self._w)]
+                estimates = [e + self._get(w, base + i) * y for e, w in zip(estimates, self._w)]
                 if can_fall_back:
                     t = dr.select(fb & (bs.pdf > 0), weight * radiance, mi.Color3f(0.0))
                     s1, s2 = s1 + t, s2 + t * t
@@ -292,13 +293,13 @@ def integrator_class():
                 ([mi.Color3f(0.0) for _ in range(n_models)], zero, zero, ys, sampler), body, "workbench_bmc"
             )
             need_quad = st.scale == "ml" or n_models > 1
-            quads = [self._quad(k, ys) for k in range(n_models)] if need_quad else [None] * n_models
+            quads = [self._quad(k, ys, rule) for k in range(n_models)] if need_quad else [None] * n_models
             # The fitted kernel: per channel, the model with the largest ℓ_m (the first on ties).
             estimate, var1, quad = estimates[0], mi.Color3f(self._get(self._var1[0], rule)), quads[0]
             if n_models > 1:
-                best = self._log_likelihood(quads[0], 0)
+                best = self._log_likelihood(quads[0], 0, rule)
                 for k in range(1, n_models):
-                    ell = self._log_likelihood(quads[k], k)
+                    ell = self._log_likelihood(quads[k], k, rule)
                     better = ell > best
                     best = dr.select(better, ell, best)
                     estimate = dr.select(better, estimates[k], estimate)
@@ -313,17 +314,17 @@ def integrator_class():
                 sd = dr.select(fallback, dr.sqrt(variance / n), sd)
             return estimate, sd
 
-        def _log_likelihood(self, quad, k):
+        def _log_likelihood(self, quad, k, rule):
             """ℓ = −(N/2) log(YᵀQ⁻¹Y / N) − ½ log det Q (math.md §9), per channel."""
             n = self.n
-            return -0.5 * n * dr.log(quad / n) - 0.5 * self._get(self._logdet[k], self._rule)
+            return -0.5 * n * dr.log(quad / n) - 0.5 * self._get(self._logdet[k], rule)
 
-        def _quad(self, k, ys):
+        def _quad(self, k, ys, rule):
             """YᵀQ_k⁻¹Y = ‖C_kᵀ Y‖² per channel: a triangular double loop (Cᵀ is upper
             triangular), N(N+1)/2 multiply-adds."""
             n = self.n
             ct = self._ct[k]
-            base = self._rule * (n * n)
+            base = rule * (n * n)
             if not self.symbolic:
                 quad = mi.Color3f(0.0)
                 for row in range(n):
