@@ -15,6 +15,8 @@ Equal spp = N directions per pixel:
 extrapolation, not a run.
 
     python python/comparison/compare_data.py [--spps 16,64] [--ref-spp 1024] [--out results/mitsuba/data]
+    python python/comparison/compare_data.py --ref-spp 256 --out results/mitsuba/data-maps \
+        --cases matpreview-roughplastic-0.1-park,matpreview-roughconductor-0.1-park,matpreview-roughplastic-0.1-sky,matpreview-roughconductor-0.1-sky
 """
 
 from __future__ import annotations
@@ -46,7 +48,13 @@ CASES = [
     ("matpreview-roughconductor-0.1", "matpreview", "museum", "roughconductor-0.1", (128, 96)),
     ("matpreview-roughconductor-0.3", "matpreview", "museum", "roughconductor-0.3", (128, 96)),
     ("cornell-box", "cornell_box", None, None, (96, 96)),
+    ("matpreview-roughplastic-0.1-park", "matpreview", "park", "roughplastic-0.1", (128, 96)),
+    ("matpreview-roughconductor-0.1-park", "matpreview", "park", "roughconductor-0.1", (128, 96)),
+    ("matpreview-roughplastic-0.1-sky", "matpreview", "sky", "roughplastic-0.1", (128, 96)),
+    ("matpreview-roughconductor-0.1-sky", "matpreview", "sky", "roughconductor-0.1", (128, 96)),
 ]
+#: The cases results/mitsuba/data/ holds (the rest are in results/mitsuba/data-maps/).
+MUSEUM_CASES = [c[0] for c in CASES[:9]]
 
 
 def methods(n: int):
@@ -82,7 +90,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--spps", default="16,64")
     p.add_argument("--ref-spp", type=int, default=1024)
-    p.add_argument("--cases", default=",".join(c[0] for c in CASES))
+    p.add_argument("--cases", default=",".join(MUSEUM_CASES))
     p.add_argument("--out", default=os.path.join(ROOT, "results", "mitsuba", "data"))
     args = p.parse_args(argv)
     import scenes as sc
