@@ -428,3 +428,13 @@ def test_each_camera_sample_uses_one_of_the_rules():
     counts = np.bincount(nearest, minlength=k)
     assert np.all(counts > ground.sum() / k / 2), counts
 
+
+
+def test_hide_emitters_hides_the_sky_seen_directly_only():
+    d = scene_dict("bmc", 8, size=16, sphere=True, hide_emitters=True)
+    del d["ground"]
+    img = np.array(mi.render(mi.load_dict(d)), dtype=np.float64)
+    lit = img[..., 4] > 0  # the sphere: lit by the (hidden) sky
+    assert lit.sum() > 20
+    assert np.all(img[~lit][..., :3] == 0)
+    assert np.all(img[lit][..., :3] > 0.1)
