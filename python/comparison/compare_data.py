@@ -11,8 +11,8 @@ Equal spp = N directions per pixel:
 - ``mc_bsdf``: the workbench integrator's N BSDF samples, one camera sample;
 - ``direct``, ``path``: Mitsuba's, N camera samples per pixel.
 
-"At bmc's time" rescales each other method's RMSE at N by √(t_N / t_bmc), MC's rate — an
-extrapolation, not a run.
+"At bmc's time": ``direct`` and ``path`` rendered again at the spp that takes about ``bmc``'s
+time at N (their time at N scaled in proportion to spp), and timed.
 
     python python/comparison/compare_data.py [--spps 16,64] [--ref-spp 1024] [--out results/mitsuba/data]
     python python/comparison/compare_data.py --ref-spp 256 --out results/mitsuba/data-maps \
@@ -127,6 +127,18 @@ def main(argv=None):
                 print(f"{label} N={n} {m}: RMSE {rmse:.4f} clamped {rmse_clamped:.4f} in {t:.3f} s", flush=True)
                 if n == int(args.spps.split(",")[0]) and m in ("bmc", "mc_bsdf", "direct", "path"):
                     png(os.path.join(args.out, f"{label}-{m.replace(' ', '-')}-{n}.png"), img)
+            # Equal time, measured: `direct` and `path` at the spp that takes about `bmc`'s time
+            # (from their time at N, proportional to spp), rendered and timed again.
+            by = {r["method"]: r for r in rows if r["case"] == label and r["n"] == n}
+            for m in ("direct", "path"):
+                spp_eq = max(1, round(n * by["bmc"]["seconds"] / by[m]["seconds"]))
+                integ = mi.load_dict(methods(n)[m][0])
+                render(scene, integ, spp_eq, 1000)  # warm-up
+                img, t = render(scene, integ, spp_eq, 2)
+                rows.append({"case": label, "n": n, "method": f"{m} at bmc's time", "spp": spp_eq,
+                             "rmse": float(np.sqrt(np.mean((img - ref) ** 2))),
+                             "rmse_clamped": float(np.sqrt(np.mean((np.clip(img, 0, 1) - np.clip(ref, 0, 1)) ** 2))),
+                             "seconds": t})
         rows.append({"case": label, "n": args.ref_spp, "method": "reference (path)", "spp": args.ref_spp,
                      "rmse": float("nan"), "rmse_clamped": float("nan"), "seconds": ref_t})
     with open(os.path.join(args.out, "table.csv"), "w", newline="") as f:
@@ -143,8 +155,8 @@ def main(argv=None):
 def write_table(rows, args):
     lines = [
         f"RMSE against `path` (max_depth 2) at {args.ref_spp} spp, at equal spp N (directions per pixel): "
-        "linear / both images clamped to [0, 1] (time in seconds); last columns: linear RMSE at `bmc`'s "
-        "time, extrapolated at MC's rate (√(t/t_bmc)).",
+        "linear / both images clamped to [0, 1] (time in seconds); last columns: `direct` and `path` "
+        "rendered at the spp that takes about `bmc`'s time (measured, not extrapolated).",
         "",
     ]
     cases = []
@@ -160,8 +172,8 @@ def write_table(rows, args):
             if not by:
                 continue
             cells = [f"{by[m]['rmse']:.4f} / {by[m]['rmse_clamped']:.4f} ({by[m]['seconds']:.2f} s)" for m in ms]
-            tb = by["bmc"]["seconds"]
-            eq = [f"{by[m]['rmse'] * math.sqrt(by[m]['seconds'] / tb):.4f}" for m in ("direct", "path")]
+            eq = [f"{by[m]['rmse']:.4f} / {by[m]['rmse_clamped']:.4f} ({by[m]['spp']} spp, {by[m]['seconds']:.2f} s)"
+                  for m in ("direct at bmc's time", "path at bmc's time")]
             lines.append(f"| {c} | " + " | ".join(cells) + " | " + " | ".join(eq) + " |")
         lines.append("")
     with open(os.path.join(args.out, "table.md"), "w") as f:
