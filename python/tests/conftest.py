@@ -98,3 +98,26 @@ def write_values(path, values):
         f.write("value\n")
         for v in values:
             f.write(repr(float(v)) + "\n")
+
+
+#: Mitsuba's test scene inside the data folder (docs/guide/mitsuba.md, ../shared/data/README.md).
+MITSUBA_SCENE = pathlib.Path("tests") / "scenes" / "bsdf_spheres" / "test_envmap_path.xml"
+
+
+@pytest.fixture(scope="session")
+def mitsuba_data() -> pathlib.Path:
+    """``$WORKBENCH_DATA/mitsuba-data`` (Mitsuba 3's own test data, read in place, never copied).
+    Without ``WORKBENCH_DATA`` (or without the files) the test is skipped with the reason; with
+    ``WORKBENCH_REQUIRE_DATA=1`` (CI) that is a failure instead."""
+    required = os.environ.get("WORKBENCH_REQUIRE_DATA") == "1"
+    root = os.environ.get("WORKBENCH_DATA")
+    if not root:
+        reason = "WORKBENCH_DATA is not set (the folder holding mitsuba-data/)"
+    else:
+        folder = pathlib.Path(root) / "mitsuba-data"
+        if (folder / MITSUBA_SCENE).is_file():
+            return folder
+        reason = f"{folder / MITSUBA_SCENE} is missing (WORKBENCH_DATA={root})"
+    if required:
+        pytest.fail(f"WORKBENCH_REQUIRE_DATA=1 but {reason}")
+    pytest.skip(reason)
