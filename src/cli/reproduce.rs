@@ -109,16 +109,23 @@ pub fn reproduce(args: ReproduceArgs) -> anyhow::Result<ExitCode> {
     } else {
         args.paths.clone()
     };
-    let items = plan(&paths, &results, args.threads)?;
+    let (items, skipped) = plan(&paths, &results, args.threads)?;
     let total = items
         .iter()
         .filter_map(|i| i.estimate)
         .fold(0.0, |t, e| t + e.seconds);
     if args.list {
-        stdout(&list(&items, &results, total))?;
+        let mut text = list(&items, &results, total);
+        for (file, why) in &skipped {
+            text.push_str(&format!("  -  skip   {}  ({why})\n", file.display()));
+        }
+        stdout(&text)?;
         return Ok(ExitCode::SUCCESS);
     }
     status!("reproduce: {}", headline(&items, &results, total));
+    for (file, why) in &skipped {
+        status!("reproduce: skipping {} ({why})", file.display());
+    }
     let start = Instant::now();
     let mut done = Vec::with_capacity(items.len());
     let mut estimated_done = 0.0;
@@ -166,12 +173,51 @@ pub fn reproduce(args: ReproduceArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// The files in order, each validated, with its output folder and estimate.
-fn plan(paths: &[PathBuf], results: &Path, threads: Option<usize>) -> anyhow::Result<Vec<Item>> {
+/// A file found in a folder (not named) that reads a catalogue file while no data folder is set:
+/// why it is skipped. Named files are validated, and refused, as usual.
+fn needs_data(text: &str) -> Option<String> {
+    fn names(v: &serde_json::Value, out: &mut Vec<String>) {
+        match v {
+            serde_json::Value::String(s)
+                if workbench::data::catalog::find(s).is_some() && !Path::new(s).exists() =>
+            {
+                out.push(s.clone())
+            }
+            serde_json::Value::Array(a) => a.iter().for_each(|x| names(x, out)),
+            serde_json::Value::Object(o) => o.values().for_each(|x| names(x, out)),
+            _ => {}
+        }
+    }
+    if !matches!(workbench::data::folder(), Ok(None)) {
+        return None;
+    }
+    let mut found = Vec::new();
+    names(&serde_json::from_str(text).ok()?, &mut found);
+    let first = found.first()?;
+    Some(format!(
+        "it reads the catalogue's `{first}` and no data folder is set: pass --data DIR or set WORKBENCH_DATA; \
+         docs/guide/data.md"
+    ))
+}
+
+/// The files in order, each validated, with its output folder and estimate; and the files of
+/// a folder skipped for want of the data folder, with the reason.
+fn plan(
+    paths: &[PathBuf],
+    results: &Path,
+    threads: Option<usize>,
+) -> anyhow::Result<(Vec<Item>, Vec<(PathBuf, String)>)> {
     let mut files = Vec::new();
+    let mut skipped = Vec::new();
     for path in paths {
         if path.is_dir() {
-            files.extend(folder_files(path)?);
+            for file in folder_files(path)? {
+                let text = spec_json::read_spec(&file).unwrap_or_default();
+                match needs_data(&text) {
+                    Some(why) => skipped.push((file, why)),
+                    None => files.push(file),
+                }
+            }
         } else {
             files.push(path.clone());
         }
@@ -215,7 +261,7 @@ fn plan(paths: &[PathBuf], results: &Path, threads: Option<usize>) -> anyhow::Re
             estimate,
         });
     }
-    Ok(items)
+    Ok((items, skipped))
 }
 
 /// A folder's `*.json` files: experiment files by file name, then render tables by file name.
