@@ -232,7 +232,13 @@ fn readme_main_command_rewrites_the_committed_cos3_results_byte_for_byte() {
     let fresh = dir.path().join("cos3");
     ok(&workbench(
         root,
-        &["run", "experiments/cos3.json", "-q", "--out", fresh.to_str().unwrap()],
+        &[
+            "run",
+            "experiments/cos3.json",
+            "-q",
+            "--out",
+            fresh.to_str().unwrap(),
+        ],
     ));
     let committed = root.join("results/cos3");
     let tracked: Vec<String> = listing(&fresh).into_iter().filter(|n| !git_ignored(n)).collect();
