@@ -228,7 +228,9 @@ fn a_json_that_is_no_regular_file_is_refused_by_name() {
         let status = std::process::Command::new("mkfifo").arg(p).status().unwrap();
         assert!(status.success());
     };
-    let cases: [(&str, &dyn Fn(&Path), &str); 3] = [
+    // (file name, how to make it, what the refusal says)
+    type Make = dyn Fn(&Path);
+    let cases: [(&str, &Make, &str); 3] = [
         (
             "dangling.json",
             &|p: &Path| std::os::unix::fs::symlink("missing.json", p).unwrap(),
