@@ -1,7 +1,10 @@
 //! Which build of workbench wrote a file: the package version and, when built from a git
-//! checkout, the commit and whether the sources differed from it (`build.rs`). Every result
-//! folder's `manifest.json` records them ([`manifest_fields`]); shards and unit logs carry the
-//! whole [`Build`], so that `merge` and `--resume` only ever combine rows of one build.
+//! checkout, the commit and whether the sources differed from it (`build.rs`). A result folder's
+//! committed `manifest.json` records the version only ([`manifest_version`]), so that rerunning
+//! a committed experiment with a newer build of the same results leaves a clean checkout clean;
+//! the whole [`Build`] goes into its git-ignored `timings.json` ([`manifest_fields`]). Shards
+//! and unit logs carry the whole [`Build`] too, so that `merge` and `--resume` only ever combine
+//! rows of one build.
 
 /// The build this binary is: see the module documentation.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -111,6 +114,20 @@ fn short(commit: &str) -> &str {
     commit.get(..12).unwrap_or(commit)
 }
 
+/// Sets `workbench_version` in `v` (an object) and removes the build fields
+/// [`manifest_fields`] writes: what a committed manifest records, because the version changes
+/// only with a release while the commit changes with every commit, so that a manifest naming
+/// the commit never matches the one a newer build writes for the same results.
+pub fn manifest_version(v: &mut serde_json::Value, build: &Build) {
+    let Some(o) = v.as_object_mut() else {
+        return;
+    };
+    for k in ["workbench_commit", "workbench_dirty", "workbench_changes"] {
+        o.remove(k);
+    }
+    o.insert("workbench_version".into(), build.version.clone().into());
+}
+
 /// Sets `workbench_version` in `v` (an object) and, when built from git, `workbench_commit`,
 /// `workbench_dirty` and, if dirty, `workbench_changes` (the fingerprint). Outside git the
 /// last three are left out rather than `null`: nothing is known about them.
@@ -156,6 +173,9 @@ mod tests {
             manifest_fields(&mut v, &b);
             assert_eq!(Build::from_json(&v).as_ref(), Some(&b), "{v}");
             assert_eq!(v.get("workbench_dirty").is_some(), b.commit.is_some());
+            // The committed form keeps the version and drops the rest, whatever was there.
+            manifest_version(&mut v, &b);
+            assert_eq!(v, serde_json::json!({"plan": {}, "workbench_version": b.version}));
         }
         assert_eq!(Build::from_token("0.1.0", ""), None);
         assert_eq!(Build::from_token("0.1.0", "abc+changes."), None);

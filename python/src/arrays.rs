@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use workbench::util::geometry::Vec3;
 
 /// What `obj` is, for a message: `an int64 array of shape (4, 3)`, `a list`.
-fn describe(obj: &Bound<'_, PyAny>) -> String {
+pub fn describe(obj: &Bound<'_, PyAny>) -> String {
     match obj.cast::<PyUntypedArray>() {
         Ok(a) => {
             let shape: Vec<String> = a.shape().iter().map(|d| d.to_string()).collect();
@@ -81,32 +81,6 @@ pub fn values(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<f64>
         out.push(v);
     }
     Ok(out)
-}
-
-/// A whole-number argument. Python ints arrive as `i128`, so that a negative or huge one is a
-/// `ValueError` naming the argument rather than pyo3's `OverflowError`.
-pub fn whole(v: i128, name: &str) -> PyResult<u64> {
-    u64::try_from(v).map_err(|_| {
-        value_error(format!(
-            "{name}: must be a whole number from 0 to {}, got {v}",
-            u64::MAX
-        ))
-    })
-}
-
-/// [`whole`] as a count.
-pub fn count(v: i128, name: &str) -> PyResult<usize> {
-    usize::try_from(v).map_err(|_| {
-        value_error(format!(
-            "{name}: must be a whole number from 0 to {}, got {v}",
-            usize::MAX
-        ))
-    })
-}
-
-/// [`whole`] of an optional argument.
-pub fn whole_opt(v: Option<i128>, name: &str) -> PyResult<Option<u64>> {
-    v.map(|v| whole(v, name)).transpose()
 }
 
 /// Points as a float64 array of shape `(n, 3)`.

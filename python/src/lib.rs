@@ -7,6 +7,7 @@
 //! name a flag. Nothing here may panic on bad input: every argument is checked before a library
 //! function that asserts on it is called.
 
+mod args;
 mod arrays;
 mod integrand;
 mod model;

@@ -2,6 +2,7 @@
 //! [`ModelSpec`], resolved by its own parser and defaults (the experiment files' and the CLI's),
 //! built once per distinct model and kept: tabulating a kernel's exact means takes ~10 ms.
 
+use crate::args::{self, Number, Text, Whole};
 use crate::value_error;
 use pyo3::prelude::*;
 use pyo3::types::PyString;
@@ -17,7 +18,22 @@ pub struct ModelArgs<'py> {
     pub kernel_mean_samples: Option<u64>,
 }
 
-impl ModelArgs<'_> {
+impl<'py> ModelArgs<'py> {
+    /// The model arguments as they came ([`crate::args`]), each checked for its type.
+    pub fn new(
+        kernel: Option<Bound<'py, PyAny>>,
+        noise: Option<Number>,
+        kernel_mean: Option<Text>,
+        kernel_mean_samples: Option<Whole>,
+    ) -> PyResult<Self> {
+        Ok(ModelArgs {
+            kernel,
+            noise: args::number_opt(noise.as_ref(), "noise")?,
+            kernel_mean: args::text_opt(kernel_mean.as_ref(), "kernel_mean")?.map(String::from),
+            kernel_mean_samples: args::whole_opt(kernel_mean_samples.as_ref(), "kernel_mean_samples")?,
+        })
+    }
+
     /// The model spec: the kernel parsed as an experiment file's `"kernel"` (so the same
     /// messages: `kernel.s: invalid type: …`), the rest as given.
     pub fn spec(&self, py: Python<'_>) -> PyResult<ModelSpec> {

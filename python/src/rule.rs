@@ -2,6 +2,7 @@
 //! [`workbench::bq::rule::Rule::estimate`], the one estimate sequence of the runner and the
 //! renderer.
 
+use crate::args::{self, Number, Text, Whole};
 use crate::arrays;
 use crate::model::{self, ModelArgs};
 use crate::{library_error, value_error};
@@ -102,32 +103,28 @@ type PointsAndWeights<'py> = (Bound<'py, numpy::PyArray2<f64>>, Bound<'py, numpy
 /// `rule(n=64, *, design="uniform", kernel=None, noise=None, kernel_mean=None,
 /// kernel_mean_samples=None, method="bmc", seed=0, values=None) -> (points, weights)`
 #[pyfunction]
-#[pyo3(signature = (n=64, *, design="uniform", kernel=None, noise=None, kernel_mean=None,
-    kernel_mean_samples=None, method="bmc", seed=0, values=None))]
+#[pyo3(signature = (n=Whole::of(64), *, design=Text::of("uniform"), kernel=None, noise=None,
+    kernel_mean=None, kernel_mean_samples=None, method=Text::of("bmc"), seed=Whole::of(0), values=None),
+    text_signature = "(n=64, *, design='uniform', kernel=None, noise=None, kernel_mean=None, \
+    kernel_mean_samples=None, method='bmc', seed=0, values=None)")]
 #[allow(clippy::too_many_arguments)]
 pub fn rule<'py>(
     py: Python<'py>,
-    n: i128,
-    design: &str,
+    n: Whole,
+    design: Text,
     kernel: Option<Bound<'py, PyAny>>,
-    noise: Option<f64>,
-    kernel_mean: Option<String>,
-    kernel_mean_samples: Option<i128>,
-    method: &str,
-    seed: i128,
+    noise: Option<Number>,
+    kernel_mean: Option<Text>,
+    kernel_mean_samples: Option<Whole>,
+    method: Text,
+    seed: Whole,
     values: Option<Bound<'py, PyAny>>,
 ) -> PyResult<PointsAndWeights<'py>> {
-    let n = arrays::count(n, "n")?;
-    let seed = arrays::whole(seed, "seed")?;
-    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
-    let design = design_arg(design)?;
-    let method = weighted_method_arg(method)?;
-    let args = ModelArgs {
-        kernel,
-        noise,
-        kernel_mean,
-        kernel_mean_samples,
-    };
+    let n = n.count("n")?;
+    let seed = seed.get("seed")?;
+    let design = design_arg(design.get("design")?)?;
+    let method = weighted_method_arg(method.get("method")?)?;
+    let args = ModelArgs::new(kernel, noise, kernel_mean, kernel_mean_samples)?;
     let resolved = args.resolve(py)?;
     let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
     if n > 0 {
@@ -137,6 +134,7 @@ pub fn rule<'py>(
     }
     workbench::bq::rule::check_generated_count(n, design, exact, "n").map_err(|e| value_error(e.0))?;
     check_min_points(method, n, "n")?;
+    workbench::bq::rule::check_weight_set_memory("n", n, design, exact, 0).map_err(|e| value_error(e.0))?;
     let values = values_for_model(values.as_ref(), &resolved, n)?;
     let model = model::build(py, &resolved)?;
     let (points, (weights, _)) = py
@@ -157,32 +155,29 @@ pub fn rule<'py>(
 /// method="bmc", seed=0, values=None) -> weights`
 #[pyfunction]
 #[pyo3(signature = (points, *, kernel=None, noise=None, kernel_mean=None,
-    kernel_mean_samples=None, method="bmc", seed=0, values=None))]
+    kernel_mean_samples=None, method=Text::of("bmc"), seed=Whole::of(0), values=None),
+    text_signature = "(points, *, kernel=None, noise=None, kernel_mean=None, \
+    kernel_mean_samples=None, method='bmc', seed=0, values=None)")]
 #[allow(clippy::too_many_arguments)]
 pub fn weights<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     kernel: Option<Bound<'py, PyAny>>,
-    noise: Option<f64>,
-    kernel_mean: Option<String>,
-    kernel_mean_samples: Option<i128>,
-    method: &str,
-    seed: i128,
+    noise: Option<Number>,
+    kernel_mean: Option<Text>,
+    kernel_mean_samples: Option<Whole>,
+    method: Text,
+    seed: Whole,
     values: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
-    let seed = arrays::whole(seed, "seed")?;
-    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
-    let method = weighted_method_arg(method)?;
-    let args = ModelArgs {
-        kernel,
-        noise,
-        kernel_mean,
-        kernel_mean_samples,
-    };
+    let seed = seed.get("seed")?;
+    let method = weighted_method_arg(method.get("method")?)?;
+    let args = ModelArgs::new(kernel, noise, kernel_mean, kernel_mean_samples)?;
     let resolved = args.resolve(py)?;
     let points = arrays::points(points, "points")?;
     workbench::bq::rule::check_point_count(points.len(), "points").map_err(|e| value_error(e.0))?;
     check_min_points(method, points.len(), "points")?;
+    dense_memory("points", points.len(), &resolved, 0)?;
     let values = values_for_model(values.as_ref(), &resolved, points.len())?;
     let model = model::build(py, &resolved)?;
     let design = Design::Iid(Density::Uniform);
@@ -197,18 +192,21 @@ pub fn weights<'py>(
 
 /// `kernel_means(points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0) -> z`
 #[pyfunction]
-#[pyo3(signature = (points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0))]
+#[pyo3(signature = (points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=Whole::of(0)),
+    text_signature = "(points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0)")]
 pub fn kernel_means<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     kernel: Option<Bound<'py, PyAny>>,
-    kernel_mean: Option<String>,
-    kernel_mean_samples: Option<i128>,
-    seed: i128,
+    kernel_mean: Option<Text>,
+    kernel_mean_samples: Option<Whole>,
+    seed: Whole,
 ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
-    let seed = arrays::whole(seed, "seed")?;
-    let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
-    let model = fixed_model(py, kernel, kernel_mean, kernel_mean_samples)?;
+    let seed = seed.get("seed")?;
+    let model = fixed_model(
+        py,
+        ModelArgs::new(kernel, None, kernel_mean, kernel_mean_samples)?,
+    )?;
     let points = arrays::points(points, "points")?;
     let z = py.detach(|| model.kernel_means(&points, &mut workbench::bq::rule::kernel_mean_stream(seed)));
     Ok(arrays::vector(py, z))
@@ -218,22 +216,11 @@ pub fn kernel_means<'py>(
 #[pyfunction]
 #[pyo3(signature = (kernel=None))]
 pub fn prior_variance<'py>(py: Python<'py>, kernel: Option<Bound<'py, PyAny>>) -> PyResult<f64> {
-    Ok(fixed_model(py, kernel, None, None)?.prior_variance())
+    Ok(fixed_model(py, ModelArgs::new(kernel, None, None, None)?)?.prior_variance())
 }
 
 /// A fixed (not fitted) model without noise-dependent quantities.
-fn fixed_model<'py>(
-    py: Python<'py>,
-    kernel: Option<Bound<'py, PyAny>>,
-    kernel_mean: Option<String>,
-    kernel_mean_samples: Option<u64>,
-) -> PyResult<Arc<BmcModel>> {
-    let args = ModelArgs {
-        kernel,
-        noise: None,
-        kernel_mean,
-        kernel_mean_samples,
-    };
+fn fixed_model(py: Python<'_>, args: ModelArgs<'_>) -> PyResult<Arc<BmcModel>> {
     let resolved = args.resolve(py)?;
     if resolved.is_fitted() {
         return Err(value_error(
@@ -247,26 +234,22 @@ fn fixed_model<'py>(
 /// `fit(points, values, *, method="bmc", grid=None) -> dict`: the fitted model's choice (math.md
 /// §9), as `workbench rule --points P --kernel fitted --values V` makes it.
 #[pyfunction]
-#[pyo3(signature = (points, values, *, method="bmc", grid=None))]
+#[pyo3(signature = (points, values, *, method=Text::of("bmc"), grid=None),
+    text_signature = "(points, values, *, method='bmc', grid=None)")]
 pub fn fit<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     values: &Bound<'py, PyAny>,
-    method: &str,
+    method: Text,
     grid: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let method = weighted_method_arg(method)?;
+    let method = weighted_method_arg(method.get("method")?)?;
     let kernel = PyDict::new(py);
     kernel.set_item("type", "fitted")?;
     if let Some(g) = grid {
         kernel.set_item("grid", g)?;
     }
-    let args = ModelArgs {
-        kernel: Some(kernel.into_any()),
-        noise: None,
-        kernel_mean: None,
-        kernel_mean_samples: None,
-    };
+    let args = ModelArgs::new(Some(kernel.into_any()), None, None, None)?;
     // The model's messages name the kernel's fields (`kernel: grid.noise …`, `kernel.grid: …`);
     // here the argument is the grid.
     let resolved = args.resolve(py).map_err(|e| {
@@ -284,6 +267,7 @@ pub fn fit<'py>(
     let points = arrays::points(points, "points")?;
     workbench::bq::rule::check_point_count(points.len(), "points").map_err(|e| value_error(e.0))?;
     check_min_points(method, points.len(), "points")?;
+    dense_memory("points", points.len(), &resolved, 0)?;
     let y = arrays::values(values, "values", points.len())?;
     let model = model::build(py, &resolved)?;
     let design = Design::Iid(Density::Uniform);
@@ -312,6 +296,14 @@ pub fn fit<'py>(
     out.set_item("grid", grid)?;
     out.set_item("weights", arrays::vector(py, weights.weights))?;
     Ok(out)
+}
+
+/// The memory guard ([`workbench::bq::rule::check_weight_set_memory`]) for `n` given points (a
+/// dense solve), `kept` factors kept besides.
+fn dense_memory(what: &str, n: usize, resolved: &ResolvedModel, kept: usize) -> PyResult<()> {
+    let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
+    workbench::bq::rule::check_weight_set_memory(what, n, Design::Iid(Density::Uniform), exact, kept)
+        .map_err(|e| value_error(e.0))
 }
 
 fn sobolev_s(m: &BmcModel) -> Option<f64> {
@@ -345,14 +337,21 @@ pub struct Rule {
 }
 
 impl Rule {
+    /// `what` names the argument the points came from (`n`, `points`), for the memory guard: the
+    /// rule keeps one factor per model of a fitted grid, besides the workspace.
     fn build(
         py: Python<'_>,
+        what: &str,
         points: Vec<Vec3>,
         design: Design,
         generated: bool,
         resolved: ResolvedModel,
         seed: u64,
     ) -> PyResult<Rule> {
+        let models = resolved.grid.as_ref().map_or(1, |g| g.len());
+        let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
+        workbench::bq::rule::check_weight_set_memory(what, points.len(), design, exact, models)
+            .map_err(|e| value_error(e.0))?;
         let model = model::build(py, &resolved)?;
         let kept = py
             .detach(|| {
@@ -490,14 +489,19 @@ impl Rule {
     }
 }
 
-/// The prior constant of BMCP: needed by it, refused by the others.
-fn prior_arg(method: Method, prior: Option<f64>) -> PyResult<f64> {
+/// The prior constant of BMCP: needed by it, refused by the others; bounded as the CLI bounds an
+/// experiment's `prior` ([`workbench::experiment::plan::prior_bound`]: in units of the model's
+/// prior sd at a point, so a kernel of tiny scale takes only small constants).
+fn prior_arg(method: Method, prior: Option<f64>, resolved: &ResolvedModel) -> PyResult<f64> {
     match (method.uses_prior(), prior) {
         (true, Some(c)) => {
             let max = workbench::experiment::plan::MAX_PRIOR;
-            if !(c.is_finite() && c.abs() <= max) {
+            let bound = workbench::experiment::plan::prior_bound(resolved);
+            if !(c.is_finite() && c.abs() <= bound) {
                 return Err(value_error(format!(
-                    "prior: the constant must be a finite number with |c| <= {max:e}, got {c:?}"
+                    "prior: the constant must be a finite number with |c| <= {max:e} · min(1, \
+                     √(k(x,x) + σ_n²)) = {bound:e} for this model (larger constants overflow the \
+                     fitted amplitude's rᵀQ⁻¹r), got {c:e}"
                 )));
             }
             Ok(c)
@@ -517,28 +521,25 @@ fn prior_arg(method: Method, prior: Option<f64>) -> PyResult<f64> {
 impl Rule {
     #[new]
     #[pyo3(signature = (points=None, *, n=None, design=None, kernel=None, noise=None,
-        kernel_mean=None, kernel_mean_samples=None, seed=0))]
+        kernel_mean=None, kernel_mean_samples=None, seed=Whole::of(0)),
+        text_signature = "(points=None, *, n=None, design=None, kernel=None, noise=None, \
+        kernel_mean=None, kernel_mean_samples=None, seed=0)")]
     #[allow(clippy::too_many_arguments)]
     fn new<'py>(
         py: Python<'py>,
         points: Option<&Bound<'py, PyAny>>,
-        n: Option<i128>,
-        design: Option<&str>,
+        n: Option<Whole>,
+        design: Option<Text>,
         kernel: Option<Bound<'py, PyAny>>,
-        noise: Option<f64>,
-        kernel_mean: Option<String>,
-        kernel_mean_samples: Option<i128>,
-        seed: i128,
+        noise: Option<Number>,
+        kernel_mean: Option<Text>,
+        kernel_mean_samples: Option<Whole>,
+        seed: Whole,
     ) -> PyResult<Rule> {
-        let n = n.map(|n| arrays::count(n, "n")).transpose()?;
-        let seed = arrays::whole(seed, "seed")?;
-        let kernel_mean_samples = arrays::whole_opt(kernel_mean_samples, "kernel_mean_samples")?;
-        let args = ModelArgs {
-            kernel,
-            noise,
-            kernel_mean,
-            kernel_mean_samples,
-        };
+        let n = n.map(|n| n.count("n")).transpose()?;
+        let seed = seed.get("seed")?;
+        let design = args::text_opt(design.as_ref(), "design")?;
+        let args = ModelArgs::new(kernel, noise, kernel_mean, kernel_mean_samples)?;
         let resolved = args.resolve(py)?;
         let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
         match (points, n) {
@@ -552,7 +553,15 @@ impl Rule {
                 let points = arrays::points(p, "points")?;
                 workbench::bq::rule::check_point_count(points.len(), "points")
                     .map_err(|e| value_error(e.0))?;
-                Rule::build(py, points, Design::Iid(Density::Uniform), false, resolved, seed)
+                Rule::build(
+                    py,
+                    "points",
+                    points,
+                    Design::Iid(Density::Uniform),
+                    false,
+                    resolved,
+                    seed,
+                )
             }
             (None, n) => {
                 let n = n.unwrap_or(64);
@@ -565,7 +574,7 @@ impl Rule {
                 workbench::bq::rule::check_generated_count(n, design, exact, "n")
                     .map_err(|e| value_error(e.0))?;
                 let points = workbench::bq::rule::generate_points(n, seed, design);
-                Rule::build(py, points, design, true, resolved, seed)
+                Rule::build(py, "n", points, design, true, resolved, seed)
             }
         }
     }
@@ -607,14 +616,15 @@ impl Rule {
 
     /// `weights(method="bmc", values=None)`: the rule's weights for `method` (`bsq`: Bayes–Sard's,
     /// summing to 2π); a fitted rule needs the values that choose its model.
-    #[pyo3(signature = (method="bmc", values=None))]
+    #[pyo3(signature = (method=Text::of("bmc"), values=None),
+        text_signature = "($self, method='bmc', values=None)")]
     fn weights<'py>(
         &self,
         py: Python<'py>,
-        method: &str,
+        method: Text,
         values: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
-        let method = weighted_method_arg(method)?;
+        let method = weighted_method_arg(method.get("method")?)?;
         check_min_points(method, self.points.len(), "points")?;
         let (_, _, w) = self.weight_set(method, values)?;
         Ok(arrays::vector(py, w.weights))
@@ -622,14 +632,15 @@ impl Rule {
 
     /// `diagnostics(method="bmc", values=None) -> dict`: the weight set's diagnostics (as `workbench
     /// rule --summary` states them) and, for a fitted rule, the chosen model with every model's ℓ.
-    #[pyo3(signature = (method="bmc", values=None))]
+    #[pyo3(signature = (method=Text::of("bmc"), values=None),
+        text_signature = "($self, method='bmc', values=None)")]
     fn diagnostics<'py>(
         &self,
         py: Python<'py>,
-        method: &str,
+        method: Text,
         values: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let method = weighted_method_arg(method)?;
+        let method = weighted_method_arg(method.get("method")?)?;
         check_min_points(method, self.points.len(), "points")?;
         let (k, ells, w) = self.weight_set(method, values)?;
         let d = &w.diagnostics;
@@ -666,7 +677,12 @@ impl Rule {
             ));
         }
         let n = self.points.len();
-        let mut q = vec![0.0; n * n];
+        // 8 n² bytes more: 32 GiB at n = 65536 on rings (whose own factor is small), which
+        // aborted the interpreter; the guard first, then a fallible allocation.
+        let what = format!("n: q_inverse() of a rule of {n} points (a {n} × {n} matrix)");
+        workbench::bq::rule::check_memory(&what, workbench::util::memory::matrix_bytes(n))
+            .map_err(|e| value_error(e.0))?;
+        let mut q = workbench::util::memory::try_zeros(n * n, &what).map_err(value_error)?;
         for i in 0..n {
             q[i * n + i] = 1.0;
         }
@@ -678,15 +694,18 @@ impl Rule {
     }
 
     /// `estimate(values, method="bmc", prior=None, scale=None) -> (value, sd)`.
-    #[pyo3(signature = (values, method="bmc", prior=None, scale=None))]
+    #[pyo3(signature = (values, method=Text::of("bmc"), prior=None, scale=None),
+        text_signature = "($self, values, method='bmc', prior=None, scale=None)")]
     fn estimate(
         &self,
         values: &Bound<'_, PyAny>,
-        method: &str,
-        prior: Option<f64>,
-        scale: Option<&str>,
+        method: Text,
+        prior: Option<Number>,
+        scale: Option<Text>,
     ) -> PyResult<(f64, f64)> {
-        let method = weighted_method_arg(method)?;
+        let method = weighted_method_arg(method.get("method")?)?;
+        let prior = args::number_opt(prior.as_ref(), "prior")?;
+        let scale = args::text_opt(scale.as_ref(), "scale")?;
         let y = arrays::values(values, "values", self.points.len())?;
         self.estimate_checked(method, &y, prior, scale)
     }
@@ -717,7 +736,7 @@ impl Rule {
         scale: Option<&str>,
     ) -> PyResult<(f64, f64)> {
         check_min_points(method, self.points.len(), "points")?;
-        let prior = prior_arg(method, prior)?;
+        let prior = prior_arg(method, prior, &self.resolved)?;
         let scale = scale.map_or(Ok(Scale::DEFAULT), scale_arg)?;
         Ok(self.estimate_values(method, y, prior, scale))
     }
@@ -735,15 +754,18 @@ pub fn json_to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResu
 #[allow(clippy::too_many_arguments)]
 pub fn estimate<'py>(
     py: Python<'py>,
-    method: &str,
+    method: Text,
     points: &Bound<'py, PyAny>,
     values: &Bound<'py, PyAny>,
     weights: Option<&Bound<'py, PyAny>>,
-    prior: Option<f64>,
-    scale: Option<&str>,
-    density: Option<&str>,
+    prior: Option<Number>,
+    scale: Option<Text>,
+    density: Option<Text>,
 ) -> PyResult<(f64, f64)> {
-    let method = method_arg(method)?;
+    let method = method_arg(method.get("method")?)?;
+    let prior = args::number_opt(prior.as_ref(), "prior")?;
+    let scale = args::text_opt(scale.as_ref(), "scale")?;
+    let density = args::text_opt(density.as_ref(), "density")?;
     if !method.needs_weights() {
         for (name, given) in [
             ("weights", weights.is_some()),
@@ -767,6 +789,18 @@ pub fn estimate<'py>(
         };
         let points = arrays::points(points, "points")?;
         let y = arrays::values(values, "values", points.len())?;
+        // f/p at a point where the density is 0 is no term of the mean (it gave (nan, nan)).
+        if let Some(i) = points.iter().position(|w| density.pdf(w) <= 0.0) {
+            return Err(value_error(format!(
+                "points: row {i} ({}, {}, {}) has density 0 under density {:?} (the cosine density \
+                 is 0 on the horizon z = 0), so f/p is undefined there; MC needs points where the \
+                 density is positive",
+                points[i].x,
+                points[i].y,
+                points[i].z,
+                density.name()
+            )));
+        }
         let rule = workbench::bq::rule::Rule {
             density,
             points: &points,
@@ -801,14 +835,8 @@ pub fn estimate<'py>(
             workbench::bq::rule::check_point_count(p.len(), "points").map_err(|e| value_error(e.0))?;
             let y = arrays::values(values, "values", p.len())?;
             check_min_points(method, p.len(), "points")?;
-            let resolved = ModelArgs {
-                kernel: None,
-                noise: None,
-                kernel_mean: None,
-                kernel_mean_samples: None,
-            }
-            .resolve(py)?;
-            let rule = Rule::build(py, p, Design::Iid(Density::Uniform), false, resolved, 0)?;
+            let resolved = ModelArgs::new(None, None, None, None)?.resolve(py)?;
+            let rule = Rule::build(py, "points", p, Design::Iid(Density::Uniform), false, resolved, 0)?;
             rule.estimate_checked(method, &y, prior, scale)
         }
     }
@@ -852,16 +880,18 @@ fn same_points(points: &Bound<'_, PyAny>, own: &[Vec3]) -> PyResult<()> {
 /// the mean seconds of the estimate's own work (the model's `Q⁻¹Y`, the amplitude, `Î` and its
 /// sd) without the Python call around it, for the overhead benchmark (`python/bench/`).
 #[pyfunction]
-#[pyo3(name = "_estimate_core_seconds", signature = (rule, values, method="bmc", scale=None, iterations=10000))]
+#[pyo3(name = "_estimate_core_seconds", signature = (rule, values, method=Text::of("bmc"), scale=None, iterations=10000),
+    text_signature = "(rule, values, method='bmc', scale=None, iterations=10000)")]
 pub fn estimate_core_seconds(
     rule: &Bound<'_, Rule>,
     values: &Bound<'_, PyAny>,
-    method: &str,
-    scale: Option<&str>,
+    method: Text,
+    scale: Option<Text>,
     iterations: usize,
 ) -> PyResult<f64> {
     let rule = rule.get();
-    let method = weighted_method_arg(method)?;
+    let method = weighted_method_arg(method.get("method")?)?;
+    let scale = args::text_opt(scale.as_ref(), "scale")?;
     let y = arrays::values(values, "values", rule.points.len())?;
     let scale = scale.map_or(Ok(Scale::DEFAULT), scale_arg)?;
     let start = std::time::Instant::now();

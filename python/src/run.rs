@@ -1,6 +1,7 @@
 //! `run(spec)`: an experiment's trials in memory, the rows of `trials.csv` as columns; and the
 //! points a run's trial draws.
 
+use crate::args::{Text, Whole};
 use crate::arrays;
 use crate::{library_error, value_error};
 use pyo3::prelude::*;
@@ -45,9 +46,9 @@ fn plan_of(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Plan> {
 pub fn run<'py>(
     py: Python<'py>,
     spec: &Bound<'py, PyAny>,
-    threads: Option<i128>,
+    threads: Option<Whole>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let threads = threads.map(|t| arrays::count(t, "threads")).transpose()?;
+    let threads = threads.map(|t| t.count("threads")).transpose()?;
     if let Some(t) = threads {
         workbench::util::threads::check_threads(t).map_err(|_| {
             value_error(format!(
@@ -57,6 +58,9 @@ pub fn run<'py>(
         })?;
     }
     let plan = plan_of(py, spec)?;
+    // The run's memory guard, as the CLI's `run` (every worker thread holds its weight sets).
+    workbench::experiment::plan::check_memory(&plan, workbench::util::threads::worker_threads(threads))
+        .map_err(|e| value_error(e.0))?;
     for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
         crate::model::warn(py, &w)?;
     }
@@ -137,14 +141,15 @@ fn columns<'py>(py: Python<'py>, plan: &Plan, rows: &[TrialRow]) -> PyResult<Bou
 #[pyfunction]
 pub fn trial_points<'py>(
     py: Python<'py>,
-    seed: i128,
-    design: &str,
-    n: i128,
-    trial: i128,
+    seed: Whole,
+    design: Text,
+    n: Whole,
+    trial: Whole,
 ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
-    let seed = arrays::whole(seed, "seed")?;
-    let n = arrays::count(n, "n")?;
-    let trial = arrays::count(trial, "trial")?;
+    let seed = seed.get("seed")?;
+    let design = design.get("design")?;
+    let n = n.count("n")?;
+    let trial = trial.count("trial")?;
     let d = workbench::sampling::Design::from_name(design).ok_or_else(|| {
         value_error(format!(
             "design: unknown design {design:?}; expected one of {}",

@@ -68,7 +68,7 @@ def test_estimate_arguments():
     raises(r'^method: unknown method "bmq"; expected one of "mc", "bmc", "bmcp", "bsq"$', wb.estimate, "bmq", POINTS, Y)
     raises(r"^prior: method \"bmcp\" needs its constant", wb.estimate, "bmcp", POINTS, Y, weights=RULE)
     raises(r"^prior: 0.5 is not used by method \"bmc\"", wb.estimate, "bmc", POINTS, Y, weights=RULE, prior=0.5)
-    raises(r"^prior: .*\|c\| <= 1e100, got 1e101", wb.estimate, "bmcp", POINTS, Y, weights=RULE, prior=1e101)
+    raises(r"^prior: .*\|c\| <= 1e100 · min\(1, √\(k\(x,x\) \+ σ_n²\)\) = 1e100 for this model .*got 1e101$", wb.estimate, "bmcp", POINTS, Y, weights=RULE, prior=1e101)
     raises(r"^prior: .*got NaN", wb.estimate, "bmcp", POINTS, Y, weights=RULE, prior=float("nan"))
     raises(r'^scale: unknown scale "big"', wb.estimate, "bmc", POINTS, Y, weights=RULE, scale="big")
     raises(r'^scale: not used by method "mc"', wb.estimate, "mc", POINTS, Y, scale="ml")

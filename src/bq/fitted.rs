@@ -22,6 +22,13 @@ use crate::util::geometry::Vec3;
 /// `ℓ` of one candidate for `method` on values `y` with prior constant `prior` (BMCP), given the
 /// candidate's weights (for `u = Q⁻¹1`), `Q⁻¹Y` and `log det Q`; `+∞` when every residual is 0
 /// (every candidate then ties), None for MC.
+///
+/// Scale-invariant (issue 30): values `c·Y` (with the prior `c·prior`) shift every candidate's
+/// `ℓ` by the same `−d log c`, so they choose the same model. When `λ̂` is not a normal number
+/// (values near 1e155 overflow `rᵀQ⁻¹r` to `∞`, and every `ℓ` was `−∞`, so the first model won;
+/// values near 1e-160 underflow it) it is computed on `Y / 2^k`, `2^k` the largest magnitude's
+/// power of two, and `log λ̂ = log λ̂(Y/2^k) + 2k log 2`. Otherwise `λ̂` is used directly, so
+/// every ℓ computed before keeps its bits.
 pub fn log_marginal_likelihood(
     method: Method,
     y: &[f64],
@@ -31,15 +38,21 @@ pub fn log_marginal_likelihood(
     log_det: f64,
 ) -> Option<f64> {
     let dof = method.ml_dof(y.len());
-    let amplitude = method.amplitude(
-        Scale::Ml,
-        y,
-        Solved::Full(values_solve),
-        Some(weights),
-        prior,
-        None,
-    )?;
-    let mut ell = -0.5 * dof as f64 * amplitude.ln() - 0.5 * log_det;
+    let amplitude = |y: &[f64], solve: &[f64], prior: f64| {
+        method.amplitude(Scale::Ml, y, Solved::Full(solve), Some(weights), prior, None)
+    };
+    let direct = amplitude(y, values_solve, prior)?;
+    let log_amplitude = if direct.is_normal() {
+        direct.ln()
+    } else {
+        let mut all = y.to_vec();
+        all.push(prior);
+        let k = crate::bq::weights::power_of_two_scale(&all);
+        let ys: Vec<f64> = y.iter().map(|v| v / k).collect();
+        let ss: Vec<f64> = values_solve.iter().map(|v| v / k).collect();
+        amplitude(&ys, &ss, prior / k)?.ln() + 2.0 * k.ln()
+    };
+    let mut ell = -0.5 * dof as f64 * log_amplitude - 0.5 * log_det;
     if method == Method::Bsq {
         ell -= 0.5 * weights.ones_solve.iter().sum::<f64>().ln();
     }

@@ -95,9 +95,25 @@ impl BmcModel {
     }
 
     /// A warning if the kernel-mean table is less accurate than its target (see
-    /// [`KernelMeanTable::accuracy_warning`]); callers report it.
+    /// [`KernelMeanTable::accuracy_warning`]) or, for a fixed model or any model of a fitted grid,
+    /// a Sobolev kernel's scale is below the noise ([`Sobolev::scale_warning`]); callers report
+    /// it.
     pub fn accuracy_warning(&self) -> Option<String> {
-        self.table.accuracy_warning()
+        let models = if self.candidates.is_empty() {
+            std::slice::from_ref(self)
+        } else {
+            &self.candidates[..]
+        };
+        let warnings: Vec<String> = self
+            .table
+            .accuracy_warning()
+            .into_iter()
+            .chain(models.iter().filter_map(|m| match &m.kernel {
+                Kernel::Sobolev(k) => k.scale_warning(m.noise),
+                _ => None,
+            }))
+            .collect();
+        (!warnings.is_empty()).then(|| warnings.join("; "))
     }
 
     /// The kernel means `z_i` of `points` (points in the local frame, normal `+z`).
@@ -194,13 +210,45 @@ pub enum KernelSpec {
 }
 
 /// The grid of a fitted model: every `s` with every noise σ_n².
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub s: Option<Vec<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<Vec<f64>>,
+}
+
+/// [`GridSpec`]'s fields, read by serde's derived reader once the value is known to be an object.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GridFields {
+    #[serde(default)]
+    s: Option<Vec<f64>>,
+    #[serde(default)]
+    noise: Option<Vec<f64>>,
+}
+
+// Read from an object only: serde's derived reader also takes a struct from a list, so
+// `"grid": []` was the default grid, where the schema says it is invalid (issue 30).
+impl<'de> Deserialize<'de> for GridSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Object;
+        impl<'de> serde::de::Visitor<'de> for Object {
+            type Value = GridSpec;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("an object with a list \"s\" and/or a list \"noise\"")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<GridSpec, A::Error> {
+                let f = GridFields::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(GridSpec {
+                    s: f.s,
+                    noise: f.noise,
+                })
+            }
+        }
+        d.deserialize_map(Object)
+    }
 }
 
 /// The fitted model's default smoothnesses (math.md §9): two rough kernels (edged integrands)

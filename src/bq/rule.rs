@@ -13,6 +13,7 @@ use crate::error::InputError;
 use crate::sampling::{Density, Design, Structure};
 use crate::util::geometry::Vec3;
 use crate::util::rng::stream;
+use crate::util::shown::shown;
 
 /// A rule on one point set: the points in the local frame, the density each was drawn from (what
 /// MC divides by), and for the estimators with weights the weights of the set and, for the `loo`
@@ -93,6 +94,49 @@ pub fn matrix_gib(n: usize) -> f64 {
     8.0 * (n as f64).powi(2) / (1u64 << 30) as f64
 }
 
+/// Bytes one weight set of `n` points drawn with `design` holds while it is computed, the one
+/// memory estimate of a weight set every door uses ([`crate::util::memory`]): dense, the `N × N`
+/// matrix `Q` factored in place (`8 N²`); on a ring set with exact kernel means (the ring
+/// solver), the spectra and block factors, `16 N J` for `J` rings (about `6 N J` measured, so
+/// a safe side). The points, weights and solves (`O(N)`) are left out.
+pub fn weight_set_bytes(n: usize, design: Design, exact_kernel_means: bool) -> u64 {
+    if design.structure() == Structure::Rings && exact_kernel_means {
+        let rings = crate::sampling::rings::layout(n).rings as u64;
+        16u64.saturating_mul(n as u64).saturating_mul(rings)
+    } else {
+        crate::util::memory::matrix_bytes(n)
+    }
+}
+
+/// [`crate::util::memory::check`] as bad input: `what` (a flag, field or argument with its value)
+/// needs `bytes`; exit 2 or a `ValueError` when it is over the budget.
+pub fn check_memory(what: &str, bytes: u64) -> Result<(), InputError> {
+    crate::util::memory::check(what, bytes).map_err(InputError::new)
+}
+
+/// The memory guard before weight sets of `n` points on `design` are computed, `kept` factors
+/// kept besides the one being computed (a Python `Rule` keeps one per model of its grid; 0
+/// elsewhere): `what` names the argument (`--n`, `n`, `points`).
+pub fn check_weight_set_memory(
+    what: &str,
+    n: usize,
+    design: Design,
+    exact_kernel_means: bool,
+    kept: usize,
+) -> Result<(), InputError> {
+    let one = weight_set_bytes(n, design, exact_kernel_means);
+    if kept == 0 {
+        return check_memory(&format!("{what}: a weight set of {n} points"), one);
+    }
+    check_memory(
+        &format!(
+            "{what}: a rule of {n} points keeping {kept} factor{} (one per model)",
+            if kept == 1 { "" } else { "s" }
+        ),
+        one.saturating_mul(kept as u64 + 1),
+    )
+}
+
 /// Rejects `n = 0` and `n` whose matrices would not fit the memory budget.
 pub fn check_point_count(n: usize, what: &str) -> Result<(), InputError> {
     if n == 0 {
@@ -132,16 +176,6 @@ pub fn check_point(p: Vec3) -> Result<(), String> {
         return Err(format!("z = {} is below the horizon (need z >= 0)", shown(p.z)));
     }
     Ok(())
-}
-
-/// `v` for a message: as written (`0.6`, `-0.8`, `1`) between 1e-4 and 1e16, in exponent form
-/// outside (`-1e-300`, not three hundred digits).
-fn shown(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e16).contains(&v.abs()) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
-    }
 }
 
 /// Stream identifiers under the rule's seed.

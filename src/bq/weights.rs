@@ -59,6 +59,11 @@ impl Scale {
 /// [`SpdWorkspace::inverse_diagonal`]); `unit` is 1. O(N) given the solve. All residuals exactly
 /// 0 give exactly 0 (a [`NumericalWarning::ZeroAmplitude`] for the caller to count).
 ///
+/// Never 0 by overflow (issue 30): `rᵀQ⁻¹r` is summed on `r / 2^k` (`2^k` the largest `|r_i|`'s
+/// power of two, an exact scaling, so every finite result keeps its bits) and scaled back, so
+/// values near 1e155 give `+∞` instead of `∞ − ∞ = NaN`, which `max(0)` turned into 0; and a NaN
+/// left by an overflowed solve of finite residuals is `+∞` ([`overflowed_to_infinity`]).
+///
 /// # Panics
 /// With `loo` and no `inverse_diagonal`, or mismatched lengths.
 pub fn fit_amplitude(
@@ -73,13 +78,43 @@ pub fn fit_amplitude(
     }
     match scale {
         Scale::Unit => unreachable!("fixed_amplitude returns it"),
-        // rᵀQ⁻¹r ≥ 0 for SPD Q; max() only guards rounding.
-        Scale::Ml => (dot(residuals, solved) / dof as f64).max(0.0),
+        // rᵀQ⁻¹r ≥ 0 for SPD Q; the clamp only guards rounding (and keeps a NaN a NaN).
+        Scale::Ml => {
+            let k = power_of_two_scale(residuals);
+            let scaled: f64 = residuals.iter().zip(solved).map(|(r, s)| (r / k) * s).sum();
+            let v = scaled / dof as f64 * k;
+            overflowed_to_infinity(if v < 0.0 { 0.0 } else { v }, residuals)
+        }
         Scale::Loo => {
             let d = inverse_diagonal.expect("loo needs diag(Q⁻¹)");
             assert_eq!(d.len(), solved.len(), "one diagonal entry per point");
-            solved.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / solved.len() as f64
+            let v = solved.iter().zip(d).map(|(ai, di)| ai * ai / di).sum::<f64>() / solved.len() as f64;
+            overflowed_to_infinity(v, residuals)
         }
+    }
+}
+
+/// The power of two `2^k ≤ max |x_i| < 2^(k+1)`, 1 when that is 0, subnormal or not finite:
+/// dividing by it is exact, so it rescales sums of products without changing a finite result's
+/// bits.
+pub fn power_of_two_scale(x: &[f64]) -> f64 {
+    let m = x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if m.is_normal() {
+        // Clearing the mantissa leaves the largest power of two not above m.
+        f64::from_bits(m.to_bits() & 0x7ff0_0000_0000_0000)
+    } else {
+        1.0
+    }
+}
+
+/// A fitted amplitude of finite residuals is `rᵀQ⁻¹r / d ≥ 0`; NaN there comes only from an
+/// overflow in the solve or the sum (`∞ − ∞`), so it is `+∞`: a stated sd that overflows is
+/// infinite, never 0 (issue 30). Non-finite residuals keep their NaN.
+fn overflowed_to_infinity(amplitude: f64, residuals: &[f64]) -> f64 {
+    if amplitude.is_nan() && residuals.iter().all(|r| r.is_finite()) {
+        f64::INFINITY
+    } else {
+        amplitude
     }
 }
 
@@ -116,7 +151,7 @@ pub fn fit_amplitude_half(scale: Scale, residuals: &[f64], half: &[f64], dof: us
     }
     match scale {
         Scale::Unit => unreachable!("fixed_amplitude returns it"),
-        Scale::Ml => (half.iter().map(|y| y * y).sum::<f64>() / dof as f64).max(0.0),
+        Scale::Ml => overflowed_to_infinity(half.iter().map(|y| y * y).sum::<f64>() / dof as f64, residuals),
         Scale::Loo => panic!("the loo amplitude needs Q⁻¹r, not L⁻¹r"),
     }
 }
@@ -361,7 +396,10 @@ pub fn validate_noise(noise: f64) -> Result<f64, String> {
     if noise.is_finite() && noise >= 0.0 {
         Ok(noise)
     } else {
-        Err(format!("noise must be finite and >= 0, got {noise}"))
+        Err(format!(
+            "noise must be finite and >= 0, got {}",
+            crate::util::shown::shown(noise)
+        ))
     }
 }
 

@@ -24,8 +24,10 @@ use workbench::render::table::{self, TablePlan};
     workbench reproduce experiments/cos3.json experiments/render-table.json\n  \
     workbench reproduce my-experiments/ --results-dir /tmp/results -q\n\n\
     A folder gives its experiment files by file name, then its render tables by file name. Every \
-    file is validated before the first one runs. Estimates come from an earlier run's timings in \
-    the output folder where there is one, else from a table measured on a 2-core machine.\n\n\
+    file is validated before the first one runs; a *.json that is not a regular file (a dangling \
+    symlink, a symlink loop, a FIFO, a device) is refused by name. Estimates come from an earlier \
+    run's timings of the same plan in the output folder where there are some, else, for a shipped \
+    file as shipped, from a table measured on a 2-core machine.\n\n\
     Exit codes: 0 every file ran and every check passed; 1 a check failed (every file still ran \
     and wrote its outputs); 2 any error (bad input before anything runs; a failure while running \
     stops at that file, naming it, and keeps the outputs of the files before it).")]
@@ -49,23 +51,27 @@ pub struct ReproduceArgs {
 
 /// Wall-clock seconds each shipped file took on this project's 2-core machine on 2026-11-25
 /// while other builds and render tables shared it (load average 5–10, so they overstate an idle
-/// machine's times), by the name of its output folder: the estimate for a file whose output
-/// folder holds no timings of an earlier run.
-const MEASURED: &[(&str, f64)] = &[
-    ("adaptive", 210.0),
-    ("calibration", 13.0),
-    ("cos", 2.6),
-    ("cos2", 2.6),
-    ("cos3-designs", 8.9),
-    ("cos3-thesis-kernel-mean", 56.0),
-    ("cos3", 1.4),
-    ("glossy", 2.9),
-    ("learned-kernel", 87.0),
-    ("lights", 2.8),
-    ("pixels", 3.6),
-    ("render-adaptive", 174.0),
-    ("render-table", 313.0),
-    ("rings", 1.9),
+/// machine's times), by the name of its output folder and the hash of its plan
+/// ([`ex::unit_log::plan_hash`], [`table::export::plan_hash`]): the estimate for a file whose
+/// output folder holds no timings of an earlier run of the same plan. Only the shipped plan gets
+/// it (issue 30: a file of the same name with other trials or N got "about 1.4 s" for hours); a
+/// test lists the shipped files and fails when one has no estimate, i.e. when its plan (or the
+/// plan's JSON form) changed and the hash here must follow.
+const MEASURED: &[(&str, &str, f64)] = &[
+    ("adaptive", "298442784c9af9ef", 210.0),
+    ("calibration", "323d9d52ff4cb6dc", 13.0),
+    ("cos", "4a3445482a8ab423", 2.6),
+    ("cos2", "a1daf28dd015f3c6", 2.6),
+    ("cos3-designs", "97c5a9457a7023df", 8.9),
+    ("cos3-thesis-kernel-mean", "993ddf34a8f79d5c", 56.0),
+    ("cos3", "7441f968e91e9cbf", 1.4),
+    ("glossy", "632cf3cccbbbc598", 2.9),
+    ("learned-kernel", "ea110df5a06e4e99", 87.0),
+    ("lights", "72d6ef159ac2503b", 2.8),
+    ("pixels", "71e6a39cf4560e62", 3.6),
+    ("render-adaptive", "112b9c7dcc882fec", 174.0),
+    ("render-table", "9f441aeb230a527c", 313.0),
+    ("rings", "75fdd1903622f6f1", 1.9),
 ];
 
 enum Job {
@@ -219,6 +225,7 @@ fn plan(
                 }
             }
         } else {
+            regular_file(path)?;
             files.push(path.clone());
         }
     }
@@ -272,7 +279,11 @@ fn folder_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         let path = entry
             .with_context(|| format!("reading the folder {}", dir.display()))?
             .path();
-        if path.extension().is_some_and(|e| e == "json") && path.is_file() {
+        // Every *.json is refused unless it is a regular file (or a symlink to one): skipping a
+        // dangling symlink, a loop or a FIFO would regenerate less than asked and say nothing,
+        // and reading a FIFO would wait for a writer.
+        if path.extension().is_some_and(|e| e == "json") {
+            regular_file(&path)?;
             files.push(path);
         }
     }
@@ -295,14 +306,62 @@ fn folder_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// The seconds an earlier run wrote into the output folder (`timings.json` of an experiment,
-/// the per-render `timings.csv` of a table), else the built-in measurement of a shipped file.
+/// Refuses, by name, a file given to `reproduce` that is not a regular file once symlinks are
+/// followed: a dangling symlink, a symlink loop, a folder, a FIFO, a device or a socket.
+fn regular_file(path: &Path) -> Result<(), InputError> {
+    let refuse = |what: String| {
+        Err(InputError::new(format!(
+            "{}: {what}; reproduce reads experiment files and render tables, which are regular files",
+            path.display()
+        )))
+    };
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => Ok(()),
+        Ok(m) => {
+            use std::os::unix::fs::FileTypeExt;
+            let t = m.file_type();
+            let kind = if t.is_dir() {
+                "a folder"
+            } else if t.is_fifo() {
+                "a FIFO (named pipe)"
+            } else if t.is_socket() {
+                "a socket"
+            } else if t.is_block_device() || t.is_char_device() {
+                "a device"
+            } else {
+                "not a regular file"
+            };
+            refuse(format!("is {kind}"))
+        }
+        Err(e) => match std::fs::symlink_metadata(path) {
+            Ok(l) if l.file_type().is_symlink() => {
+                if e.raw_os_error() == Some(40) {
+                    // ELOOP
+                    refuse("is a symlink loop".into())
+                } else {
+                    let target = std::fs::read_link(path).map_or("?".into(), |t| t.display().to_string());
+                    refuse(format!("is a symlink to {target}, which does not exist ({e})"))
+                }
+            }
+            _ => refuse(format!("cannot be read ({e})")),
+        },
+    }
+}
+
+/// The seconds an earlier run of the same plan wrote into the output folder (`timings.json` of
+/// an experiment, the per-render `timings.csv` of a table, with the plan's hash in
+/// `timings.json`), else the built-in measurement of a shipped file as shipped.
 fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
-    let here = match job {
-        Job::Experiment(_) => std::fs::read(out.join("timings.json"))
-            .ok()
-            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            .and_then(|v| v["wall_seconds"].as_f64()),
+    let hash = match job {
+        Job::Experiment(p) => ex::unit_log::plan_hash(p),
+        Job::Table(p) => table::export::plan_hash(p),
+    };
+    let timings = std::fs::read(out.join("timings.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .filter(|v| v["plan_hash"].as_str() == Some(hash.as_str()));
+    let here = timings.and_then(|timings| match job {
+        Job::Experiment(_) => timings["wall_seconds"].as_f64(),
         Job::Table(_) => std::fs::read_to_string(out.join("timings.csv"))
             .ok()
             .and_then(|t| {
@@ -313,7 +372,7 @@ fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
                     .collect();
                 seconds.map(|s| s.iter().sum())
             }),
-    };
+    });
     let name = match job {
         Job::Experiment(p) => &p.name,
         Job::Table(p) => &p.name,
@@ -323,8 +382,8 @@ fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
         .or_else(|| {
             MEASURED
                 .iter()
-                .find(|(n, _)| n == name)
-                .map(|&(_, seconds)| Estimate { seconds, here: false })
+                .find(|(n, h, _)| n == name && *h == hash)
+                .map(|&(_, _, seconds)| Estimate { seconds, here: false })
         })
 }
 

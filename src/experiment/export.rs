@@ -249,10 +249,17 @@ pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>
 }
 
 /// `timings.json`: how long the run took on how many threads (the folder adds the list of
-/// machine-dependent files). Machine-dependent, so it stays out of the manifest and out of the
-/// committed results.
-pub fn timings_json(threads: usize, wall_seconds: f64) -> serde_json::Value {
-    serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds })
+/// machine-dependent files and the build). Machine-dependent, so it stays out of the manifest and
+/// out of the committed results. `plan_hash` ([`super::unit_log::plan_hash`]) is given only when
+/// `wall_seconds` is the time of the whole plan (not a shard, a resumed remainder or a merge):
+/// `reproduce` estimates a file's time from an earlier run only with it, and only for the same
+/// plan.
+pub fn timings_json(threads: usize, wall_seconds: f64, plan_hash: Option<String>) -> serde_json::Value {
+    let mut v = serde_json::json!({ "threads": threads, "wall_seconds": wall_seconds });
+    if let Some(h) = plan_hash {
+        v["plan_hash"] = h.into();
+    }
+    v
 }
 
 /// `fits.csv`: per (integrand, estimator), the least-squares slope of ln(mean |Î − I|) against

@@ -11,7 +11,7 @@
 use super::export;
 use super::finish::{self, Findings};
 use super::plan::{self, Plan};
-use super::rows::parse_row;
+use super::rows::check_row;
 use super::spec::ExperimentSpec;
 use super::summary::Accumulator;
 use super::unit_log::{Identity, LogSet, SHARD_UNITS, Shard};
@@ -255,22 +255,22 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     reporter.start("trials×N", units as u64);
     let mut summary = Accumulator::new(&plan);
     let per_unit = super::unit_log::rows_per_unit(&plan);
+    let count = logs.paths.len();
     logs.for_each_row(&plan, &mut |u, fi, ei, line| {
         let (ni, t) = (u / plan.trials, u % plan.trials);
-        let shard_log = &logs.paths[u % logs.paths.len()];
+        let shard_log = &logs.paths[u % count];
+        // Two header lines, then this shard's units in order, `per_unit` rows each.
+        let line_no = 3 + (u / count) * per_unit + fi * plan.estimators.len() + ei;
         let wrong = |m: String| -> Error {
             InputError::new(format!(
-                "merge: {}: unit N = {}, trial {t}: {m}",
+                "merge: {}: line {line_no} (N = {}, trial {t}): {m}; this shard is damaged, run it again",
                 shard_log.display(),
                 plan.samples[ni]
             ))
             .into()
         };
-        let (n, trial, mut values, model) = parse_row(line).map_err(|m| wrong(format!("a row {m}")))?;
-        if let Some(label) = model {
-            values.model =
-                Some(super::rows::model_index(&plan, ei, label).map_err(|m| wrong(format!("a row {m}")))?);
-        }
+        // Every column is checked: its text goes into the merged trials.csv as it is.
+        let (n, trial, values) = check_row(&plan, fi, ei, line).map_err(|m| wrong(format!("the row {m}")))?;
         if (n, trial) != (plan.samples[ni], t) {
             return Err(wrong(format!("found a row of N = {n}, trial {trial}")));
         }
@@ -289,7 +289,9 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
         &findings.calibration,
     ))
     .expect("the manifest is JSON");
-    folder.commit(manifest, export::timings_json(1, wall_seconds))?;
+    // The merge's own seconds, not the run's: no plan hash, so `reproduce` does not take them
+    // for the run's time.
+    folder.commit(manifest, export::timings_json(1, wall_seconds, None))?;
     Ok((
         plan,
         MergeReport {

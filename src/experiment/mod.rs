@@ -146,6 +146,8 @@ pub fn run_plan(
         ))
         .into());
     }
+    // Every worker thread holds its weight sets at once: refused before anything is written.
+    plan::check_memory(plan, crate::util::threads::worker_threads(overrides.threads))?;
     let inputs: Vec<(&str, &Path)> = overrides
         .spec
         .iter()
@@ -243,7 +245,9 @@ pub fn run_plan(
         manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
         manifest["tolerance_checks"] = adaptive::checks_json(plan, &tolerance_checks);
     }
-    folder.commit(manifest, export::timings_json(threads, wall_seconds))?;
+    // The whole plan's time only: a shard's or a resumed remainder's would understate it.
+    let whole = (overrides.shard.is_none() && !overrides.resume).then(|| unit_log::plan_hash(plan));
+    folder.commit(manifest, export::timings_json(threads, wall_seconds, whole))?;
     let findings = findings.unwrap_or(finish::Findings {
         cells: Vec::new(),
         checks: Vec::new(),

@@ -7,6 +7,7 @@ use crate::bq::model::BmcModel;
 use crate::bq::model::ResolvedModel;
 use crate::bq::rule::MAX_POINTS;
 use crate::bq::weights::Scale;
+use crate::error::InputError;
 use crate::integrand::{CosPower, Integrand};
 use crate::sampling::{Density, Design, Structure};
 use serde::Serialize;
@@ -34,6 +35,70 @@ pub fn prior_bound(model: &crate::bq::model::ResolvedModel) -> f64 {
         .iter()
         .map(|(k, noise)| MAX_PRIOR * (k.diagonal() + noise).sqrt().min(1.0))
         .fold(MAX_PRIOR, f64::min)
+}
+
+/// What one worker thread holds at most while it runs a unit of the plan, in bytes, and the
+/// estimator (its field and what it needs) that decides it: the one memory estimate of a run
+/// ([`crate::util::memory`]; `validate` states it, [`check_memory`] guards it). Per estimator
+/// with weights: a fixed-size weight set at the largest N holds [`crate::bq::rule::weight_set_bytes`]
+/// (one workspace, reused by a fitted grid's models); a tolerance estimator keeps one nested
+/// factor per model of its grid up to `max_n` (`8 max_n²` each) and a copy while one grows.
+/// Plus the sample sets and their values ([`BYTES_PER_POINT`] per point and design, up to the
+/// largest N or `max_n`).
+pub fn thread_memory(plan: &Plan) -> (u64, String) {
+    let max_n = plan.samples.iter().copied().max().unwrap_or(0);
+    let most_points = plan
+        .estimators
+        .iter()
+        .filter_map(|e| e.tolerance.map(|t| t.max_n))
+        .fold(max_n, usize::max);
+    let sets = BYTES_PER_POINT
+        .saturating_mul(most_points as u64)
+        .saturating_mul(plan.designs.len() as u64);
+    let mut worst = (sets, format!("samples: N = {max_n}"));
+    for (i, e) in plan.estimators.iter().enumerate() {
+        let Some(m) = e.model else { continue };
+        let model = &plan.models[m];
+        let exact = matches!(model.mode, crate::bq::kernel_mean::KernelMeanMode::Exact);
+        let (bytes, what) = match e.tolerance {
+            Some(t) => {
+                let models = model.candidates().len().max(1) as u64;
+                let factor = crate::util::memory::matrix_bytes(t.max_n);
+                (
+                    factor.saturating_mul(models + 1),
+                    format!(
+                        "estimators[{i}] ({:?}): {models} nested factor{} up to tolerance.max_n = {}",
+                        e.label,
+                        if models == 1 { "" } else { "s" },
+                        t.max_n
+                    ),
+                )
+            }
+            None => (
+                crate::bq::rule::weight_set_bytes(max_n, e.design, exact),
+                format!("estimators[{i}] ({:?}): a weight set of N = {max_n}", e.label),
+            ),
+        };
+        let bytes = bytes.saturating_add(sets);
+        if bytes > worst.0 {
+            worst = (bytes, what);
+        }
+    }
+    worst
+}
+
+/// The memory guard of a run on `threads` worker threads: [`thread_memory`] on each, against the
+/// budget ([`crate::util::memory`]); one line naming the estimator, the bytes and the budget.
+pub fn check_memory(plan: &Plan, threads: usize) -> Result<(), InputError> {
+    let (per_thread, what) = thread_memory(plan);
+    crate::bq::rule::check_memory(
+        &format!(
+            "{what} per worker thread ({}) on {threads} thread{}",
+            crate::util::memory::human(per_thread),
+            if threads == 1 { "" } else { "s" }
+        ),
+        per_thread.saturating_mul(threads as u64),
+    )
 }
 
 /// Largest number of points one unit of work (one N and trial) draws across all designs in use:
@@ -555,7 +620,10 @@ fn resolve_check(
         }
         let level = c.level.unwrap_or(0.95);
         if !(level > 0.0 && level < 1.0) {
-            return Err(err(at("level"), format!("must be in (0, 1), got {level}")));
+            return Err(err(
+                at("level"),
+                format!("must be in (0, 1), got {}", crate::util::shown::shown(level)),
+            ));
         }
         return Ok(ResolvedCheck::Calibration(CalibrationCheck {
             calibrated: label.clone(),
@@ -586,7 +654,10 @@ fn resolve_check(
     }
     let alpha = c.alpha.unwrap_or(0.01);
     if !(alpha > 0.0 && alpha < 1.0) {
-        return Err(err(at("alpha"), format!("must be in (0, 1), got {alpha}")));
+        return Err(err(
+            at("alpha"),
+            format!("must be in (0, 1), got {}", crate::util::shown::shown(alpha)),
+        ));
     }
     if spec.trials < 2 {
         return Err(err(at("better"), "a paired test needs at least 2 trials"));

@@ -238,6 +238,100 @@ pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues, Option<&str>), 
     ))
 }
 
+/// [`parse_row`] for the row of integrand `fi` and estimator `ei` of `plan`, with every column
+/// checked against the plan (issue 30: a merge wrote NUL bytes, a NaN `abs_error`, a wrong label
+/// or truth from a shard into the merged CSVs), since a merge and a resume copy a row's text into
+/// `trials.csv`: the integrand, label, method and design are the plan's; `estimate` is a finite
+/// number, `truth` the integrand's integral bit for bit, and `abs_error` is `|estimate − truth|`
+/// recomputed bit for bit; the sd, amplitude and weight-set columns are finite numbers (≥ 0 where
+/// they must be; the condition estimate may be `inf`), present together or absent as for the
+/// method (MC has no weight set or amplitude); counts are whole numbers; the chosen model is one
+/// of the estimator's grid ([`model_index`]), and the cost columns are finite and ≥ 0. The model's
+/// index is filled in. `Err` says what is wrong, naming the column.
+pub fn check_row(plan: &Plan, fi: usize, ei: usize, line: &str) -> Result<(usize, usize, RowValues), String> {
+    let (n, trial, mut values, model) = parse_row(line)?;
+    let (f, e) = (&plan.integrands[fi], &plan.estimators[ei]);
+    let mut tail: Vec<&str> = line.rsplitn(TAIL_COLUMNS + 1, ',').collect();
+    tail.reverse();
+    let prefix = format!("{},{}", f.name(), csv_field(&e.label));
+    if tail[0] != prefix {
+        return Err(format!(
+            "starts with {:?} where the plan has integrand and estimator {prefix:?}",
+            tail[0]
+        ));
+    }
+    for (i, column, want) in [(1, "method", e.method.name()), (2, "design", e.design.name())] {
+        if tail[i] != want {
+            return Err(format!("has {column} {:?} where the plan has {want:?}", tail[i]));
+        }
+    }
+    let number = |i: usize, column: &str| -> Result<f64, String> {
+        let s = tail[i];
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(format!("has {column} {s:?}, not a finite number")),
+        }
+    };
+    let non_negative = |i: usize, column: &str| -> Result<f64, String> {
+        let v = number(i, column)?;
+        if v < 0.0 {
+            return Err(format!("has {column} {v:?}, below 0"));
+        }
+        Ok(v)
+    };
+    let estimate = number(5, "estimate")?;
+    let truth = number(6, "truth")?;
+    if truth.to_bits() != f.integral().to_bits() {
+        return Err(format!(
+            "has truth {truth:?} where {} has {:?}",
+            f.name(),
+            f.integral()
+        ));
+    }
+    let abs_error = number(7, "abs_error")?;
+    if abs_error.to_bits() != (estimate - truth).abs().to_bits() {
+        return Err(format!(
+            "has abs_error {abs_error:?} where |estimate − truth| = {:?}",
+            (estimate - truth).abs()
+        ));
+    }
+    if !tail[8].is_empty() {
+        non_negative(8, "posterior_sd")?;
+    }
+    let weighted = e.method.needs_weights();
+    let diagnostics = [10, 11, 12, 13, 14];
+    if !weighted {
+        if let Some(&i) = diagnostics.iter().find(|&&i| !tail[i].is_empty()) {
+            return Err(format!(
+                "has {:?} in column {} where method {:?} has no weight set",
+                tail[i],
+                i + 2,
+                e.method.name()
+            ));
+        }
+    } else if !tail[10].is_empty() || !tail[14].is_empty() {
+        number(10, "weight_sum")?;
+        tail[11]
+            .parse::<usize>()
+            .map_err(|_| format!("has negative_weights {:?}, not a whole number", tail[11]))?;
+        non_negative(12, "jitter")?;
+        match tail[13].parse::<f64>() {
+            Ok(c) if c >= 0.0 => {}
+            _ => return Err(format!("has condition_estimate {:?}, not a number ≥ 0", tail[13])),
+        }
+        if !tail[14].is_empty() {
+            non_negative(14, "amplitude")?;
+        }
+    }
+    for (i, column) in [(18, "weight_set_seconds"), (19, "seconds")] {
+        non_negative(i, column)?;
+    }
+    if let Some(label) = model {
+        values.model = Some(model_index(plan, ei, label)?);
+    }
+    Ok((n, trial, values))
+}
+
 /// The index of the chosen model `label` among estimator `ei`'s fitted grid; `Err` when the
 /// estimator's model is not fitted or has no such model.
 pub fn model_index(plan: &Plan, ei: usize, label: &str) -> Result<u16, String> {

@@ -40,15 +40,15 @@ pub fn describe(plan: &plan::Plan) -> String {
         plan.trials,
         cells * plan.trials
     );
+    // The run's own memory estimate (what its guard checks), tolerance estimators' nested
+    // factors included: this line said "0.0 MiB per thread" for them (issue 30).
+    let (per_thread, what) = plan::thread_memory(plan);
     s += &format!(
-        "BMC weight sets: {} per trial and N ({} Cholesky factorisations; largest N = {max_n}, {:.1} MiB per thread)\n",
+        "BMC weight sets: {} per trial and N ({} Cholesky factorisations; largest N = {max_n}); memory: {} per \
+         worker thread, for {what}\n",
         weight_sets,
         weight_sets * plan.samples.len() * plan.trials,
-        if weight_sets > 0 {
-            crate::bq::rule::matrix_gib(max_n) * 1024.0
-        } else {
-            0.0
-        }
+        crate::util::memory::human(per_thread),
     );
     let tolerant: Vec<_> = plan.estimators.iter().filter_map(|e| e.tolerance).collect();
     if let Some(largest) = tolerant.iter().map(|t| t.max_n).max() {

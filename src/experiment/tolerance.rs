@@ -25,21 +25,23 @@ pub fn resolve_tolerance(
         return Err(format!(
             "{}: must be a positive finite number, got {}",
             at("tolerance.abs"),
-            t.abs
+            crate::util::shown::shown(t.abs)
         ));
     }
     let level = t.level.unwrap_or(stages::DEFAULT_LEVEL);
     if !(level > 0.0 && level < 1.0) {
         return Err(format!(
-            "{}: must be in (0, 1), got {level}",
-            at("tolerance.level")
+            "{}: must be in (0, 1), got {}",
+            at("tolerance.level"),
+            crate::util::shown::shown(level)
         ));
     }
     let inflate = t.inflate.unwrap_or(stages::DEFAULT_INFLATE);
     if !(inflate.is_finite() && inflate >= 1.0) {
         return Err(format!(
-            "{}: must be a finite number ≥ 1 (it widens the half-width), got {inflate}",
-            at("tolerance.inflate")
+            "{}: must be a finite number ≥ 1 (it widens the half-width), got {}",
+            at("tolerance.inflate"),
+            crate::util::shown::shown(inflate)
         ));
     }
     if let Some((i, &n)) = samples
@@ -185,7 +187,11 @@ pub fn resolve_check(
     }
     let level = c.level.unwrap_or(0.95);
     if !(level > 0.0 && level < 1.0) {
-        return Err(format!("{}: must be in (0, 1), got {level}", at("level")));
+        return Err(format!(
+            "{}: must be in (0, 1), got {}",
+            at("level"),
+            crate::util::shown::shown(level)
+        ));
     }
     Ok(ToleranceCheck {
         within_tolerance: label.clone(),

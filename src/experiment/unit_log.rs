@@ -11,7 +11,7 @@
 //! or merged, with its own kind.
 
 use super::plan::Plan;
-use super::rows::{COST_HEADER, TRIALS_HEADER, parse_row};
+use super::rows::{COST_HEADER, TRIALS_HEADER};
 use super::summary::RowValues;
 use crate::error::{Error, InputError, Result};
 use crate::files::read::FileKind;
@@ -249,14 +249,9 @@ pub fn open(
         };
         let k = pending.len();
         let (ni, t) = (u / plan.trials, u % plan.trials);
-        let (n, trial, mut values, model) =
-            parse_row(line.trim_end()).map_err(|m| refuse(format!("line {line_no} {m}")))?;
-        if let Some(label) = model {
-            values.model = Some(
-                super::rows::model_index(plan, k % plan.estimators.len(), label)
-                    .map_err(|m| refuse(format!("line {line_no} {m}")))?,
-            );
-        }
+        let ne = plan.estimators.len();
+        let (n, trial, values) = super::rows::check_row(plan, k / ne, k % ne, line.trim_end())
+            .map_err(|m| refuse(format!("line {line_no} {m}")))?;
         if (n, trial) != (plan.samples[ni], t) {
             return Err(refuse(format!(
                 "line {line_no} is N = {n}, trial {trial}, where N = {}, trial {t} was expected",

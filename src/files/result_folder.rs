@@ -272,9 +272,12 @@ impl ResultFolder {
     }
 
     /// Writes [`TIMINGS`] — `timings` (an object: wall-clock seconds, threads) with `files`
-    /// listing the machine-dependent files (itself included) — and the manifest — `manifest` with
-    /// `files` listing every other file of the set (itself included) and the build that wrote it
-    /// ([`crate::provenance::manifest_fields`]) — and puts the set in the folder's place.
+    /// listing the machine-dependent files (itself included) and the build that wrote the set
+    /// (version, commit, uncommitted changes: [`crate::provenance::manifest_fields`]) — and the
+    /// manifest — `manifest` with `files` listing every other file of the set (itself included)
+    /// and the package version ([`crate::provenance::manifest_version`]): the exact build stays
+    /// beside the results in the git-ignored record, so that regenerating committed results with
+    /// a later commit rewrites them byte for byte — and puts the set in the folder's place.
     pub fn commit(mut self, mut manifest: serde_json::Value, mut timings: serde_json::Value) -> Result<()> {
         let listing = |files: &BTreeMap<String, String>, this: &str, what: &str| {
             let mut list: serde_json::Map<String, serde_json::Value> = files
@@ -287,16 +290,18 @@ impl ResultFolder {
         timings["files"] = listing(
             &self.local,
             TIMINGS,
-            "this file: the run's wall-clock record, and its files that differ from machine to machine \
-             (not committed)",
+            "this file: the run's wall-clock record, the exact build that wrote the set (commit and \
+             uncommitted changes), and its files that differ from machine to machine (not committed)",
         );
+        let build = crate::provenance::Build::current();
+        crate::provenance::manifest_fields(&mut timings, &build);
         self.write_bytes(TIMINGS, &pretty(&timings))?;
-        crate::provenance::manifest_fields(&mut manifest, &crate::provenance::Build::current());
+        crate::provenance::manifest_version(&mut manifest, &build);
         manifest["files"] = listing(
             &self.files,
             MANIFEST,
-            "this file: what was run, by which build, and every file of the set but the \
-             machine-dependent ones (listed in timings.json)",
+            "this file: what was run, by which version, and every file of the set but the \
+             machine-dependent ones (listed in timings.json, with the exact build)",
         );
         self.write_bytes(MANIFEST, &pretty(&manifest))?;
         let sync_dir = |dir: &Path| {

@@ -72,14 +72,19 @@ impl Profile {
     pub fn validate(&self) -> Result<(), String> {
         match *self {
             Profile::Lobe { exponent } if !(exponent.is_finite() && (0.0..=1e6).contains(&exponent)) => {
-                Err(format!("exponent: must be in [0, 1e6], got {exponent}"))
+                Err(format!(
+                    "exponent: must be in [0, 1e6], got {}",
+                    crate::util::shown::shown(exponent)
+                ))
             }
             Profile::Cap { half_angle } if !(half_angle > 0.0 && half_angle <= 180.0) => Err(format!(
-                "half_angle: must be in (0, 180] degrees, got {half_angle}"
+                "half_angle: must be in (0, 180] degrees, got {}",
+                crate::util::shown::shown(half_angle)
             )),
-            Profile::Gaussian { sharpness } if !(sharpness > 0.0 && sharpness <= 1e6) => {
-                Err(format!("sharpness: must be in (0, 1e6], got {sharpness}"))
-            }
+            Profile::Gaussian { sharpness } if !(sharpness > 0.0 && sharpness <= 1e6) => Err(format!(
+                "sharpness: must be in (0, 1e6], got {}",
+                crate::util::shown::shown(sharpness)
+            )),
             _ => Ok(()),
         }
     }

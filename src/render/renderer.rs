@@ -36,7 +36,11 @@ pub fn check_size(width: usize, height: usize) -> Result<(), InputError> {
         )));
     }
     match width.checked_mul(height) {
-        Some(n) if n <= MAX_PIXELS => Ok(()),
+        // Under the fixed limit, the image must also fit the memory budget.
+        Some(n) if n <= MAX_PIXELS => crate::bq::rule::check_memory(
+            &format!("--width/--height: a {width}×{height} image"),
+            48 * n as u64,
+        ),
         _ => {
             let gib = 48.0 * width as f64 * height as f64 / (1u64 << 30) as f64;
             Err(InputError::new(format!(

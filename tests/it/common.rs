@@ -66,7 +66,24 @@ pub fn rkhs_norms_of_one_and_cos(kernel: &Kernel) -> (f64, f64) {
     ((4.0 * PI / l0).sqrt(), (4.0 * PI / 3.0 / l1).sqrt())
 }
 
-/// Issue 21 item 4: manifests recorded no commit of the tool. Every manifest records the package
+/// Issue 30 item 8 (issue 21 item 4 before it): a result folder records which build wrote it —
+/// the committed `manifest.json` the package version only (a commit there would change with every
+/// commit and dirty a clean checkout that reruns it), the git-ignored `timings.json` the whole
+/// build ([`assert_build_recorded`]).
+pub fn assert_provenance(folder: &Path) {
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(folder.join(name)).unwrap()).unwrap()
+    };
+    let manifest = read("manifest.json");
+    assert_eq!(manifest["workbench_version"], env!("CARGO_PKG_VERSION"));
+    for k in ["workbench_commit", "workbench_dirty", "workbench_changes"] {
+        assert!(manifest.get(k).is_none(), "{k} in the manifest: {manifest}");
+    }
+    assert_build_recorded(&read("timings.json"));
+}
+
+/// Issue 21 item 4: manifests recorded no commit of the tool. The record (a folder's
+/// `timings.json`, a shard's `shard.json`) records the package
 /// version and, built from a git checkout (as the tests are, unless from a tarball), the commit
 /// and whether the sources (`src/`, `build.rs`, `Cargo.toml`, `Cargo.lock`) had uncommitted
 /// changes — as git sees them now.

@@ -42,6 +42,22 @@ pub fn funk_hecke_power(nu: f64, l: usize) -> f64 {
     std::f64::consts::TAU * 2f64.powf(2.0 * nu + 1.0) * ratio
 }
 
+/// The largest relative rounding error of a Sobolev kernel's entries accepted
+/// ([`Sobolev::rounding`]): beyond it `s` is refused as too close to 2 or 3 (issue 30).
+///
+/// Why (math.md §9): for `2 < s < 3` every eigenvalue of `k = C₀ + C₁ t + d^{2ν}` is a multiple of
+/// `λ₂ = e₂(ν) = 2π · 2^{2ν+1} ν(ν − 1)/((ν + 1)(ν + 2)(ν + 3))`, which vanishes like `ν − 1 =
+/// s − 2`; for `3 < s < 4`, of `λ₃ = −e₃(ν) ∝ ν − 2 = s − 3`. So the kernel's scale `k(x,x)`
+/// vanishes at `s → 2⁺` (about `12.2 (s − 2)`) and `s → 3⁺` (about `221 (s − 3)`), while the terms
+/// it is computed from stay of size `M ≈ 8` and `32`: every entry carries a relative error
+/// `u M / k(x,x)` (`u = 2⁻⁵³`), about `7.3e-17/(s − 2)` and `1.6e-17/(s − 3)`. Measured with
+/// `workbench rule --n 256 --noise 0` (docs/guide/rule.md, "Sobolev s near 2 or 3"): Σw and the
+/// cos³θ error are those of `s = 2.001` up to a relative error of 7.3e-6 (`s − 2 = 1e-11`) and
+/// gone at 7.3e-5 (`s − 2 = 1e-12`: Σw = 0); 1e-6 leaves a factor 7 of margin. From below
+/// (`s → 2⁻`, `s → 3⁻`) the scale stays of order 1 and nothing is lost. Against a noise `σ_n²`
+/// the scale fails sooner: [`Sobolev::scale_warning`].
+pub const MAX_ROUNDING: f64 = 1e-6;
+
 impl Sobolev {
     /// The thesis's smoothness.
     pub const DEFAULT_S: f64 = 1.4;
@@ -51,7 +67,10 @@ impl Sobolev {
         if !(s > 1.0 && s < 4.0 && s != 2.0 && s != 3.0) {
             return Err(KernelError {
                 kernel: "sobolev",
-                message: format!("s must be in (1, 2), (2, 3) or (3, 4), got {s}"),
+                message: format!(
+                    "s must be in (1, 2), (2, 3) or (3, 4), got {}",
+                    crate::util::shown::shown(s)
+                ),
             });
         }
         let nu = s - 1.0;
@@ -77,12 +96,79 @@ impl Sobolev {
         }
         let [c0, c1, c2] = legendre;
         let poly = [c0 + c1 + c2, -0.5 * c1 - 1.5 * c2, 0.375 * c2];
-        Ok(Sobolev {
+        let kernel = Sobolev {
             s,
             constant: poly[0],
             half_exponent: nu,
             smooth: Some(Smooth { legendre, poly, sign }),
-        })
+        };
+        let rounding = kernel.rounding();
+        if rounding.is_nan() || rounding > MAX_ROUNDING {
+            let limit = if s < 3.0 { 2.0 } else { 3.0 };
+            // k(x,x) is linear in s − limit near the limit: the s whose rounding is the bound.
+            let usable = limit + (s - limit) * rounding / MAX_ROUNDING;
+            return Err(KernelError {
+                kernel: "sobolev",
+                message: format!(
+                    "s = {s} is too close to {limit}: the kernel's scale k(x,x) = {:.3e} vanishes \
+                     like s − {limit} there (math.md §9: every eigenvalue is a multiple of λ{} ∝ \
+                     s − {limit}) while the terms it is computed from stay near {:.0}, so its entries \
+                     carry a relative rounding error of {rounding:.1e} (more than {MAX_ROUNDING:e}) \
+                     and the weights are noise (Σw far from 2π); use s − {limit} ≥ {:.1e}, or s \
+                     below {limit} (e.g. {})",
+                    kernel.constant,
+                    if s < 3.0 { "₂" } else { "₃" },
+                    kernel.term_size(),
+                    usable - limit,
+                    limit - 0.01,
+                ),
+            });
+        }
+        Ok(kernel)
+    }
+
+    /// The size of the terms `κ` is computed from over `d² ∈ [0, 4]`: `Σ |a_i| 4^i + 4^ν` (the
+    /// polynomial's coefficients in `d²` and the power), what rounding is relative to.
+    pub fn term_size(&self) -> f64 {
+        let power = 4f64.powf(self.half_exponent);
+        match &self.smooth {
+            None => self.constant.abs() + power,
+            Some(sm) => sm.poly[0].abs() + 4.0 * sm.poly[1].abs() + 16.0 * sm.poly[2].abs() + power,
+        }
+    }
+
+    /// The relative rounding error of the kernel's entries: `u · M / k(x,x)` ([`MAX_ROUNDING`]
+    /// explains it), `u = 2⁻⁵³`, `M` the [`Sobolev::term_size`]; about 2e-16 away from the
+    /// limits `s → 2⁺` and `s → 3⁺`.
+    pub fn rounding(&self) -> f64 {
+        f64::EPSILON / 2.0 * self.term_size() / self.constant
+    }
+
+    /// A warning with its remedy when the kernel's scale `k(x,x)`, which vanishes like `s − 2`
+    /// or `s − 3` just above those limits ([`MAX_ROUNDING`]), is below the noise `σ_n²`: the
+    /// model then reads the integrand as noise and the weights shrink toward 0. Measured with
+    /// `workbench rule --n 256` (docs/guide/rule.md, "Sobolev s near 2 or 3"), the shortfall of
+    /// Σw depends on `k(x,x)/σ_n²` alone: 0.05% at 12, 0.45% at 1.2, 4% at 0.12, 82% at 0.0012
+    /// (cos³θ's error 1.28 of 1.57). Only for `s > 2`: below 2 the scale is at least 2.
+    pub fn scale_warning(&self, noise: f64) -> Option<String> {
+        let scale = self.constant;
+        if self.smooth.is_none() || scale >= noise {
+            return None;
+        }
+        let limit = if self.s < 3.0 { 2.0 } else { 3.0 };
+        // k(x,x) is linear in s − limit near the limit: the s whose scale is the noise.
+        let usable = (self.s - limit) * noise / scale;
+        Some(format!(
+            "the sobolev kernel s = {} has scale k(x,x) = {:.2e}, below the noise σ_n² = {} (its scale \
+             vanishes like s − {limit}, math.md §9), so the model reads the integrand as noise and \
+             the weights shrink toward 0 (Σw falls short of 2π); use s − {limit} ≥ {:.1e} or a noise \
+             below {:.1e}",
+            self.s,
+            scale,
+            crate::util::shown::shown(noise),
+            usable,
+            scale
+        ))
     }
 
     /// `s − 1`, the exponent of `d²` (for the vectorised assembly).

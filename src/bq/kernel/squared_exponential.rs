@@ -17,7 +17,7 @@ impl SquaredExponential {
     pub fn new(sigma: f64, length: f64) -> Result<Self, KernelError> {
         let bad = |what: &str, range: &str, v: f64| KernelError {
             kernel: "se",
-            message: format!("{what} must be in {range}, got {v}"),
+            message: format!("{what} must be in {range}, got {}", crate::util::shown::shown(v)),
         };
         if !(1e-100..=1e100).contains(&sigma) {
             return Err(bad("sigma", "[1e-100, 1e100]", sigma));

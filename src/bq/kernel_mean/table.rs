@@ -115,10 +115,18 @@ impl KernelMeanTable {
     /// A warning with its remedy if some octave of the table did not reach its tolerance (the
     /// kernel varies on a scale far below the panels, e.g. an SE length scale ≪ 0.05).
     pub fn accuracy_warning(&self) -> Option<String> {
+        // The remedy depends on why: an SE kernel varies too fast; a Sobolev kernel just above
+        // s = 2 or 3 has lost its scale (math.md §9), and no length scale is involved.
+        let remedy = match &self.kernel {
+            Kernel::Sobolev(_) => {
+                "use an s farther from 2 or 3 (math.md §9: the kernel's scale vanishes there)"
+            }
+            _ => "use a longer length scale",
+        };
         (self.unconverged > 0).then(|| {
             format!(
                 "the kernel-mean table of {} did not converge on {} of its {} octaves, so z may be \
-                 less accurate than 1e-10 there; use a longer length scale",
+                 less accurate than 1e-10 there; {remedy}",
                 self.kernel,
                 self.unconverged,
                 OCTAVES + 1

@@ -51,6 +51,28 @@ pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>
     Some(names)
 }
 
+/// A hash (FNV-1a, 16 hex digits) of the table's resolved plan: its [`manifest`] without the
+/// spec's path and the reference cache's, which name where it ran, not what. `timings.json`
+/// records it, so that `reproduce` estimates a table's time only from the timings of the same
+/// plan.
+pub fn plan_hash(plan: &TablePlan) -> String {
+    let mut v: serde_json::Value =
+        serde_json::from_slice(&manifest(plan, Path::new(""))).expect("the manifest is JSON");
+    if let Some(o) = v.as_object_mut() {
+        o.remove("spec");
+    }
+    if let Some(o) = v.get_mut("reference").and_then(|r| r.as_object_mut()) {
+        o.remove("cache");
+    }
+    let bytes = serde_json::to_vec(&v).expect("serialisable");
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
 /// `manifest.json`: the resolved plan, with the reference and how render seeds are derived.
 pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
     let variants: Vec<_> = plan

@@ -98,7 +98,10 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         let report = adaptive::run(plan, adaptive_plan, &renderer, &reference, &mut folder, reporter)?;
         let manifest: serde_json::Value =
             serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
-        folder.commit(manifest, serde_json::json!({}))?;
+        folder.commit(
+            manifest,
+            serde_json::json!({ "plan_hash": export::plan_hash(plan) }),
+        )?;
         return Ok(TableReport {
             out_dir: out,
             cells: Vec::new(),
@@ -183,7 +186,10 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     )?;
     let manifest: serde_json::Value =
         serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
-    folder.commit(manifest, serde_json::json!({}))?;
+    folder.commit(
+        manifest,
+        serde_json::json!({ "plan_hash": export::plan_hash(plan) }),
+    )?;
     Ok(TableReport {
         out_dir: out,
         cells,

@@ -1,3 +1,4 @@
 mod cli_rule;
 mod docs_sync;
+mod reliability;
 mod reproduce;

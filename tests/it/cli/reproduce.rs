@@ -234,3 +234,75 @@ fn a_failed_check_lets_every_file_run_and_exits_1_with_its_report() {
         );
     }
 }
+
+/// Issue 30 item 6: a `*.json` of the folder that is a dangling symlink, a symlink loop or a
+/// FIFO was skipped with exit 0 (less regenerated than asked, and nothing said); each is refused
+/// by name, exit 2, before anything runs — given in a folder or by name (a FIFO read would wait
+/// for a writer for ever).
+#[test]
+fn a_json_that_is_no_regular_file_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mkfifo = |p: &Path| {
+        let status = std::process::Command::new("mkfifo").arg(p).status().unwrap();
+        assert!(status.success());
+    };
+    // (file name, how to make it, what the refusal says)
+    type Make = dyn Fn(&Path);
+    let cases: [(&str, &Make, &str); 3] = [
+        (
+            "dangling.json",
+            &|p: &Path| std::os::unix::fs::symlink("missing.json", p).unwrap(),
+            "is a symlink to missing.json, which does not exist",
+        ),
+        (
+            "loop.json",
+            &|p: &Path| std::os::unix::fs::symlink("loop.json", p).unwrap(),
+            "is a symlink loop",
+        ),
+        ("pipe.json", &mkfifo, "is a FIFO (named pipe)"),
+    ];
+    for (name, make, what) in cases {
+        let exps = d.join(format!("exps-{name}"));
+        std::fs::create_dir(&exps).unwrap();
+        std::fs::write(exps.join("a.json"), TINY_A).unwrap();
+        make(&exps.join(name));
+        let folder = exps.file_name().unwrap().to_str().unwrap().to_string();
+        for arg in [folder.clone(), format!("{folder}/{name}")] {
+            let o = workbench(d, &["reproduce", &arg, "--results-dir", "out", "-q"]);
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{arg}: {err}");
+            assert!(err.contains(&format!("{folder}/{name}: {what}")), "{arg}: {err}");
+            assert!(!d.join("out").exists(), "{arg}: an output was written");
+        }
+    }
+}
+
+/// Issue 30 item 6: the estimate reused an earlier run's timings whatever that run's plan was
+/// ("about 0.0 s" for an hours-long file). Timings count only for the same plan.
+#[test]
+fn the_time_estimate_comes_only_from_timings_of_the_same_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    folder(d, &[("a.json", TINY_A)]);
+    let o = workbench(d, &["reproduce", "exps", "--results-dir", "out", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let list = || {
+        let o = workbench(d, &["reproduce", "exps", "--results-dir", "out", "--list"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    assert!(list().contains("(here)"), "{}", list());
+    // The same name and folder, 1000 times the trials: the old seconds say nothing about it.
+    std::fs::write(
+        d.join("exps/a.json"),
+        TINY_A.replace("\"trials\": 20", "\"trials\": 20000"),
+    )
+    .unwrap();
+    let text = list();
+    assert!(!text.contains("(here)") && text.contains("no estimate"), "{text}");
+    // A shipped file's name with another plan gets no built-in estimate either.
+    std::fs::write(d.join("exps/a.json"), TINY_A.replace("\"tiny-a\"", "\"cos3\"")).unwrap();
+    let text = list();
+    assert!(text.contains("no estimate"), "{text}");
+}

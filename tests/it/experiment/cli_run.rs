@@ -56,7 +56,7 @@ fn run_writes_every_output_and_summary_agrees_with_trials() {
         serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["seed"], 5);
     assert_eq!(manifest["plan"]["estimators"].as_array().unwrap().len(), 5);
-    assert_build_recorded(&manifest);
+    assert_provenance(&out);
 
     let (th, trials) = read_csv(&out.join("trials.csv"));
     assert_eq!(
@@ -607,8 +607,8 @@ fn calibrated_check_was_two_sided_only_and_printed_its_band_rounded() {
     assert_eq!(manifest["calibration_checks"][0]["side"], "two-sided");
 }
 
-/// Issue 21 item 4: manifests recorded no commit of the tool. A run's manifest, and a shard's
-/// manifest and record, name the build (see [`assert_build_recorded`]).
+/// Issue 21 item 4: manifests recorded no commit of the tool. A run's and a shard's folder, and
+/// a shard's record, name the build (see [`assert_provenance`], [`assert_build_recorded`]).
 #[test]
 fn manifests_record_the_version_commit_and_dirty_tree_of_the_build() {
     let dir = tempfile::tempdir().unwrap();
@@ -620,9 +620,9 @@ fn manifests_record_the_version_commit_and_dirty_tree_of_the_build() {
         &["run", "small.json", "-q", "--out", "s", "--shard", "1/2"],
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    for f in ["o/manifest.json", "s/manifest.json", "s/shard.json"] {
-        let v: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.path().join(f)).unwrap()).unwrap();
-        assert_build_recorded(&v);
-    }
+    assert_provenance(&dir.path().join("o"));
+    assert_provenance(&dir.path().join("s"));
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("s/shard.json")).unwrap()).unwrap();
+    assert_build_recorded(&v);
 }

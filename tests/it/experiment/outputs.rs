@@ -213,8 +213,42 @@ fn committed_manifests_list_only_files_a_checkout_has() {
             "{}: the version of the build that wrote it",
             dir.display()
         );
+        // Issue 30 item 8: no commit in a committed manifest (it lives in timings.json).
+        for k in ["workbench_commit", "workbench_dirty", "workbench_changes"] {
+            assert!(m.get(k).is_none(), "{}: records {k}", dir.display());
+        }
     }
     assert!(seen >= 10, "{seen} committed result folders");
+}
+
+/// Issue 30 item 8: the README's main command (`run experiments/cos3.json`) dirtied a fresh
+/// clone, because the manifest it rewrote recorded the commit of the build. Run with this build,
+/// it writes every committed file of `results/cos3` byte for byte — manifest included — and no
+/// other file that is not git-ignored, so `git status` stays clean.
+#[test]
+fn readme_main_command_rewrites_the_committed_cos3_results_byte_for_byte() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let fresh = dir.path().join("cos3");
+    ok(&workbench(
+        root,
+        &[
+            "run",
+            "experiments/cos3.json",
+            "-q",
+            "--out",
+            fresh.to_str().unwrap(),
+        ],
+    ));
+    let committed = root.join("results/cos3");
+    let tracked: Vec<String> = listing(&fresh).into_iter().filter(|n| !git_ignored(n)).collect();
+    assert_eq!(tracked, listing(&committed), "the files a checkout has");
+    for f in &tracked {
+        assert!(
+            std::fs::read(fresh.join(f)).unwrap() == std::fs::read(committed.join(f)).unwrap(),
+            "results/cos3/{f} differs from a fresh run's"
+        );
+    }
 }
 
 /// A folder whose manifest a checkout replaced (the committed one lists no timing files) still

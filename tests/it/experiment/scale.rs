@@ -523,3 +523,71 @@ fn files_with_tolerance_estimators_refuse_shard_and_resume() {
     );
     assert!(!d.join("results").exists());
 }
+
+/// Issue 30 item 5: `merge` copied a shard's rows into the merged CSVs unchecked — NUL bytes in
+/// an estimate, a NaN `abs_error`, a wrong label or a wrong truth merged with exit 0. Every
+/// column of every row is now checked against the plan, and a bad row is refused by file and
+/// line, exit 2, before anything is written; `--resume` reads its log with the same check.
+#[test]
+fn merge_refuses_a_shard_row_that_does_not_hold_what_the_plan_computes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("small.json"), SMALL).unwrap();
+    for i in 1..=2 {
+        let (s, out) = (format!("{i}/2"), format!("a{i}"));
+        ok(&workbench(
+            d,
+            &["run", "small.json", "-q", "--shard", &s, "--out", &out],
+        ));
+    }
+    let units = d.join("a2/units.csv");
+    let good = std::fs::read_to_string(&units).unwrap();
+    let lines: Vec<&str> = good.lines().collect();
+    // Line 4 of the log (header, columns, then rows): the second row of its first unit, MC is
+    // line 3 and BMC line 4, both on integrand cos.
+    let bmc = lines[3];
+    assert!(bmc.starts_with("cos,BMC,bmc,"), "{bmc}");
+    let field = |row: &str, i: usize| row.split(',').nth(i).unwrap().to_string();
+    let with = |i: usize, value: &str| -> String {
+        let mut cols: Vec<String> = bmc.split(',').map(String::from).collect();
+        cols[i] = value.to_string();
+        cols.join(",")
+    };
+    let estimate = field(bmc, 6);
+    let cases: Vec<(String, &str)> = vec![
+        (with(6, &format!("{estimate}\0\0")), "estimate"),
+        (with(8, "NaN"), "abs_error \"NaN\", not a finite number"),
+        (with(8, "0.5"), "abs_error 0.5 where |estimate − truth|"),
+        (
+            bmc.replacen("cos,BMC,", "cos,BMCX,", 1),
+            "where the plan has integrand and estimator \"cos,BMC\"",
+        ),
+        (with(7, "3.0"), "has truth 3.0 where cos has"),
+        (with(9, "-1.0"), "posterior_sd -1.0, below 0"),
+        (
+            with(3, "sobol"),
+            "design \"sobol\" where the plan has \"uniform\"",
+        ),
+        (
+            lines[2].replacen(",,,,,", ",1.0,0,0.0,1.0,", 1),
+            "where method \"mc\" has no weight set",
+        ),
+    ];
+    let mc_line = lines[2];
+    assert!(mc_line.starts_with("cos,MC,mc,"), "{mc_line}");
+    for (k, (row, what)) in cases.iter().enumerate() {
+        let target = if k == cases.len() - 1 { 2 } else { 3 };
+        let mut bad: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        bad[target] = row.clone();
+        std::fs::write(&units, bad.join("\n") + "\n").unwrap();
+        let o = workbench(d, &["merge", "out", "-q", "a1", "a2"]);
+        let line = refused(&o, what);
+        assert!(
+            line.contains(&format!("a2/units.csv: line {}", target + 1)),
+            "names the file and line: {line}"
+        );
+        assert!(!d.join("out").exists(), "nothing written for a bad shard");
+    }
+    std::fs::write(&units, &good).unwrap();
+    ok(&workbench(d, &["merge", "out", "-q", "a1", "a2"]));
+}
