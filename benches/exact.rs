@@ -44,13 +44,19 @@ fn main() {
     let texels: Vec<[f32; 3]> = (0..1024 * 512)
         .map(|k| {
             let sun = if k == 100 * 1024 + 700 { 1e4 } else { 0.0 };
-            [rng.random::<f32>() + sun, rng.random::<f32>(), rng.random::<f32>()]
+            [
+                rng.random::<f32>() + sun,
+                rng.random::<f32>(),
+                rng.random::<f32>(),
+            ]
         })
         .collect();
     for lookup in Lookup::ALL {
         let env = Environment::Map(EnvMap::from_texels(1024, 512, texels.clone()).with_lookup(lookup));
         let r = Renderer::for_scene(SceneKind::Thesis, 500, 500, env);
-        let pixels: Vec<(usize, usize)> = (0..50).flat_map(|j| (0..50).map(move |i| (10 * i + 5, 10 * j + 5))).collect();
+        let pixels: Vec<(usize, usize)> = (0..50)
+            .flat_map(|j| (0..50).map(move |i| (10 * i + 5, 10 * j + 5)))
+            .collect();
         let t = Instant::now();
         let out: Vec<(f64, u64)> = pixels
             .par_iter()

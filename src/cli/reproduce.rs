@@ -72,6 +72,9 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("render-adaptive", "112b9c7dcc882fec", 174.0),
     ("render-table", "9f441aeb230a527c", 313.0),
     ("rings", "75fdd1903622f6f1", 1.9),
+    // The exact reference under a 1024×512 map (about 950 s of CPU, 8 min on the idle 2 cores)
+    // plus 200 renders (6 min 20 s, reference cached); 2026-11-27, the machine shared.
+    ("thesis-images", "f9e7fc339178b8ba", 860.0),
 ];
 
 enum Job {
@@ -206,13 +209,16 @@ fn needs_data(text: &str) -> Option<String> {
     ))
 }
 
+/// A file of a folder skipped for want of the data folder, and why.
+type Skipped = (PathBuf, String);
+
 /// The files in order, each validated, with its output folder and estimate; and the files of
 /// a folder skipped for want of the data folder, with the reason.
 fn plan(
     paths: &[PathBuf],
     results: &Path,
     threads: Option<usize>,
-) -> anyhow::Result<(Vec<Item>, Vec<(PathBuf, String)>)> {
+) -> anyhow::Result<(Vec<Item>, Vec<Skipped>)> {
     let mut files = Vec::new();
     let mut skipped = Vec::new();
     for path in paths {

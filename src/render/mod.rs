@@ -6,6 +6,7 @@
 
 pub mod adaptive;
 pub mod camera;
+pub mod cuts;
 pub mod env;
 pub mod exact;
 pub mod image;

@@ -12,7 +12,10 @@ use workbench::util::report::Silent;
 use workbench::util::rng::stream;
 
 pub const TESTS: &[Test] = &[
-    ("background_pixels_are_their_renders", background_pixels_are_their_renders),
+    (
+        "background_pixels_are_their_renders",
+        background_pixels_are_their_renders,
+    ),
     (
         "mc_at_30_spp_lands_in_their_runs_error",
         mc_at_30_spp_lands_in_their_runs_error,
@@ -73,7 +76,9 @@ fn mc_at_30_spp_lands_in_their_runs_error(data: &Data) {
         let text = std::fs::read_to_string(data.path("thesis-mc30-error")).unwrap();
         let mut lines = text.lines();
         let head = lines.next().unwrap().to_string();
-        let rows: Vec<f64> = lines.map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+        let rows: Vec<f64> = lines
+            .map(|l| l.split(',').next().unwrap().parse().unwrap())
+            .collect();
         (head, rows)
     };
     assert_eq!(rows.len(), 20);

@@ -270,6 +270,7 @@ mod tests {
                             .filter(|k| *k > a && *k < b),
                     );
                     cuts.sort_by(f64::total_cmp);
+                    #[allow(clippy::needless_range_loop)] // k and c index the quadrature too
                     for k in 0..3 {
                         for c in 0..3 {
                             let expected: f64 = cuts

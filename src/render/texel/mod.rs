@@ -9,7 +9,7 @@
 //!
 //! `A = n_x sin θ`, `B = n_y cos θ`, `C = −n_z sin θ` (so the bracket is `n·d`), the arcs being the
 //! visible part of the circle of constant `θ` inside `H(n)` — the same closed-form cuts as the
-//! sky's quadrature ([`super::exact`]). The inner integral is exact: two partial cells and a
+//! sky's quadrature ([`super::cuts`]). The inner integral is exact: two partial cells and a
 //! difference of prefix sums per arc. The outer one is adaptive Gauss–Kronrod (21 points, the
 //! embedded 10-point Gauss rule as the error estimate, tolerances shared as in
 //! [`super::exact`]) on pieces split at the map's rows and at every change of the arc
@@ -25,7 +25,7 @@
 pub mod cells;
 
 use super::env::{EnvMap, Environment};
-use super::exact::{Cuts, PixelIntegral, adaptive};
+use super::cuts::{Cuts, PixelIntegral, adaptive};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
 use crate::util::quadrature::GK21;
