@@ -75,6 +75,8 @@ const MEASURED: &[(&str, &str, f64)] = &[
     // The exact reference under a 1024×512 map (about 950 s of CPU, 8 min on the idle 2 cores)
     // plus 200 renders (6 min 20 s, reference cached); 2026-11-27, the machine shared.
     ("thesis-images", "f9e7fc339178b8ba", 860.0),
+    // The exact reference under Pisa (about 860 s of CPU) plus 120 renders (3 min 40 s).
+    ("thesis-table-4-1", "353c191c83777ada", 650.0),
 ];
 
 enum Job {

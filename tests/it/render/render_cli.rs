@@ -99,6 +99,19 @@ fn bad_input_is_exit_2_with_a_clear_message() {
         &["render", "--env", "bad.hdr", "--out", "a.exr"],
         &["--env bad.hdr", "not a valid"],
     );
+    // Issue 27: scene and lookup names that do not exist; a lookup for the procedural sky.
+    assert_input_error(
+        &["render", "--scene", "cornell", "--out", "a.exr"],
+        &["--scene", "unknown scene \"cornell\"", "workbench, thesis"],
+    );
+    assert_input_error(
+        &["render", "--env-lookup", "nearest", "--out", "a.exr"],
+        &["--env-lookup", "unknown map lookup \"nearest\"", "mitsuba, thesis"],
+    );
+    assert_input_error(
+        &["render", "--env-lookup", "thesis", "--out", "a.exr"],
+        &["--env-lookup", "applies to environment map files, not to `sky`"],
+    );
     assert_input_error(
         &[
             "render", "--width", "100000", "--height", "100000", "--out", "a.exr",
