@@ -34,8 +34,8 @@
 //! the integral of the inner (φ) integrals' own error sums: an estimate, not a strict bound,
 //! but one that the tests check against closed forms and an independent method.
 
-use super::cuts::{Cuts, adaptive};
 pub use super::cuts::PixelIntegral;
+use super::cuts::{Cuts, adaptive};
 use super::env::Environment;
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
@@ -75,7 +75,6 @@ pub const MIN_TOLERANCE: f64 = 1e-13;
 /// weight `sin θ` (`∫ sin θ dθ ≤ 2`), so the inner errors add at most `2 · INNER_SHARE · tol`,
 /// and the outer (θ) integral gets the rest, `(1 − 2 · INNER_SHARE) · tol`.
 const INNER_SHARE: f64 = 0.1;
-
 
 /// `L_o` at the shading point `p` (surface normal `p.frame.n`) in every channel, to the absolute
 /// tolerance `tol` (see the module documentation for the method and what the error means).

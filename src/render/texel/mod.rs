@@ -24,8 +24,8 @@
 
 pub mod cells;
 
-use super::env::{EnvMap, Environment};
 use super::cuts::{Cuts, PixelIntegral, adaptive};
+use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
 use crate::util::quadrature::GK21;

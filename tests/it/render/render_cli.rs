@@ -106,7 +106,11 @@ fn bad_input_is_exit_2_with_a_clear_message() {
     );
     assert_input_error(
         &["render", "--env-lookup", "nearest", "--out", "a.exr"],
-        &["--env-lookup", "unknown map lookup \"nearest\"", "mitsuba, thesis"],
+        &[
+            "--env-lookup",
+            "unknown map lookup \"nearest\"",
+            "mitsuba, thesis",
+        ],
     );
     assert_input_error(
         &["render", "--env-lookup", "thesis", "--out", "a.exr"],
