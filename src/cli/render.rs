@@ -349,6 +349,17 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     } else {
         None
     };
+    if let Some(k) = kind {
+        workbench::render::integrator::check_memory(
+            &format!("--spp {spp}"),
+            k,
+            spp,
+            gps,
+            model.as_ref(),
+            args.sd_out.is_some(),
+            args.width() * args.height(),
+        )?;
+    }
     let reference =
         image_files::read_optional_reference(args.reference.as_deref(), args.width(), args.height())?;
     let renderer = Renderer::for_scene(args.scene, args.width(), args.height(), env);

@@ -136,6 +136,15 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     } else {
         None
     };
+    workbench::render::integrator::check_memory(
+        &format!("--max-spp {max_spp}"),
+        kind,
+        max_spp,
+        gps,
+        model.as_ref(),
+        true,
+        args.width * args.height,
+    )?;
     let mut files = FileSet::lock(&outputs, "use another --out")?;
 
     let seed = args.seed.unwrap_or(0);

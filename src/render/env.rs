@@ -138,6 +138,15 @@ impl Lookup {
     }
 }
 
+/// What identifies a map's texels in cache keys: a splitmix64 chain over the size and every
+/// channel's bits.
+fn texel_hash(width: usize, height: usize, texels: &[[f32; 3]]) -> u64 {
+    texels.iter().flatten().fold(
+        crate::util::rng::label_id(&format!("{width}x{height}")),
+        |h, v| crate::util::rng::splitmix64(h ^ v.to_bits() as u64),
+    )
+}
+
 /// An equirectangular map of `W × H` texels (linear RGB), looked up by [`Lookup`].
 #[derive(Clone, Debug)]
 pub struct EnvMap {
@@ -186,20 +195,23 @@ impl EnvMap {
                 texels[k]
             )));
         }
-        let hash = texels
-            .iter()
-            .flatten()
-            .fold(crate::util::rng::label_id(&format!("{w}x{h}")), |h, v| {
-                crate::util::rng::splitmix64(h ^ v.to_bits() as u64)
-            });
         Ok(EnvMap {
             width: w,
             height: h,
+            hash: texel_hash(w, h, &texels),
             texels,
-            hash,
             lookup: Lookup::Mitsuba,
             cells: OnceLock::new(),
         })
+    }
+
+    /// [`EnvMap::from_texels`] with the hash a decoded file of these texels would have.
+    #[cfg(test)]
+    fn decode_test(width: usize, height: usize, texels: Vec<[f32; 3]>) -> Self {
+        EnvMap {
+            hash: texel_hash(width, height, &texels),
+            ..Self::from_texels(width, height, texels)
+        }
     }
 
     /// A map from texels in row-major order (row 0 at the zenith).
@@ -222,6 +234,25 @@ impl EnvMap {
             cells: OnceLock::new(),
             ..self
         }
+    }
+
+    /// The same map with every texel channel clamped to at most `max` (finite, > 0): what a
+    /// renderer that stores light in a low dynamic range does to a sun (the thesis's Archi map
+    /// is clamped at 1.0). The texels change, so does the hash, and with it every cache key.
+    pub fn clamped(self, max: f32) -> Self {
+        assert!(max.is_finite() && max > 0.0, "a clamp is finite and > 0");
+        let texels: Vec<[f32; 3]> = self.texels.iter().map(|t| t.map(|v| v.min(max))).collect();
+        EnvMap {
+            hash: texel_hash(self.width, self.height, &texels),
+            texels,
+            cells: OnceLock::new(),
+            ..self
+        }
+    }
+
+    /// The largest texel channel (the peak radiance, e.g. a sun's).
+    pub fn peak(&self) -> f32 {
+        self.texels.iter().flatten().fold(0.0, |m, &v| m.max(v))
     }
 
     /// How directions find texels.
@@ -442,6 +473,28 @@ fn decode_as(bytes: &[u8], format: ::image::ImageFormat) -> ::image::ImageResult
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A clamp caps every channel (a sun) and leaves the rest; the texels change, so does the
+    /// cache key; a clamp above the peak changes nothing, key included.
+    #[test]
+    fn a_clamp_caps_the_peak_and_changes_the_key_only_when_it_bites() {
+        let texels = vec![
+            [0.5, 2.0, 1e5],
+            [0.25, 0.25, 0.25],
+            [3.0, 0.1, 0.2],
+            [1.0, 1.0, 1.0],
+        ];
+        let map = EnvMap::decode_test(2, 2, texels.clone());
+        let clamped = map.clone().clamped(1.0);
+        assert_eq!(clamped.texel(0, 0), [0.5, 1.0, 1.0]);
+        assert_eq!(clamped.texel(0, 1), [0.25, 0.25, 0.25]);
+        assert_eq!(clamped.texel(1, 0), [1.0, 0.1, 0.2]);
+        assert_eq!(clamped.peak(), 1.0);
+        assert_eq!(map.peak(), 1e5);
+        let key = |m: &EnvMap| Environment::Map(m.clone()).key();
+        assert_ne!(key(&map), key(&clamped));
+        assert_eq!(key(&map), key(&map.clone().clamped(1e6)));
+    }
 
     /// Formats are told apart by their first bytes, whatever the file is called.
     #[test]

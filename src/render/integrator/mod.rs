@@ -217,6 +217,55 @@ pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), Inp
     }
 }
 
+/// The memory guard of a render with `kind` at `spp` and `gps` sets on a `pixels`-pixel image
+/// (issue 30: one estimate, one guard, before anything is allocated): the image and BMCP's
+/// first pass (48 bytes a pixel), and for an integrator with sets the one weight set being
+/// computed ([`crate::bq::rule::weight_set_bytes`]) plus the factors the sets keep — one per
+/// grid model per set for a fitted model, one per set for per-pixel sds (`with_sd`). `what`
+/// names the flag or field (`--spp 4096`, `spp`); exit 2 naming it, the bytes and the budget.
+pub fn check_memory(
+    what: &str,
+    kind: IntegratorKind,
+    spp: usize,
+    gps: usize,
+    model: Option<&BmcModel>,
+    with_sd: bool,
+    pixels: usize,
+) -> Result<(), InputError> {
+    let image = 48u64.saturating_mul(pixels as u64);
+    let Some(model) = model.filter(|_| kind.uses_sets()) else {
+        return crate::bq::rule::check_memory(&format!("{what}: a {pixels}-pixel image"), image);
+    };
+    let exact = model.mode == crate::bq::kernel_mean::KernelMeanMode::Exact;
+    let one = crate::bq::rule::weight_set_bytes(spp, kind.set_design, exact);
+    let per_set = model.candidates().len() + usize::from(with_sd);
+    let kept = (gps as u64).saturating_mul(per_set as u64);
+    let needed = image.saturating_add(one.saturating_mul(kept.saturating_add(1)));
+    let mut kept_for = Vec::new();
+    if model.is_fitted() {
+        kept_for.push("one per set and grid model");
+    }
+    if with_sd {
+        kept_for.push("one per set for the sds");
+    }
+    let keeping = if kept == 0 {
+        ", computed one at a time,".to_string()
+    } else {
+        format!(
+            " keeping {kept} factor{} ({})",
+            if kept == 1 { "" } else { "s" },
+            kept_for.join(", ")
+        )
+    };
+    crate::bq::rule::check_memory(
+        &format!(
+            "{what}: {gps} sample set{} of {spp} points for {kind}{keeping} on a {pixels}-pixel image",
+            if gps == 1 { "" } else { "s" },
+        ),
+        needed,
+    )
+}
+
 /// Validates the number of sample sets.
 pub fn check_gps(gps: usize, what: &str) -> Result<(), InputError> {
     if (1..=MAX_GPS).contains(&gps) {

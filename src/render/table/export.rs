@@ -131,6 +131,9 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
     {
         json["lookup"] = m.lookup_kind().name().into();
     }
+    if let Some(c) = plan.clamp {
+        json["clamp"] = c.into();
+    }
     if let Some(a) = &plan.adaptive {
         // An adaptive table's columns are its targets: no spp list, its own render seeds.
         if let Some(obj) = json.as_object_mut() {
@@ -370,7 +373,76 @@ pub fn times_md(plan: &TablePlan, cells: &[Cell]) -> String {
         }
         s.push('\n');
     }
+    if let Some(text) = equal_time_md(plan, cells) {
+        s.push('\n');
+        s.push_str(&text);
+    }
     s
+}
+
+/// The equal-time comparison, in Markdown (part of the uncommitted `timings.md`): for each
+/// spp column, the time `t*` uniform MC took per image there, and each variant's RMSE at `t*`
+/// divided by MC's, read off the variant's own measured RMSE-against-seconds curve (linear in
+/// log RMSE against log seconds between its spp points; blank where `t*` lies outside the times
+/// it was measured at — no extrapolation). Below 1 the variant wins at equal time. `None`
+/// without a uniform MC variant.
+pub fn equal_time_md(plan: &TablePlan, cells: &[Cell]) -> Option<String> {
+    let mc = plan
+        .variants
+        .iter()
+        .position(|v| v.kind == crate::render::integrator::IntegratorKind::MC)?;
+    let cell = |v: usize, spp: usize| cells.iter().find(|c| c.variant == v && c.spp == spp);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "RMSE at equal time, relative to {} (each variant's RMSE interpolated, log–log, at the \
+         seconds {} took per image at that spp; below 1 is better; blank outside the measured times):\n",
+        plan.variants[mc].label, plan.variants[mc].label
+    );
+    md_header(plan, &mut s, "Method");
+    for (v, variant) in plan.variants.iter().enumerate() {
+        let mut curve: Vec<(f64, f64)> = plan
+            .spp
+            .iter()
+            .filter_map(|&spp| cell(v, spp))
+            .map(|c| (c.seconds, c.mean))
+            .filter(|&(t, r)| t > 0.0 && r > 0.0 && t.is_finite() && r.is_finite())
+            .collect();
+        curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let _ = write!(s, "| {} |", variant.label);
+        for &spp in &plan.spp {
+            let ratio = cell(mc, spp).and_then(|m| Some(log_log_at(&curve, m.seconds)? / m.mean));
+            match ratio {
+                Some(r) => {
+                    let _ = write!(s, " {r:.3} |");
+                }
+                None => s.push_str(" |"),
+            }
+        }
+        s.push('\n');
+    }
+    Some(s)
+}
+
+/// `y(x)` on the piecewise-linear interpolant of `ln y` against `ln x` through `points` (sorted
+/// by x); `None` outside `[x_first, x_last]`.
+fn log_log_at(points: &[(f64, f64)], x: f64) -> Option<f64> {
+    let first = points.first()?;
+    let last = points.last()?;
+    if !(first.0..=last.0).contains(&x) {
+        return None;
+    }
+    for w in points.windows(2) {
+        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+        if (x0..=x1).contains(&x) {
+            if x1 == x0 {
+                return Some(y0);
+            }
+            let t = (x.ln() - x0.ln()) / (x1.ln() - x0.ln());
+            return Some((y0.ln() + t * (y1.ln() - y0.ln())).exp());
+        }
+    }
+    Some(first.1)
 }
 
 /// A Markdown header row `| first | 20 spp | … |` and its rule.
@@ -407,6 +479,19 @@ pub fn timings_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Equal time reads the variant's own curve: on `y = 1/√x` through two points, the
+    /// interpolant at x = 4 is 1/2 exactly (a power law is a line log–log), and nothing is
+    /// extrapolated past the measured range.
+    #[test]
+    fn equal_time_interpolates_log_log_and_never_extrapolates() {
+        let curve = [(1.0, 1.0), (16.0, 0.25)];
+        assert!((log_log_at(&curve, 4.0).unwrap() - 0.5).abs() < 1e-12);
+        assert_eq!(log_log_at(&curve, 1.0), Some(1.0));
+        assert_eq!(log_log_at(&curve, 0.5), None);
+        assert_eq!(log_log_at(&curve, 17.0), None);
+        assert_eq!(log_log_at(&[], 1.0), None);
+    }
 
     #[test]
     fn results_folder_holds_one_run_legacy_manifests_are_read_by_content() {

@@ -10,9 +10,12 @@
 //!   interval, and coverage95 of the stated intervals;
 //! - `rmse_vs_spp.svg` — mean RMSE against spp, log–log, with the intervals;
 //! - `<variant>-<spp>spp.png` — the first repetition of each cell, tone-mapped, and
-//!   `<variant>-<spp>spp-error.png` its error image (absolute scale 0–0.25);
+//!   `<variant>-<spp>spp-error.png` its error image (absolute scale 0–0.25),
+//!   `<variant>-<spp>spp-sd.png` the sd it states (the same scale) and
+//!   `<variant>-<spp>spp-coverage.png` where its 95% intervals hold the reference;
 //! - `reference.png`, `manifest.json` (which lists every file of the set);
-//! - `timings.csv`, `timings.md` — wall-clock seconds (machine-dependent; not committed).
+//! - `timings.csv`, `timings.md`, `rmse-cost.svg` — wall-clock seconds, the equal-time
+//!   comparison and RMSE against seconds (machine-dependent; not committed).
 //!
 //! With `"adaptive"` ([`adaptive`]) the columns are target sds instead of spp: the same
 //! reference, folder, manifest and timings files, with `rmse.csv`, `table.*`, `rmse_vs_spp.svg`
@@ -33,7 +36,7 @@ pub mod runner;
 pub mod spec;
 pub mod summary;
 
-pub use plan::{TablePlan, VariantPlan, error_png_name, load, png_name};
+pub use plan::{TablePlan, VariantPlan, coverage_png_name, error_png_name, load, png_name, sd_png_name};
 pub use reference::{SCENE_VERSION, reference_key};
 pub use runner::{Row, render_seed};
 pub use summary::Cell;
@@ -41,6 +44,7 @@ pub use summary::Cell;
 use crate::files::result_folder::ResultFolder;
 use crate::render::image::Image;
 use crate::render::renderer::Renderer;
+use crate::render::uncertainty::{PixelSds, coverage_map_png};
 use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 
@@ -209,7 +213,14 @@ struct FileSink<'a> {
 }
 
 impl runner::TableSink for FileSink<'_> {
-    fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()> {
+    fn first_image(
+        &mut self,
+        variant: usize,
+        spp: usize,
+        image: &Image,
+        sds: &PixelSds,
+    ) -> crate::Result<()> {
+        use crate::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, SD_TITLE, scalar_png};
         let label = &self.plan.variants[variant].label;
         self.folder.write(
             &png_name(label, spp),
@@ -222,6 +233,29 @@ impl runner::TableSink for FileSink<'_> {
             " (thesis Fig. 3.14, 4.3)",
             image,
             self.reference,
+        )?;
+        // The sd it states, on the error image's scale, so that the two compare colour for
+        // colour: where the error image is brighter than the sd image, the interval is too short.
+        let sd = scalar_png(
+            &sds.norms(),
+            image.width,
+            image.height,
+            ErrorScale::Absolute,
+            DEFAULT_ERROR_MAX,
+            ColourMap::Viridis,
+            SD_TITLE,
+        )?;
+        self.folder.write(
+            &sd_png_name(label, spp),
+            &format!(
+                "the sd that render states per pixel (‖sd‖₂ over channels, 0–{DEFAULT_ERROR_MAX}, the error image's scale)"
+            ),
+            &sd.png,
+        )?;
+        self.folder.write(
+            &coverage_png_name(label, spp),
+            "where its 95% intervals hold the reference: light grey all three channels, orange one or two, red none",
+            &coverage_map_png(image, self.reference, sds, 0.95)?,
         )
     }
 

@@ -99,6 +99,8 @@ pub struct TablePlan {
     pub scene: SceneKind,
     pub env: Environment,
     pub env_arg: String,
+    /// The map's clamp (`clamp`), already applied to `env`.
+    pub clamp: Option<f64>,
     pub spp: Vec<usize>,
     /// Repetitions per entry of `spp` (per target of an adaptive table).
     pub repetitions: Vec<usize>,
@@ -171,6 +173,21 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
             .with_lookup(Lookup::from_name(name, "lookup").map_err(|e| e.0)?, "lookup")
             .map_err(|e| e.0)?,
         None => env,
+    };
+    let env = match (spec.clamp, env) {
+        (None, env) => env,
+        (Some(c), Environment::Map(m)) if c.is_finite() && c > 0.0 && c <= f32::MAX as f64 => {
+            Environment::Map(m.clamped(c as f32))
+        }
+        (Some(c), Environment::Map(_)) => {
+            return Err(err("clamp", format!("{c} is not a finite radiance > 0")));
+        }
+        (Some(_), other) => {
+            return Err(err(
+                "clamp",
+                format!("applies to environment map files, not to `{}`", other.key()),
+            ));
+        }
     };
     let adaptive = spec
         .adaptive
@@ -245,7 +262,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         ));
     }
     let needed = variants.iter().any(|v| v.kind.uses_sets());
-    Ok(TablePlan {
+    let plan = TablePlan {
         file: path.to_path_buf(),
         name: spec.name.clone(),
         title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
@@ -255,6 +272,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         scene,
         env,
         env_arg,
+        clamp: spec.clamp,
         spp,
         repetitions,
         adaptive,
@@ -263,7 +281,32 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
         model_json: model.to_json(),
         variants,
         external,
-    })
+    };
+    check_memory(&plan)?;
+    Ok(plan)
+}
+
+/// The memory guard ([`crate::render::integrator::check_memory`]) for every variant at its
+/// largest spp (an adaptive table's `max_spp`): renders run one at a time, so the largest one
+/// is what the table needs.
+fn check_memory(plan: &TablePlan) -> Result<(), String> {
+    let (spp, field) = match &plan.adaptive {
+        Some(a) => (a.max_spp, "adaptive.max_spp"),
+        None => (plan.spp.iter().copied().max().unwrap_or(0), "spp"),
+    };
+    for (k, v) in plan.variants.iter().enumerate() {
+        crate::render::integrator::check_memory(
+            &format!("{field} {spp} with variants[{k}]"),
+            v.kind,
+            spp,
+            v.gps,
+            plan.model_of(v),
+            true,
+            plan.width * plan.height,
+        )
+        .map_err(|e| e.0)?;
+    }
+    Ok(())
 }
 
 /// The table name becomes a folder: keep it to a safe alphabet.
@@ -505,6 +548,16 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
 /// `BMC 4 GP` at 40 spp → `bmc-4-gp-40spp-error.png`: the error image beside [`png_name`]'s.
 pub fn error_png_name(label: &str, spp: usize) -> String {
     png_name(label, spp).replace("spp.png", "spp-error.png")
+}
+
+/// The sd image of a cell's first render: `…-40spp-sd.png`.
+pub fn sd_png_name(label: &str, spp: usize) -> String {
+    png_name(label, spp).replace("spp.png", "spp-sd.png")
+}
+
+/// The coverage map of a cell's first render: `…-40spp-coverage.png`.
+pub fn coverage_png_name(label: &str, spp: usize) -> String {
+    png_name(label, spp).replace("spp.png", "spp-coverage.png")
 }
 
 /// `BMC 4 GP (no rotation)` at 40 spp → `bmc-4-gp-no-rotation-40spp.png`.

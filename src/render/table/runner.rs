@@ -5,7 +5,7 @@ use super::plan::TablePlan;
 use crate::render::image::Image;
 use crate::render::integrator::Integrator;
 use crate::render::renderer::Renderer;
-use crate::render::uncertainty::coverage;
+use crate::render::uncertainty::{PixelSds, coverage};
 use crate::util::report::{Reporter, Silent};
 use std::time::Instant;
 
@@ -35,11 +35,12 @@ pub fn render_seed(seed: u64, spp: usize, rep: usize) -> u64 {
     crate::util::rng::mix(seed, &[spp as u64, rep as u64])
 }
 
-/// What the runner hands its caller as it goes: the first repetition's image of each cell (to
-/// save), and the rows so far after each round of variants (so an interrupted
+/// What the runner hands its caller as it goes: the first repetition's image of each cell and
+/// the sds it states (to save), and the rows so far after each round of variants (so an interrupted
 /// table keeps what it measured).
 pub trait TableSink {
-    fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()>;
+    fn first_image(&mut self, variant: usize, spp: usize, image: &Image, sds: &PixelSds)
+    -> crate::Result<()>;
     fn round_done(&mut self, rows: &[Row]) -> crate::Result<()>;
 }
 
@@ -95,7 +96,7 @@ pub fn run(
                         .map(|e| ExternalMeasures::of(&image, &e.reference, reference)),
                 });
                 if rep == 0 {
-                    sink.first_image(v, spp, &image)?;
+                    sink.first_image(v, spp, &image, &sds)?;
                 }
                 reporter.advance(1);
             }

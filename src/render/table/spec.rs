@@ -49,6 +49,11 @@ pub struct TableSpec {
     /// texel); default `mitsuba`. Maps only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lookup: Option<String>,
+    /// Clamp every texel channel of the map to at most this value (finite, > 0) before
+    /// anything, reference included: what a low-dynamic-range light store does to a sun (the
+    /// thesis's Archi map is clamped at 1.0). Maps only; default no clamp.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clamp: Option<f64>,
     /// Samples per pixel; default `[20, 40, 60, 80]`.
     #[serde(default)]
     pub spp: Option<Vec<u64>>,

@@ -143,3 +143,71 @@ fn a_sobolev_s_too_close_to_2_or_3_is_refused_with_reason_and_remedy() {
         assert!((sum - std::f64::consts::TAU).abs() < 0.05, "s = {s}: Σw = {sum}");
     }
 }
+
+/// A render's sample sets were unguarded: only the image's size was checked, so a fitted model
+/// keeping a factor per set and grid model (8 sets × 8 models × 8·N² at N = 8192: 32 GiB) or a
+/// table at a large spp ran until memory ran out. One estimate, one guard: the single image,
+/// the adaptive image and every variant of a table, before anything is written.
+#[test]
+fn render_counts_the_factors_its_sample_sets_keep_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = [
+        "render",
+        "--integrator",
+        "bmc",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--out",
+        "x.exr",
+    ];
+    fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+        [base, extra].concat()
+    }
+    // 8 sets × 8 grid models kept, and the one being computed: 65 × 8 · 1024² bytes.
+    let o = with_budget(
+        d,
+        "256MiB",
+        &with(&base, &["--spp", "1024", "--gps", "8", "--kernel", "fitted"]),
+    );
+    refused(
+        &o,
+        "--spp 1024: 8 sample sets of 1024 points for bmc keeping 64 factors (one per set and grid \
+         model) on a 64-pixel image needs 520.0 MiB",
+    );
+    // A fixed model computes its sets one at a time: one factor, well under the budget.
+    let o = with_budget(d, "256MiB", &with(&base, &["--spp", "1024", "--gps", "8"]));
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Per-pixel sds keep one factor per set.
+    let o = with_budget(
+        d,
+        "40MiB",
+        &with(&base, &["--spp", "1024", "--gps", "8", "--sd-out", "sd.exr"]),
+    );
+    refused(&o, "keeping 8 factors (one per set for the sds)");
+    let o = with_budget(
+        d,
+        "40MiB",
+        &with(&base, &["--target-sd", "0.01", "--max-spp", "2048", "--gps", "2"]),
+    );
+    refused(
+        &o,
+        "--max-spp 2048: 2 sample sets of 2048 points for bmc keeping 2 factors",
+    );
+    std::fs::write(
+        d.join("t.json"),
+        r#"{"name": "t", "width": 8, "height": 8, "spp": [16, 1024], "repetitions": 1,
+            "reference": {"spp": 4},
+            "variants": [{"label": "MC", "integrator": "mc"},
+                         {"label": "F", "integrator": "bmc", "gps": 8, "model": {"kernel": {"type": "fitted"}}}]}"#,
+    )
+    .unwrap();
+    let o = with_budget(d, "256MiB", &["render", "t.json", "--results-dir", "out"]);
+    refused(
+        &o,
+        "t.json: spp 1024 with variants[1]: 8 sample sets of 1024 points for bmc keeping 72 factors",
+    );
+    assert!(!d.join("out").exists() && !d.join("sd.exr").exists());
+}
