@@ -180,7 +180,14 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
             Environment::Map(m.clamped(c as f32))
         }
         (Some(c), Environment::Map(_)) => {
-            return Err(err("clamp", format!("{c} is not a finite radiance > 0")));
+            return Err(err(
+                "clamp",
+                format!(
+                    "{} is not a radiance in (0, {:e}] (a texel's largest value)",
+                    crate::util::shown::shown(c),
+                    f32::MAX
+                ),
+            ));
         }
         (Some(_), other) => {
             return Err(err(

@@ -258,3 +258,70 @@ fn the_default_reference_is_exact_and_matches_render_exact() {
     let o = workbench(d, &["render", "ex.json", "--results-dir", "out"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("reference from cache"));
 }
+
+/// `clamp` caps the map's texels before anything: a map whose only texel above 1 is a "sun"
+/// of 10⁴, clamped at 1, is the constant map of 1 — the same reference cache entry and the
+/// same numbers as a table under that constant map — and the manifest says so; unclamped, the
+/// sun makes another reference. A clamp that is not a finite radiance > 0 is refused.
+#[test]
+fn a_clamped_map_is_the_map_with_its_texels_capped() {
+    use image::{ImageFormat, Rgb, Rgb32FImage};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ones = Rgb32FImage::from_pixel(16, 8, Rgb([1.0, 1.0, 1.0]));
+    let mut sun = ones.clone();
+    sun.get_pixel_mut(3, 2).0 = [1e4, 2e4, 1e4];
+    for (name, map) in [("ones.exr", ones), ("sun.exr", sun)] {
+        image::DynamicImage::ImageRgb32F(map)
+            .save_with_format(d.join(name), ImageFormat::OpenExr)
+            .unwrap();
+    }
+    let table = |name: &str, env: &str, clamp: &str| {
+        format!(
+            r#"{{"name": "{name}", "width": 12, "height": 8, "spp": [4], "repetitions": 2,
+                 "env": "{env}"{clamp}, "reference": {{"spp": 8}},
+                 "variants": [{{"label": "MC", "integrator": "mc"}},
+                              {{"label": "BMC", "integrator": "bmc", "gps": 1}}]}}"#
+        )
+    };
+    for (name, env, clamp) in [
+        ("clamped", "sun.exr", r#", "clamp": 1.0"#),
+        ("ones", "ones.exr", ""),
+        ("sun", "sun.exr", ""),
+    ] {
+        std::fs::write(d.join(format!("{name}.json")), table(name, env, clamp)).unwrap();
+        let o = workbench(
+            d,
+            &["render", &format!("{name}.json"), "--results-dir", "out", "-q"],
+        );
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+    }
+    let read = |name: &str, file: &str| std::fs::read_to_string(d.join("out").join(name).join(file)).unwrap();
+    assert_eq!(read("clamped", "rmse.csv"), read("ones", "rmse.csv"));
+    assert_ne!(read("sun", "rmse.csv"), read("ones", "rmse.csv"));
+    let manifest: serde_json::Value = serde_json::from_str(&read("clamped", "manifest.json")).unwrap();
+    assert_eq!(manifest["clamp"], 1.0);
+    assert!(
+        serde_json::from_str::<serde_json::Value>(&read("ones", "manifest.json")).unwrap()["clamp"].is_null()
+    );
+    // Two references in the cache (each an .exr and its .json): the clamped map's is the ones'.
+    assert_eq!(std::fs::read_dir(d.join("out/cache")).unwrap().count(), 4);
+    for (bad, want) in [
+        ("0.0", "bad.json: clamp: 0 is not a radiance in (0, 3.4028235e38]"),
+        ("-1", "bad.json: clamp: -1 is not a radiance in (0, 3.4028235e38]"),
+        (
+            "1e300",
+            "bad.json: clamp: 1e300 is not a radiance in (0, 3.4028235e38]",
+        ),
+    ] {
+        std::fs::write(
+            d.join("bad.json"),
+            table("bad", "sun.exr", &format!(r#", "clamp": {bad}"#)),
+        )
+        .unwrap();
+        let o = workbench(d, &["render", "bad.json", "--results-dir", "out"]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{want}: {}", stderr(&o));
+        assert!(!d.join("out/bad").exists());
+    }
+}
