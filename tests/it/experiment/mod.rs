@@ -1,4 +1,5 @@
 mod cli_run;
+mod envmap;
 mod fault_classes;
 mod fits;
 mod golden;
