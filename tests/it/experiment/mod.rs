@@ -4,6 +4,7 @@ mod fault_classes;
 mod fits;
 mod golden;
 mod inputs;
+mod irradiance;
 mod outputs;
 mod plots;
 mod scale;
