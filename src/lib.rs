@@ -10,6 +10,7 @@ pub mod error;
 pub mod experiment;
 pub mod files;
 pub mod integrand;
+pub mod irradiance;
 pub mod plot;
 pub mod provenance;
 pub mod render;

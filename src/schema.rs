@@ -21,17 +21,24 @@ pub enum SchemaKind {
     Experiment,
     /// Render tables (`workbench render SPEC.json`).
     RenderTable,
+    /// Irradiance protocol files (`workbench run`, `"kind": "irradiance"`).
+    Irradiance,
 }
 
 impl SchemaKind {
     /// Every kind, in the order of the docs.
-    pub const ALL: [SchemaKind; 2] = [SchemaKind::Experiment, SchemaKind::RenderTable];
+    pub const ALL: [SchemaKind; 3] = [
+        SchemaKind::Experiment,
+        SchemaKind::RenderTable,
+        SchemaKind::Irradiance,
+    ];
 
     /// The name on the command line (`workbench schema <name>`).
     pub fn name(self) -> &'static str {
         match self {
             SchemaKind::Experiment => "experiment",
             SchemaKind::RenderTable => "render-table",
+            SchemaKind::Irradiance => "irradiance",
         }
     }
 
@@ -46,6 +53,7 @@ impl SchemaKind {
         match self {
             SchemaKind::Experiment => "schema/experiment.schema.json",
             SchemaKind::RenderTable => "schema/render-table.schema.json",
+            SchemaKind::Irradiance => "schema/irradiance.schema.json",
         }
     }
 
@@ -54,6 +62,7 @@ impl SchemaKind {
         let schema = match self {
             SchemaKind::Experiment => schemars::schema_for!(ExperimentSpec),
             SchemaKind::RenderTable => schemars::schema_for!(TableSpec),
+            SchemaKind::Irradiance => schemars::schema_for!(crate::irradiance::IrradianceSpec),
         };
         schema.to_value()
     }

@@ -1,5 +1,5 @@
 //! The integrands of experiment files (`"cos3"`, the lobe, cap and Gaussian families, scene
-//! pixels) with their certified truths.
+//! pixels, maps seen from a surface) with their certified truths.
 
 use crate::arrays;
 use crate::value_error;
@@ -16,7 +16,8 @@ pub struct Integrand {
 #[pymethods]
 impl Integrand {
     /// `Integrand(spec)`: a name (`"cos3"`: cos^k θ) or a family dict as in experiment files
-    /// (`{"type": "lobe", "axis": [0.5, 0, 0.866], "exponent": 8}`, `cap`, `gaussian`, `pixel`).
+    /// (`{"type": "lobe", "axis": [0.5, 0, 0.866], "exponent": 8}`, `cap`, `gaussian`, `pixel`,
+    /// `{"type": "envmap", "env": "pisa", "normal": [0, 1, 0]}`).
     #[new]
     fn new(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Integrand> {
         let spec = if let Ok(name) = spec.cast::<PyString>() {
@@ -33,7 +34,7 @@ impl Integrand {
                 .map_err(|m| value_error(format!("spec: {m}")))?;
             IntegrandSpec::Family(family)
         };
-        // A pixel's truth is a certified quadrature (seconds): without the GIL.
+        // A pixel's or a map's truth is a certified quadrature (up to seconds): without the GIL.
         let f = py
             .detach(|| workbench::experiment::plan::resolve_integrand(&spec))
             .map_err(|m| value_error(format!("spec: {m}")))?;

@@ -82,6 +82,7 @@ const MEASURED: &[(&str, &str, f64)] = &[
 enum Job {
     Experiment(Box<ex::plan::Plan>),
     Table(Box<TablePlan>),
+    Irradiance(Box<workbench::irradiance::IrradiancePlan>),
 }
 
 struct Item {
@@ -101,7 +102,7 @@ struct Estimate {
 impl Item {
     fn verb(&self) -> &'static str {
         match self.job {
-            Job::Experiment(_) => "run",
+            Job::Experiment(_) | Job::Irradiance(_) => "run",
             Job::Table(_) => "render",
         }
     }
@@ -246,6 +247,11 @@ fn plan(
                 let out = table::output_dir(results, &plan);
                 (Job::Table(Box::new(plan)), out)
             }
+            Some(SpecKind::Irradiance) => {
+                let plan = workbench::irradiance::load(&file)?;
+                let out = results.join(&plan.name);
+                (Job::Irradiance(Box::new(plan)), out)
+            }
             // Anything else, unreadable files included, gets the experiment's messages.
             _ => {
                 let plan = ex::load_plan(
@@ -363,13 +369,14 @@ fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
     let hash = match job {
         Job::Experiment(p) => ex::unit_log::plan_hash(p),
         Job::Table(p) => table::export::plan_hash(p),
+        Job::Irradiance(p) => workbench::irradiance::plan_hash(p),
     };
     let timings = std::fs::read(out.join("timings.json"))
         .ok()
         .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
         .filter(|v| v["plan_hash"].as_str() == Some(hash.as_str()));
     let here = timings.and_then(|timings| match job {
-        Job::Experiment(_) => timings["wall_seconds"].as_f64(),
+        Job::Experiment(_) | Job::Irradiance(_) => timings["wall_seconds"].as_f64(),
         Job::Table(_) => std::fs::read_to_string(out.join("timings.csv"))
             .ok()
             .and_then(|t| {
@@ -384,6 +391,7 @@ fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
     let name = match job {
         Job::Experiment(p) => &p.name,
         Job::Table(p) => &p.name,
+        Job::Irradiance(p) => &p.name,
     };
     here.filter(|s| s.is_finite() && *s >= 0.0)
         .map(|seconds| Estimate { seconds, here: true })
@@ -498,6 +506,18 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
                 checks,
                 failed,
                 report: text,
+            })
+        }
+        Job::Irradiance(plan) => {
+            let report =
+                workbench::irradiance::run(plan, &item.out, Some(&item.file), threads, &Bar::new(quiet))?;
+            if !quiet {
+                stdout(&workbench::irradiance::export::summary(plan, &report.rows))?;
+            }
+            Ok(Outcome {
+                checks: 0,
+                failed: 0,
+                report: None,
             })
         }
         Job::Table(plan) => {

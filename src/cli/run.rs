@@ -51,6 +51,10 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let text = workbench::files::spec_json::read_spec(&args.file).unwrap_or_default();
+    if workbench::files::spec_json::spec_kind(&text) == Some(SpecKind::Irradiance) {
+        return run_irradiance(args);
+    }
     let shard = args
         .shard
         .as_deref()
@@ -112,12 +116,50 @@ pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
             let plan = workbench::render::table::load(&args.file)?;
             stdout(&workbench::render::table::describe(&plan))?;
         }
+        Some(SpecKind::Irradiance) => {
+            let plan = workbench::irradiance::load(&args.file)?;
+            stdout(&workbench::irradiance::describe(&plan))?;
+        }
         // Anything else, unreadable files included, gets the experiment's messages.
         _ => {
             let plan = ex::load_plan(&args.file, &Default::default())?;
             stdout(&ex::describe(&plan))?;
         }
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `workbench run` of an irradiance protocol file (`"kind": "irradiance"`): into `--out` or
+/// `results/<name>/`; `--trials`, `--shard` and `--resume` do not apply.
+fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
+    for (given, flag) in [
+        (args.trials.is_some(), "--trials"),
+        (args.shard.is_some(), "--shard"),
+        (args.resume, "--resume"),
+    ] {
+        if given {
+            return Err(workbench::InputError::new(format!(
+                "{flag}: does not apply to an irradiance protocol file ({})",
+                args.file.display()
+            ))
+            .into());
+        }
+    }
+    let plan = workbench::irradiance::load(&args.file)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(&plan.name));
+    let report =
+        workbench::irradiance::run(&plan, &out, Some(&args.file), args.threads, &Bar::new(args.quiet))?;
+    stdout(&workbench::irradiance::export::summary(&plan, &report.rows))?;
+    status!(
+        "wrote {} ({:.2} s on {} thread{})",
+        report.out_dir.display(),
+        report.wall_seconds,
+        report.threads,
+        if report.threads == 1 { "" } else { "s" }
+    );
     Ok(ExitCode::SUCCESS)
 }
 

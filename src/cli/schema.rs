@@ -1,4 +1,4 @@
-//! `workbench schema`: the JSON Schema of experiment files or render tables.
+//! `workbench schema`: the JSON Schema of experiment files, render tables or irradiance files.
 
 use super::output::{status, stdout};
 use std::path::PathBuf;
@@ -16,7 +16,8 @@ use workbench::schema::SchemaKind;
     method, design and integrator names); `workbench validate` checks the rest.\n\n\
     Exit codes: 0 success; 2 any error.")]
 pub struct SchemaArgs {
-    /// Which files: `experiment` (workbench run) or `render-table` (workbench render SPEC.json).
+    /// Which files: `experiment` (workbench run), `render-table` (workbench render SPEC.json) or
+    /// `irradiance` (workbench run, `"kind": "irradiance"`).
     #[arg(value_parser = kind_names())]
     kind: String,
     /// Write the schema here (atomically) instead of to stdout.

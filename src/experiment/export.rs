@@ -173,6 +173,20 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
         v["channel"] = ["r", "g", "b"][p.channel].into();
         v["truth_error_estimate"] = p.integral_error().into();
     }
+    if let crate::integrand::Integrand::Envmap { f: e, .. } = f {
+        v["type"] = "envmap".into();
+        v["env"] = e.env_name.clone().into();
+        v["normal"] = serde_json::json!([e.normal.x, e.normal.y, e.normal.z]);
+        v["brdf"] = match e.brdf {
+            crate::integrand::envmap::Brdf::Lambert => "lambert".into(),
+            crate::integrand::envmap::Brdf::Phong { exponent, axis } => {
+                serde_json::json!({ "phong": exponent, "axis": [axis.x, axis.y, axis.z] })
+            }
+        };
+        v["lookup"] = e.lookup.name().into();
+        v["channel"] = e.channel.clone().into();
+        v["truth_error_estimate"] = e.integral_error().into();
+    }
     v
 }
 

@@ -242,6 +242,9 @@ pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
             "this is a render table spec (it has \"variants\"); run it with `workbench render FILE`".into(),
         );
     }
+    if crate::files::spec_json::spec_kind(text) == Some(crate::files::spec_json::SpecKind::Irradiance) {
+        return Err("this is an irradiance protocol file (\"kind\": \"irradiance\"); run it with `workbench run FILE`".into());
+    }
     crate::files::spec_json::parse(text, "the experiment")
 }
 

@@ -75,11 +75,13 @@ pub fn kind(value: &serde_json::Value) -> &'static str {
     }
 }
 
-/// Which kind of spec a file holds, from its top-level keys: render tables have `variants`.
+/// Which kind of spec a file holds, from its top-level keys: render tables have `variants`,
+/// irradiance files `"kind": "irradiance"`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SpecKind {
     Experiment,
     RenderTable,
+    Irradiance,
 }
 
 /// The kind of spec in `text`, if it is a JSON object with `estimators` or `variants`.
@@ -87,6 +89,9 @@ pub fn spec_kind(text: &str) -> Option<SpecKind> {
     let text = text.strip_prefix(BOM).unwrap_or(text);
     let value: serde_json::Value = serde_json::from_str(text).ok()?;
     let obj = value.as_object()?;
+    if obj.get("kind").and_then(|k| k.as_str()) == Some("irradiance") {
+        return Some(SpecKind::Irradiance);
+    }
     if obj.contains_key("variants") && !obj.contains_key("estimators") {
         Some(SpecKind::RenderTable)
     } else {

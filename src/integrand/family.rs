@@ -24,11 +24,12 @@
 //! 1e-12 relative and against an independent 2-D quadrature in `(θ, φ)` about the normal.
 //!
 //! **In experiment files.** [`FamilySpec`] is an integrand object as written (`{"type": "lobe",
-//! …}`, and the render scene's `pixel`); [`FamilySpec::resolve`] turns it into an [`Integrand`]
+//! …}`, the render scene's `pixel` and a map's `envmap`); [`FamilySpec::resolve`] turns it into an [`Integrand`]
 //! with its default name ([`AxisIntegrand::default_name`]), and [`Profile::parameter`] is the
 //! manifest's parameter column. A new axis profile touches this file only.
 
 use super::Integrand;
+use super::envmap::{BrdfSpec, EnvmapIntegrand};
 use super::pixel::PixelIntegrand;
 use crate::util::geometry::Vec3;
 use crate::util::quadrature::GaussLegendre;
@@ -252,6 +253,31 @@ pub enum FamilySpec {
         env: String,
         channel: String,
     },
+    /// A lat-long map seen from an unoccluded surface with world normal `normal`
+    /// ([`super::envmap`]): `L_c(d) · f_r · (ω·n)`, `brdf` `"lambert"` (`f_r = 1/π`: the truth is
+    /// the irradiance `E(n)`) or `{"phong": e, "axis": [x, y, z]}` (`f_r = ((e + 1)/2π)
+    /// max(0, ω·a)^e`, axis in the local frame), `lookup` `mitsuba` (default) or `thesis`,
+    /// `channel` `r`, `g`, `b` or `luminance` (Rec. 709, default).
+    Envmap {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        name: Option<String>,
+        env: String,
+        normal: [f64; 3],
+        #[serde(default)]
+        brdf: BrdfSpec,
+        #[serde(default = "default_lookup")]
+        lookup: String,
+        #[serde(default = "default_channel")]
+        channel: String,
+    },
+}
+
+fn default_lookup() -> String {
+    "mitsuba".into()
+}
+
+fn default_channel() -> String {
+    "luminance".into()
 }
 
 /// The renderer's default image size.
@@ -265,7 +291,7 @@ fn default_env() -> String {
 
 impl FamilySpec {
     /// The accepted `"type"`s, as the JSON spells them (the enum's variants, in order).
-    pub const TYPES: [&'static str; 4] = ["lobe", "cap", "gaussian", "pixel"];
+    pub const TYPES: [&'static str; 5] = ["lobe", "cap", "gaussian", "pixel", "envmap"];
 
     /// [`FamilySpec::TYPES`] for a sentence: `lobe, cap, gaussian or pixel`.
     pub fn types_or() -> String {
@@ -279,7 +305,8 @@ impl FamilySpec {
             FamilySpec::Lobe { name, .. }
             | FamilySpec::Cap { name, .. }
             | FamilySpec::Gaussian { name, .. }
-            | FamilySpec::Pixel { name, .. } => name.as_deref(),
+            | FamilySpec::Pixel { name, .. }
+            | FamilySpec::Envmap { name, .. } => name.as_deref(),
         }
     }
 
@@ -330,6 +357,18 @@ impl FamilySpec {
                 let f = PixelIntegrand::from_env_arg(*pixel, *width, *height, env, channel)?;
                 let name = name.clone().unwrap_or_else(|| f.default_name());
                 return Ok(Integrand::Pixel { name, f: Box::new(f) });
+            }
+            FamilySpec::Envmap {
+                name,
+                env,
+                normal,
+                brdf,
+                lookup,
+                channel,
+            } => {
+                let f = EnvmapIntegrand::new(env, *normal, brdf.resolve()?, lookup, channel)?;
+                let name = name.clone().unwrap_or_else(|| f.default_name());
+                return Ok(Integrand::Envmap { name, f: Box::new(f) });
             }
         };
         let f = AxisIntegrand::new(profile, *axis, cosine)?;
@@ -483,7 +522,7 @@ mod tests {
             e.contains(&format!("expected one of {}", expected.join(", "))),
             "{e}"
         );
-        assert_eq!(FamilySpec::types_or(), "lobe, cap, gaussian or pixel");
+        assert_eq!(FamilySpec::types_or(), "lobe, cap, gaussian, pixel or envmap");
         for p in [
             Profile::Lobe { exponent: 1.0 },
             Profile::Cap { half_angle: 1.0 },

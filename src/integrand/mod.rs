@@ -1,11 +1,14 @@
 //! Integrands with their exact integrals (math.md §1): `cos^k θ` here, the rendering-like
 //! families (lobe, cap, Gaussian about a tilted axis) in [`family`], and [`Integrand`], the one
-//! type experiments use; render-scene pixels in [`pixel`].
+//! type experiments use; render-scene pixels in [`pixel`]; real light (a map seen from a surface)
+//! in [`envmap`].
 
+pub mod envmap;
 pub mod family;
 pub mod pixel;
 
 use crate::util::geometry::Vec3;
+use envmap::EnvmapIntegrand;
 use family::AxisIntegrand;
 use pixel::PixelIntegrand;
 use std::f64::consts::TAU;
@@ -19,6 +22,8 @@ pub enum Integrand {
     Axis { name: String, f: AxisIntegrand },
     /// A render-scene pixel's integrand in one channel, with its name.
     Pixel { name: String, f: Box<PixelIntegrand> },
+    /// A map seen from an unoccluded surface, one channel, with its name.
+    Envmap { name: String, f: Box<EnvmapIntegrand> },
 }
 
 impl Integrand {
@@ -26,7 +31,9 @@ impl Integrand {
     pub fn name(&self) -> String {
         match self {
             Integrand::Cos(c) => c.name(),
-            Integrand::Axis { name, .. } | Integrand::Pixel { name, .. } => name.clone(),
+            Integrand::Axis { name, .. } | Integrand::Pixel { name, .. } | Integrand::Envmap { name, .. } => {
+                name.clone()
+            }
         }
     }
 
@@ -36,6 +43,7 @@ impl Integrand {
             Integrand::Cos(c) => c.display_name(),
             Integrand::Axis { f, .. } => f.display_name(),
             Integrand::Pixel { f, .. } => f.display_name(),
+            Integrand::Envmap { f, .. } => f.display_name(),
         }
     }
 
@@ -46,6 +54,7 @@ impl Integrand {
             Integrand::Cos(c) => c.value(w),
             Integrand::Axis { f, .. } => f.value(w),
             Integrand::Pixel { f, .. } => f.value(w),
+            Integrand::Envmap { f, .. } => f.value(w),
         }
     }
 
@@ -55,6 +64,7 @@ impl Integrand {
             Integrand::Cos(c) => c.integral(),
             Integrand::Axis { f, .. } => f.integral(),
             Integrand::Pixel { f, .. } => f.integral(),
+            Integrand::Envmap { f, .. } => f.integral(),
         }
     }
 
@@ -64,6 +74,7 @@ impl Integrand {
             Integrand::Cos(c) => c.constant_prior(),
             Integrand::Axis { f, .. } => f.integral() / TAU,
             Integrand::Pixel { f, .. } => f.integral() / TAU,
+            Integrand::Envmap { f, .. } => f.integral() / TAU,
         }
     }
 }

@@ -40,7 +40,7 @@ pub struct Cuts<'a> {
 
 /// Pushes the solutions `φ ∈ [0, 2π)` of `a_x cos φ + a_z sin φ = b` (none when `|b| > A`).
 #[inline]
-fn push_crossings(ax: f64, az: f64, b: f64, out: &mut Vec<f64>) {
+pub fn push_crossings(ax: f64, az: f64, b: f64, out: &mut Vec<f64>) {
     let a = ax.hypot(az);
     if a <= 0.0 || b.abs() > a {
         return;
@@ -54,7 +54,7 @@ fn push_crossings(ax: f64, az: f64, b: f64, out: &mut Vec<f64>) {
 /// `θ ∈ (0, π)` where `sin θ · A = |B(θ)|` for `B = b₀ − c_y cos θ`, i.e. where the circle of
 /// constant `θ` touches the cone `ω·c = b₀` (`c` unit; `b₀ = 0` for a great circle): `θ_c ± β`
 /// reflected into `[0, π]`.
-fn push_tangencies(c: &Vec3, cos_beta: f64, out: &mut Vec<f64>) {
+pub fn push_tangencies(c: &Vec3, cos_beta: f64, out: &mut Vec<f64>) {
     let theta_c = c.y.clamp(-1.0, 1.0).acos();
     let beta = cos_beta.clamp(-1.0, 1.0).acos();
     for t in [theta_c - beta, theta_c + beta] {

@@ -12,6 +12,7 @@
 //! new module and one line in [`TOPICS`].
 
 mod catalog;
+mod envmap;
 mod thesis;
 
 use libtest_mimic::{Arguments, Completion, Failed, Trial};
@@ -48,7 +49,11 @@ impl Data {
 pub type Test = (&'static str, fn(&Data));
 
 /// Every topic's tests.
-const TOPICS: &[(&str, &[Test])] = &[("catalog", catalog::TESTS), ("thesis", thesis::TESTS)];
+const TOPICS: &[(&str, &[Test])] = &[
+    ("catalog", catalog::TESTS),
+    ("envmap", envmap::TESTS),
+    ("thesis", thesis::TESTS),
+];
 
 /// The data folder, or why there is none.
 fn data_folder() -> Result<Data, String> {

@@ -213,6 +213,21 @@ impl CellTable {
         m
     }
 
+    /// `L_row(ψ)` per channel, for `start ≤ ψ ≤ start + 2π` (the profile the moments integrate;
+    /// for the quadrature of a non-linear weight, [`super::lobe`]).
+    #[inline]
+    pub fn value(&self, row: usize, psi: f64) -> [f64; 3] {
+        let i = self.cell_of(psi);
+        let k = row * self.cells + i;
+        match self.a1.get(k) {
+            Some(a1) => {
+                let t = psi - self.knot(i);
+                [0, 1, 2].map(|c| self.a0[k][c] + a1[c] * t)
+            }
+            None => self.a0[k],
+        }
+    }
+
     /// `∫_a^b L_row(ψ)·{1, sin ψ, cos ψ} dψ` per channel, for `start ≤ a ≤ b ≤ start + 2π`.
     pub fn integral(&self, row: usize, a: &Azimuth, b: &Azimuth) -> Moments {
         let (ia, ib) = (self.cell_of(a.psi), self.cell_of(b.psi));

@@ -23,11 +23,13 @@
 //! against closed forms and brute force.
 
 pub mod cells;
+pub mod lobe;
 
 use super::cuts::{Cuts, PixelIntegral, adaptive};
 use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
+use crate::util::geometry::{Frame, Vec3};
 use crate::util::quadrature::GK21;
 use cells::Azimuth;
 use std::cell::RefCell;
@@ -103,6 +105,28 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
         error,
         depth_limited: limited,
         evaluations,
+    }
+}
+
+/// `E(n) = (1/π) ∫_{H(n)} L(d) max(0, n·d) dω` per channel to the absolute tolerance `tol`: a
+/// white Lambertian surface (`f_r = 1/π`) with unit normal `n` and nothing around it, under the
+/// map `m` (which `env` holds). This is [`integrate`] with an empty scene (no occluder, so the only
+/// cut of each circle is the horizon of `n`); math.md §10's irradiance.
+pub fn irradiance(n: Vec3, env: &Environment, m: &EnvMap, tol: f64) -> PixelIntegral {
+    let p = ShadingPoint {
+        origin: Vec3::zeros(),
+        frame: Frame::from_normal(n),
+        albedo: [1.0; 3],
+    };
+    integrate(&p, &unoccluded(), env, m, tol)
+}
+
+/// A scene with no objects: nothing is ever occluded.
+pub fn unoccluded() -> Scene {
+    Scene {
+        sphere: None,
+        ground: None,
+        ..Scene::default_scene()
     }
 }
 

@@ -1,8 +1,10 @@
 mod cli_run;
+mod envmap;
 mod fault_classes;
 mod fits;
 mod golden;
 mod inputs;
+mod irradiance;
 mod outputs;
 mod plots;
 mod scale;

@@ -25,6 +25,8 @@ fn validator(kind: SchemaKind) -> jsonschema::Validator {
 fn kind_of(file: &Value) -> SchemaKind {
     if file.get("variants").is_some() {
         SchemaKind::RenderTable
+    } else if file.get("kind").and_then(|k| k.as_str()) == Some("irradiance") {
+        SchemaKind::Irradiance
     } else {
         SchemaKind::Experiment
     }
