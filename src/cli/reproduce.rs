@@ -70,6 +70,18 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("lights", "72d6ef159ac2503b", 2.8),
     ("pixels", "71e6a39cf4560e62", 3.6),
     ("render-adaptive", "112b9c7dcc882fec", 174.0),
+    // The real-light tables (128×128, exact reference under a 1024×512 map, 120 renders):
+    // 110–155 s of CPU each, 2026-11-27 on the shared machine; the estimate is half of it.
+    ("real-light-integrands", "c5b4ccf35512bc9b", 3.0),
+    ("real-light-thesis-forest", "d76c4ac125800558", 78.0),
+    ("real-light-thesis-park", "7b60afda70f668ea", 75.0),
+    ("real-light-thesis-pisa", "3e10939690e8e6b3", 77.0),
+    ("real-light-thesis-studio", "6400e1d16396b8bc", 76.0),
+    ("real-light-workbench-forest", "b8f7c9e34af28959", 60.0),
+    ("real-light-workbench-park", "b437035229f8a5a9", 56.0),
+    ("real-light-workbench-park-clamped", "f20504fe83e907af", 60.0),
+    ("real-light-workbench-pisa", "bddcca7cedfeb918", 58.0),
+    ("real-light-workbench-studio", "3373720443fcbb63", 61.0),
     ("render-table", "9f441aeb230a527c", 313.0),
     ("rings", "75fdd1903622f6f1", 1.9),
     // The exact reference under a 1024×512 map (about 950 s of CPU, 8 min on the idle 2 cores)
