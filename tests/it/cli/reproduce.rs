@@ -53,7 +53,12 @@ fn list_shows_every_shipped_file_in_order_with_an_estimate_and_runs_nothing() {
     // with the reason; with one (as in CI) every file is planned.
     let (skips, lines): (Vec<&str>, Vec<&str>) = all_lines.iter().partition(|l| l.contains("  skip  "));
     let with_data = std::env::var_os("WORKBENCH_DATA").is_some_and(|d| !d.is_empty());
-    let needs_data = ["render-thesis-images.json", "render-thesis-table-4-1.json"];
+    let needs_data = [
+        "irradiance-grace.json",
+        "irradiance-pisa.json",
+        "render-thesis-images.json",
+        "render-thesis-table-4-1.json",
+    ];
     if with_data {
         assert!(skips.is_empty(), "{text}");
     } else {

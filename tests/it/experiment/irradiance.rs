@@ -58,7 +58,8 @@ fn constant_map_gives_exact_irradiance_and_exact_cosine_mc() {
     }
     let table = std::fs::read_to_string(d.join("out/table.md")).unwrap();
     assert!(table.contains("| SH L2 (9 coefficients) | 0.01 |"), "{table}");
-    assert!(table.contains("| mc-cos | 4 |"), "{table}");
+    assert!(table.contains("| mc-cos | 4 | 4 |"), "{table}");
+    assert!(table.contains("| estimator | SH L2 | SH L4 |"), "{table}");
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("out/manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["irradiance"]["smallest_n_matching_sh_l2"]["mc-cos"], 4);
