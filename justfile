@@ -27,3 +27,10 @@ bench:
     cargo bench --bench phases
     cargo bench --bench render
     cargo bench --bench fitted
+
+# The irradiance protocol on one 256×128 map (Pisa), every estimator and N, on 2 threads
+# (issue 28's target: within 10 minutes on 2 cores; the figure is in docs/guide/performance.md).
+# Needs the data folder: WORKBENCH_DATA=../shared/data just bench-irradiance
+bench-irradiance:
+    cargo build --release
+    /usr/bin/time -f "%e s wall, %U s user" target/release/workbench run experiments/irradiance-pisa.json --threads 2 -q --out target/bench-irradiance

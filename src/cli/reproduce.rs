@@ -66,6 +66,10 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("cos3-thesis-kernel-mean", "993ddf34a8f79d5c", 56.0),
     ("cos3", "7441f968e91e9cbf", 1.4),
     ("glossy", "632cf3cccbbbc598", 2.9),
+    // Probulator's irradiance protocol on a 256×128 map, every estimator and N (about 80 s of
+    // CPU each); 2026-11-27, the machine shared (load average ≈ 12).
+    ("irradiance-grace", "cdefaa95a87baa28", 285.0),
+    ("irradiance-pisa", "44232ee79130932e", 167.0),
     ("learned-kernel", "ea110df5a06e4e99", 87.0),
     ("lights", "72d6ef159ac2503b", 2.8),
     ("pixels", "71e6a39cf4560e62", 3.6),

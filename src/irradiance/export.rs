@@ -48,23 +48,6 @@ pub fn smallest_n(rows: &[Row], estimator: usize, target: f64) -> Option<usize> 
         .min()
 }
 
-fn published_lines(plan: &IrradiancePlan) -> Vec<(&'static str, f64)> {
-    let p = &plan.published;
-    [
-        ("SH L2 (9 coefficients)", p.sh_l2),
-        ("SH L4 (25 coefficients)", p.sh_l4),
-        ("spherical Gaussians (least squares)", p.sg),
-    ]
-    .into_iter()
-    .filter_map(|(k, v)| v.map(|v| (k, v)))
-    .collect()
-}
-
-/// The published numbers, as the plot and table name them.
-pub fn published(plan: &IrradiancePlan) -> Vec<(&'static str, f64)> {
-    published_lines(plan)
-}
-
 /// `table.md`.
 pub fn table_md(plan: &IrradiancePlan, exact: &Exact, rows: &[Row]) -> String {
     let mut s = format!("# {}\n\n", plan.title);
@@ -100,7 +83,7 @@ pub fn table_md(plan: &IrradiancePlan, exact: &Exact, rows: &[Row]) -> String {
         }
         s.push('\n');
     }
-    let lines = published_lines(plan);
+    let lines = plan.published_lines();
     if lines.is_empty() {
         s.push_str("\nNo published numbers for this map.\n");
         return s;
@@ -115,15 +98,26 @@ pub fn table_md(plan: &IrradiancePlan, exact: &Exact, rows: &[Row]) -> String {
     for (k, v) in &lines {
         let _ = writeln!(s, "| {k} | {v} |");
     }
-    if let Some(l2) = plan.published.sh_l2 {
-        s.push_str("\nSmallest N at which each estimator's RMS is at or below SH L2's:\n\n| estimator | N |\n|---|---:|\n");
-        for (e, est) in plan.estimators.iter().enumerate() {
-            let n = smallest_n(rows, e, l2)
+    s.push_str(
+        "\nSmallest N at which each estimator's RMS is at or below each published number (`>` the largest N \
+         run: not reached):\n\n| estimator |",
+    );
+    for (k, _) in &lines {
+        let _ = write!(s, " {} |", k.split(" (").next().unwrap_or(k));
+    }
+    s.push_str("\n|---|");
+    s.push_str(&"---:|".repeat(lines.len()));
+    s.push('\n');
+    for (e, est) in plan.estimators.iter().enumerate() {
+        let _ = write!(s, "| {} |", est.name);
+        for (_, v) in &lines {
+            let n = smallest_n(rows, e, *v)
                 .map_or(format!("> {}", plan.n.last().copied().unwrap_or(0)), |n| {
                     n.to_string()
                 });
-            let _ = writeln!(s, "| {} | {n} |", est.name);
+            let _ = write!(s, " {n} |");
         }
+        s.push('\n');
     }
     s
 }
@@ -224,7 +218,7 @@ pub fn summary(plan: &IrradiancePlan, rows: &[Row]) -> String {
         }
         s.push('\n');
     }
-    for (k, v) in published_lines(plan) {
+    for (k, v) in plan.published_lines() {
         let _ = writeln!(s, "published {k}: {v}");
     }
     s

@@ -288,6 +288,19 @@ pub struct Exact {
 }
 
 impl IrradiancePlan {
+    /// The published numbers given, named as the table and the plot name them.
+    pub fn published_lines(&self) -> Vec<(&'static str, f64)> {
+        let p = &self.published;
+        [
+            ("SH L2 (9 coefficients)", p.sh_l2),
+            ("SH L4 (25 coefficients)", p.sh_l4),
+            ("spherical Gaussians (least squares)", p.sg),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+        .collect()
+    }
+
     fn map(&self) -> &crate::render::env::EnvMap {
         match self.env.as_ref() {
             Environment::Map(m) => m,

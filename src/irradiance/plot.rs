@@ -23,7 +23,7 @@ fn draw(plan: &IrradiancePlan, rows: &[Row]) -> style::FigureResult<style::Figur
             p
         })
         .collect();
-    let published = super::export::published(plan);
+    let published = plan.published_lines();
     let values: Vec<f64> = series
         .iter()
         .flatten()
