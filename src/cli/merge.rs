@@ -34,8 +34,8 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         cells: merged.findings.cells,
         checks: merged.findings.checks,
         calibration: merged.findings.calibration,
-        stopping: Vec::new(),
-        tolerance_checks: Vec::new(),
+        stopping: merged.stopping,
+        tolerance_checks: merged.tolerance_checks,
         wall_seconds: merged.wall_seconds,
         threads: 1,
         warnings: Vec::new(),
@@ -45,6 +45,11 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         units: plan.samples.len() * plan.trials,
     };
     stdout(&ex::format_report(&plan, &report))?;
+    stdout(&ex::adaptive::format_report(
+        &plan,
+        &report.stopping,
+        &report.tolerance_checks,
+    ))?;
     // Each shard printed its weight sets' messages when it ran; the merge has only the counts.
     let row_warnings: u64 = report.cells.iter().map(|c| c.warnings).sum();
     if row_warnings > 0 {
@@ -59,7 +64,9 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         report.out_dir.display(),
         report.wall_seconds
     );
-    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed());
+    let failed = report.checks.iter().any(|c| !c.passed())
+        || report.calibration.iter().any(|c| !c.passed())
+        || report.tolerance_checks.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)
     } else {

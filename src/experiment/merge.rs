@@ -207,6 +207,9 @@ fn rebuild_plan(shard: &ShardFolder) -> Result<Plan, InputError> {
 pub struct MergeReport {
     pub out_dir: PathBuf,
     pub findings: Findings,
+    /// Tolerance estimators' cells and checks (empty without tolerance estimators).
+    pub stopping: Vec<super::adaptive::Cell>,
+    pub tolerance_checks: Vec<super::adaptive::CheckOutcome>,
     pub shards: usize,
     pub wall_seconds: f64,
 }
@@ -282,13 +285,9 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     })?;
     reporter.finish();
     let findings = finish::write_set(&plan, &mut folder, &summary, &logs)?;
+    let (stopping, tolerance_checks) = super::adaptive::write_outputs(&plan, &mut folder, &logs)?;
     let wall_seconds = start.elapsed().as_secs_f64();
-    let manifest: serde_json::Value = serde_json::from_slice(&export::manifest_json(
-        &plan,
-        &findings.checks,
-        &findings.calibration,
-    ))
-    .expect("the manifest is JSON");
+    let manifest = super::adaptive::manifest(&plan, &findings, &tolerance_checks);
     // The merge's own seconds, not the run's: no plan hash, so `reproduce` does not take them
     // for the run's time.
     folder.commit(manifest, export::timings_json(1, wall_seconds, None))?;
@@ -297,6 +296,8 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
         MergeReport {
             out_dir: out.to_path_buf(),
             findings,
+            stopping,
+            tolerance_checks,
             shards: shards.len(),
             wall_seconds,
         },
