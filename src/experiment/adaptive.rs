@@ -12,14 +12,13 @@
 //!
 //! Every unit's outcomes are read back from the unit logs ([`read_outcomes`]; the log rows carry
 //! the stopping columns, [`super::rows::COST_HEADER`]), so a run in one go, a resumed run and
-//! merged shards write these files from the same rows, byte for byte.
+//! merged shards write these files from the same rows, byte for byte
+//! ([`super::finish::write_stopping`]).
 
-use super::finish::Findings;
 use super::plan::Plan;
 use super::unit_log::LogSet;
 pub use super::tolerance::ToleranceCheck;
 use crate::bq::stages::{self, Outcome, Tolerance};
-use crate::files::result_folder::ResultFolder;
 use std::fmt::Write;
 
 /// Every tolerance estimator's outcome in every unit: `(unit · integrands + integrand) ·
@@ -47,66 +46,6 @@ pub fn read_outcomes(plan: &Plan, logs: &LogSet) -> crate::Result<Outcomes> {
         Ok(())
     })?;
     Ok(Outcomes { outcomes })
-}
-
-/// Writes `stopping_trials.csv`, `stopping_summary.csv` and the `<integrand>-tolerance.svg`
-/// figures of a finished run (or merge) into `folder`, from its logs, and returns the cells and
-/// the tolerance checks' outcomes (nothing for a plan without tolerance estimators).
-pub fn write_outputs(
-    plan: &Plan,
-    folder: &mut ResultFolder,
-    logs: &LogSet,
-) -> crate::Result<(Vec<Cell>, Vec<CheckOutcome>)> {
-    if plan.estimators.iter().all(|e| e.tolerance.is_none()) {
-        return Ok((Vec::new(), Vec::new()));
-    }
-    let results = read_outcomes(plan, logs)?;
-    let stopping = summarize(plan, &results);
-    let checks: Vec<_> = plan
-        .tolerance_checks
-        .iter()
-        .map(|c| evaluate_check(plan, &stopping, c))
-        .collect();
-    folder.write(
-        "stopping_trials.csv",
-        "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance, the rule's half-width, zero-evidence stages",
-        &trials_csv(plan, &results),
-    )?;
-    folder.write(
-        "stopping_summary.csv",
-        "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance, share met, share within among those met, share with a zero-evidence stage",
-        &summary_csv(plan, &stopping),
-    )?;
-    for (fi, f) in plan.integrands.iter().enumerate() {
-        if let Some(figure) = super::adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
-            crate::plot::write_figure(
-                folder,
-                &format!("{}-tolerance.svg", f.name()),
-                &format!(
-                    "mean n used and share within the tolerance against the tolerance for {}, every tolerance estimator",
-                    f.name()
-                ),
-                &figure,
-            )?;
-        }
-    }
-    Ok((stopping, checks))
-}
-
-/// A finished run's (or merge's) manifest: [`super::export::manifest_json`] with the tolerance
-/// checks and their outcomes when the plan has any.
-pub fn manifest(plan: &Plan, findings: &Findings, checks: &[CheckOutcome]) -> serde_json::Value {
-    let mut manifest: serde_json::Value = serde_json::from_slice(&super::export::manifest_json(
-        plan,
-        &findings.checks,
-        &findings.calibration,
-    ))
-    .expect("the manifest is JSON");
-    if !plan.tolerance_checks.is_empty() {
-        manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
-        manifest["tolerance_checks"] = checks_json(plan, checks);
-    }
-    manifest
 }
 
 /// One (integrand, tolerance estimator, first stage) cell of `stopping_summary.csv`.

@@ -285,9 +285,9 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     })?;
     reporter.finish();
     let findings = finish::write_set(&plan, &mut folder, &summary, &logs)?;
-    let (stopping, tolerance_checks) = super::adaptive::write_outputs(&plan, &mut folder, &logs)?;
+    let (stopping, tolerance_checks) = finish::write_stopping(&plan, &mut folder, &logs)?;
     let wall_seconds = start.elapsed().as_secs_f64();
-    let manifest = super::adaptive::manifest(&plan, &findings, &tolerance_checks);
+    let manifest = finish::manifest(&plan, &findings, &tolerance_checks);
     // The merge's own seconds, not the run's: no plan hash, so `reproduce` does not take them
     // for the run's time.
     folder.commit(manifest, export::timings_json(1, wall_seconds, None))?;

@@ -184,8 +184,8 @@ pub fn run_plan(
             };
             let findings = finish::write_set(plan, &mut folder, &summary, &logs)?;
             // Tolerance estimators' stopping outputs, from the same log.
-            let (stopping, checks) = adaptive::write_outputs(plan, &mut folder, &logs)?;
-            let manifest = adaptive::manifest(plan, &findings, &checks);
+            let (stopping, checks) = finish::write_stopping(plan, &mut folder, &logs)?;
+            let manifest = finish::manifest(plan, &findings, &checks);
             (Some(findings), stopping, checks, manifest)
         }
         (None, Some(spec)) => {
