@@ -16,8 +16,8 @@
 //! ([`super::finish::write_stopping`]).
 
 use super::plan::Plan;
-use super::unit_log::LogSet;
 pub use super::tolerance::ToleranceCheck;
+use super::unit_log::LogSet;
 use crate::bq::stages::{self, Outcome, Tolerance};
 use std::fmt::Write;
 

@@ -169,10 +169,9 @@ pub fn run_plan(
     reporter.start("trials×N", units as u64);
     reporter.advance(resumed as u64);
     let start = Instant::now();
-    let warnings =
-        drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
-            reporter.advance(1)
-        })?;
+    let warnings = drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
+        reporter.advance(1)
+    })?;
     reporter.finish();
     drop(log);
     let wall_seconds = start.elapsed().as_secs_f64();

@@ -383,8 +383,14 @@ pub fn stopping_outcome(line: &str) -> Option<crate::bq::stages::Outcome> {
         "" => None,
         sd => Some(crate::bq::estimator::Uncertainty {
             sd: sd.parse().ok()?,
-            dof: (!tail[15].is_empty()).then(|| tail[15].parse()).transpose().ok()?,
-            amplitude: (!tail[14].is_empty()).then(|| tail[14].parse()).transpose().ok()?,
+            dof: (!tail[15].is_empty())
+                .then(|| tail[15].parse())
+                .transpose()
+                .ok()?,
+            amplitude: (!tail[14].is_empty())
+                .then(|| tail[14].parse())
+                .transpose()
+                .ok()?,
         }),
     };
     Some(crate::bq::stages::Outcome {

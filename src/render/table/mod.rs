@@ -30,6 +30,7 @@ pub mod plan;
 pub mod plot;
 pub mod reference;
 pub mod runner;
+pub mod shard;
 pub mod spec;
 pub mod summary;
 
@@ -95,7 +96,16 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     )?;
 
     if let Some(adaptive_plan) = &plan.adaptive {
-        let report = adaptive::run(plan, adaptive_plan, &renderer, &reference, &mut folder, reporter)?;
+        let rows = adaptive::render(
+            plan,
+            adaptive_plan,
+            &renderer,
+            &reference,
+            &mut folder,
+            reporter,
+            &|_| true,
+        )?;
+        let report = adaptive::write_outputs(plan, adaptive_plan, &mut folder, &rows)?;
         let manifest: serde_json::Value =
             serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
         folder.commit(
@@ -117,10 +127,36 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     };
     let geometry = renderer.geometry();
     let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
-    let rows = runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter)?;
+    let rows = runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter, &|_| {
+        true
+    })?;
+    let (cells, table_md, times_md) = write_outputs(plan, &mut folder, &reference, &rows)?;
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
+    folder.commit(
+        manifest,
+        serde_json::json!({ "plan_hash": export::plan_hash(plan) }),
+    )?;
+    Ok(TableReport {
+        out_dir: out,
+        cells,
+        adaptive_cells: Vec::new(),
+        table_md,
+        times_md,
+    })
+}
 
-    let cells = summary::summarise(plan, &rows);
-    folder.write("rmse.csv", "one row per render", &export::rmse_csv(plan, &rows))?;
+/// Writes a fixed-spp table's files from every render's row (not the manifest, nor
+/// `reference.png` and the first renders' images) into `folder`, and returns its cells,
+/// `table.md` and the times in Markdown: what one run and a merge of shards share.
+pub fn write_outputs(
+    plan: &TablePlan,
+    folder: &mut ResultFolder,
+    reference: &Image,
+    rows: &[Row],
+) -> crate::Result<(Vec<Cell>, String, String)> {
+    let cells = summary::summarise(plan, rows);
+    folder.write("rmse.csv", "one row per render", &export::rmse_csv(plan, rows))?;
     folder.write(
         "table.csv",
         "mean RMSE per (variant, spp) with its 95% Student-t interval",
@@ -140,7 +176,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
             &e.reference.to_png()?,
         )?;
         write_error_png(
-            &mut folder,
+            folder,
             "reference-vs-theirs-error.png",
             " (the external reference against this table's)",
             &e.reference,
@@ -154,7 +190,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
                 &i.image.to_png()?,
             )?;
             write_error_png(
-                &mut folder,
+                folder,
                 &format!("theirs-{name}-error.png"),
                 &format!(" ({} against this table's reference)", i.label),
                 &i.image,
@@ -168,7 +204,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         table_md.as_bytes(),
     )?;
     crate::plot::write_figure(
-        &mut folder,
+        folder,
         "rmse_vs_spp.svg",
         "mean RMSE against spp, log-log, with the intervals",
         &plot::plot_svg(plan, &cells)?,
@@ -177,26 +213,14 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     folder.write_local(
         "timings.csv",
         "wall-clock seconds per render (machine-dependent; not committed)",
-        &export::timings_csv(plan, &rows),
+        &export::timings_csv(plan, rows),
     )?;
     folder.write_local(
         "timings.md",
         "mean seconds per image (machine-dependent; not committed)",
         times_md.as_bytes(),
     )?;
-    let manifest: serde_json::Value =
-        serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
-    folder.commit(
-        manifest,
-        serde_json::json!({ "plan_hash": export::plan_hash(plan) }),
-    )?;
-    Ok(TableReport {
-        out_dir: out,
-        cells,
-        adaptive_cells: Vec::new(),
-        table_md,
-        times_md,
-    })
+    Ok((cells, table_md, times_md))
 }
 
 /// Saves the first image of each cell (into the set) and the rows so far (into

@@ -530,7 +530,11 @@ fn tolerance_experiments_shard_and_merge_to_the_bytes_of_one_run() {
     std::fs::write(d.join("tol.json"), TOLERANCE).unwrap();
     ok(&workbench(d, &["run", "tol.json", "-q", "--out", "full"]));
     let names = deterministic_files(&d.join("full"));
-    for n in ["stopping_trials.csv", "stopping_summary.csv", "cos3-tolerance.svg"] {
+    for n in [
+        "stopping_trials.csv",
+        "stopping_summary.csv",
+        "cos3-tolerance.svg",
+    ] {
         assert!(names.contains(&n.to_string()), "{n} in {names:?}");
     }
     let manifest = std::fs::read_to_string(d.join("full/manifest.json")).unwrap();
@@ -594,7 +598,19 @@ fn tolerance_experiments_resume_to_the_bytes_of_one_run() {
     cut.push_str(&lines[2 + kept_units * rows_per_unit + 4][..10]);
     std::fs::create_dir(d.join("resumed")).unwrap();
     std::fs::write(d.join("resumed/trials.partial.csv"), &cut).unwrap();
-    let o = workbench(d, &["run", "tol.json", "-q", "--threads", "2", "--resume", "--out", "resumed"]);
+    let o = workbench(
+        d,
+        &[
+            "run",
+            "tol.json",
+            "-q",
+            "--threads",
+            "2",
+            "--resume",
+            "--out",
+            "resumed",
+        ],
+    );
     ok(&o);
     assert!(
         stderr(&o).contains(&format!("resumed: {kept_units} of {} units", 2 * 11)),
@@ -632,7 +648,10 @@ fn tolerance_experiments_resume_to_the_bytes_of_one_run() {
     let running = child.try_wait().unwrap().is_none();
     child.kill().unwrap();
     child.wait().unwrap();
-    assert!(running, "the run finished before it could be killed; make it slower");
+    assert!(
+        running,
+        "the run finished before it could be killed; make it slower"
+    );
     let o = workbench(d, &["run", "slow.json", "-q", "--resume", "--out", "killed"]);
     ok(&o);
     assert!(stderr(&o).contains("resumed: "), "{}", stderr(&o));
@@ -650,7 +669,10 @@ fn merge_refuses_damaged_stopping_columns() {
     std::fs::write(d.join("tol.json"), TOLERANCE).unwrap();
     for i in 1..=2 {
         let (s, out) = (format!("{i}/2"), format!("a{i}"));
-        ok(&workbench(d, &["run", "tol.json", "-q", "--shard", &s, "--out", &out]));
+        ok(&workbench(
+            d,
+            &["run", "tol.json", "-q", "--shard", &s, "--out", &out],
+        ));
     }
     let units = d.join("a1/units.csv");
     let good = std::fs::read_to_string(&units).unwrap();
@@ -664,17 +686,32 @@ fn merge_refuses_damaged_stopping_columns() {
         cols.join(",")
     };
     let cases = [
-        (3, with(lines[3], 4, "maybe"), "has stopped \"maybe\", not true or false"),
+        (
+            3,
+            with(lines[3], 4, "maybe"),
+            "has stopped \"maybe\", not true or false",
+        ),
         (3, with(lines[3], 3, "-1"), "zero_evidence_stages \"-1\""),
-        (3, with(lines[3], 2, "128"), "has evaluations 128 where a tolerance estimator uses 1 to max_n = 64"),
-        (2, with(lines[2], 4, "true"), "where estimator \"MC\" has no tolerance"),
+        (
+            3,
+            with(lines[3], 2, "128"),
+            "has evaluations 128 where a tolerance estimator uses 1 to max_n = 64",
+        ),
+        (
+            2,
+            with(lines[2], 4, "true"),
+            "where estimator \"MC\" has no tolerance",
+        ),
     ];
     for (target, row, what) in &cases {
         let mut bad: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
         bad[*target] = row.clone();
         std::fs::write(&units, bad.join("\n") + "\n").unwrap();
         let line = refused(&workbench(d, &["merge", "out", "-q", "a1", "a2"]), what);
-        assert!(line.contains(&format!("a1/units.csv: line {}", target + 1)), "{line}");
+        assert!(
+            line.contains(&format!("a1/units.csv: line {}", target + 1)),
+            "{line}"
+        );
         assert!(!d.join("out").exists(), "nothing written for a bad shard");
     }
     std::fs::write(&units, &good).unwrap();
