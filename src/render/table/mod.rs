@@ -164,11 +164,11 @@ pub fn write_outputs(
     )?;
     let mut table_md = export::table_md(plan, &cells);
     if let Some(e) = &plan.external {
-        table_md.push_str(&external::external_md(e, &reference));
+        table_md.push_str(&external::external_md(e, reference));
         folder.write(
             "external.csv",
             "images made elsewhere against their reference and this table's",
-            &external::external_csv(e, &reference),
+            &external::external_csv(e, reference),
         )?;
         folder.write(
             "their-reference.png",
@@ -180,7 +180,7 @@ pub fn write_outputs(
             "reference-vs-theirs-error.png",
             " (the external reference against this table's)",
             &e.reference,
-            &reference,
+            reference,
         )?;
         for i in &e.images {
             let name = plan::slug(&i.label);
@@ -194,7 +194,7 @@ pub fn write_outputs(
                 &format!("theirs-{name}-error.png"),
                 &format!(" ({} against this table's reference)", i.label),
                 &i.image,
-                &reference,
+                reference,
             )?;
         }
     }
