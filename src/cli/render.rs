@@ -132,6 +132,10 @@ pub struct RenderArgs {
     /// at one spp or target and repetition), into a shard folder for `workbench merge`.
     #[arg(long, value_name = "i/n", requires = "spec")]
     pub shard: Option<String>,
+    /// Tables with --shard: continue a killed shard from the rounds its folder's
+    /// rounds.partial.csv holds.
+    #[arg(long, requires = "shard")]
+    pub resume: bool,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -261,7 +265,14 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
             .clone()
             .unwrap_or_else(|| workbench::render::table::shard::default_out(&results, &plan, shard));
         let report = pool.install(|| {
-            workbench::render::table::shard::run_shard(&plan, &results, shard, &out, &Bar::new(args.quiet))
+            workbench::render::table::shard::run_shard(
+                &plan,
+                &results,
+                shard,
+                &out,
+                args.resume,
+                &Bar::new(args.quiet),
+            )
         })?;
         status!(
             "wrote shard {shard} ({} renders) to {} ({:.2} s); merge the shards with `workbench merge OUT DIR…`",

@@ -93,6 +93,7 @@ pub fn run_shard(
     results: &Path,
     shard: Shard,
     out: &Path,
+    resume: bool,
     reporter: &dyn Reporter,
 ) -> crate::Result<ShardReport> {
     let cache = reference::cache_path(plan, results);
@@ -114,6 +115,16 @@ pub fn run_shard(
         crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
     }
     let spec_text = crate::files::spec_json::read_spec(&plan.file)?;
+    // The rounds' log, checked before any work: a resumed shard keeps the rounds it holds
+    // (re-rendering only the repetition-0 ones among them, whose images went with the killed
+    // run's staging folder).
+    let identity = identity(plan, shard);
+    let nv = plan.variants.len();
+    let mine: Vec<usize> = shard.units(units(plan)).collect();
+    let log_path = folder.partial_path(ROUNDS_LOG)?;
+    let (log, done_rows) = open_log(plan, &log_path, &identity, &mine, resume)?;
+    let done = done_rows.len() / nv;
+    let first_new = mine.get(done).copied().unwrap_or(usize::MAX);
     let start = Instant::now();
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
     let reference = reference::reference(plan, &renderer, results, reporter)?;
@@ -122,34 +133,62 @@ pub fn run_shard(
         "the reference this shard's renders were measured against (for workbench merge)",
         &reference.to_exr()?,
     )?;
-    let keep = |u: usize| u % shard.count == shard.index - 1;
-    let (rows, renders) = match &plan.adaptive {
+    let keep = |u: usize| u % shard.count == shard.index - 1 && (u >= first_new || repetition(plan, u) == 0);
+    let kept: Vec<usize> = mine.iter().copied().filter(|&u| keep(u)).collect();
+    let mut sink = LogSink {
+        inner: FileSink {
+            plan,
+            folder: &mut folder,
+            reference: &reference,
+        },
+        log,
+        path: log_path.clone(),
+        kept: &kept,
+        next: 0,
+        first_new,
+        nv,
+    };
+    let new_rows = match &plan.adaptive {
         Some(a) => {
-            let rows = super::adaptive::render(plan, a, &renderer, &reference, &mut folder, reporter, &keep)?;
-            (
-                log_rows(
-                    &super::adaptive::export::rmse_csv(plan, &rows),
-                    rows.iter().map(|r| r.seconds),
-                ),
-                rows.len(),
+            let rows =
+                super::adaptive::runner::run(plan, a, &renderer, &reference, &mut sink, reporter, &keep)?;
+            log_rows(
+                &super::adaptive::export::rmse_csv(plan, &rows),
+                rows.iter().map(|r| r.seconds),
             )
         }
         None => {
-            let mut sink = FileSink {
-                plan,
-                folder: &mut folder,
-                reference: &reference,
-            };
             let geometry = renderer.geometry();
             let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
             let rows = super::runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter, &keep)?;
-            (
-                log_rows(&export::rmse_csv(plan, &rows), rows.iter().map(|r| r.seconds)),
-                rows.len(),
-            )
+            log_rows(&export::rmse_csv(plan, &rows), rows.iter().map(|r| r.seconds))
         }
     };
-    let identity = identity(plan, shard);
+    drop(sink);
+    // Every round of the shard in order: the log's, or the one rendered now.
+    let mut new_lines = new_rows.lines();
+    let mut rows = String::new();
+    let mut renders = 0;
+    for (k, &u) in mine.iter().enumerate() {
+        for v in 0..nv {
+            let line = if keep(u) {
+                new_lines.next().expect("a row per kept render")
+            } else {
+                done_rows[k * nv + v].as_str()
+            };
+            rows.push_str(line);
+            rows.push('\n');
+        }
+        if keep(u) {
+            renders += nv;
+        }
+    }
+    if resume && done > 0 {
+        reporter.note(&format!(
+            "resumed: {done} of {} rounds were done already",
+            mine.len()
+        ));
+    }
     folder.write(
         SHARD_UNITS,
         "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds",
@@ -191,6 +230,154 @@ pub fn run_shard(
         renders,
         wall_seconds,
     })
+}
+
+/// The log of a shard's finished rounds while it runs (for `--resume`), in its folder.
+pub const ROUNDS_LOG: &str = "rounds.partial.csv";
+
+/// The repetition of unit `u`.
+fn repetition(plan: &TablePlan, u: usize) -> usize {
+    let mut rep = u;
+    for &r in &plan.repetitions {
+        if rep < r {
+            return rep;
+        }
+        rep -= r;
+    }
+    rep
+}
+
+/// Opens the rounds' log at `path`. Fresh (no `resume`, or no log): writes its identity and
+/// column lines. Resuming: checks that it is this shard's, reads the rows of its complete rounds
+/// (each checked as the merge checks it), cuts off a half-written last round, and returns them.
+fn open_log(
+    plan: &TablePlan,
+    path: &Path,
+    identity: &Identity,
+    mine: &[usize],
+    resume: bool,
+) -> crate::Result<(std::fs::File, Vec<String>)> {
+    use std::io::Write;
+    let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
+    if !(resume && path.exists()) {
+        let mut file = std::fs::File::create(path).map_err(|e| io("creating", e))?;
+        writeln!(file, "{}\n{}", identity.header(), columns(plan)).map_err(|e| io("writing", e))?;
+        return Ok((file, Vec::new()));
+    }
+    let refuse = |m: String| -> Error {
+        InputError::new(format!(
+            "--resume: {}: {m}; run without --resume to start over",
+            path.display()
+        ))
+        .into()
+    };
+    let text =
+        crate::files::read::read_text(path, FileKind::UnitLog).map_err(|e| InputError::new(e.to_string()))?;
+    let mut lines = text.split_inclusive('\n');
+    let first = lines.next().unwrap_or_default();
+    match Identity::from_header(first) {
+        Some(found) if found == *identity => {}
+        Some(_) => {
+            return Err(refuse(
+                "was written for another run (another table, seed, build or shard)".into(),
+            ));
+        }
+        None => return Err(refuse("is not a workbench unit log".into())),
+    }
+    let second = lines.next().unwrap_or_default();
+    if second.trim_end() != columns(plan) {
+        return Err(refuse("its column line is not this table's".into()));
+    }
+    let mut kept = (first.len() + second.len()) as u64;
+    let nv = plan.variants.len();
+    let mut rows = Vec::new();
+    let mut pending = Vec::new();
+    let mut pending_bytes = 0;
+    for line in lines {
+        if !line.ends_with('\n') {
+            break;
+        }
+        let k = rows.len() / nv;
+        let Some(&u) = mine.get(k) else {
+            return Err(refuse("holds more rounds than the shard has".into()));
+        };
+        parse_row(plan, u, pending.len(), line.trim_end())
+            .map_err(|m| refuse(format!("line {}: the row {m}", 3 + rows.len() + pending.len())))?;
+        pending.push(line.trim_end().to_string());
+        pending_bytes += line.len();
+        if pending.len() == nv {
+            rows.append(&mut pending);
+            kept += pending_bytes as u64;
+            pending_bytes = 0;
+        }
+    }
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(|e| io("opening", e))?;
+    file.set_len(kept).map_err(|e| io("truncating", e))?;
+    Ok((file, rows))
+}
+
+/// Saves each cell's first render (through the table's own sink) and appends every new round's
+/// rows to the rounds' log as it finishes.
+struct LogSink<'a, 'b> {
+    inner: FileSink<'a>,
+    log: std::fs::File,
+    path: PathBuf,
+    /// The units rendered, in order: the `next`-th round to finish is `kept[next]`.
+    kept: &'b [usize],
+    next: usize,
+    /// Units before this one were in the log already (re-rendered only for their images).
+    first_new: usize,
+    nv: usize,
+}
+
+impl LogSink<'_, '_> {
+    fn append(&mut self, csv: &[u8], seconds: impl Iterator<Item = f64>) -> crate::Result<()> {
+        use std::io::Write;
+        let u = self.kept[self.next];
+        self.next += 1;
+        if u < self.first_new {
+            return Ok(());
+        }
+        self.log
+            .write_all(log_rows(csv, seconds).as_bytes())
+            .map_err(|e| Error::io(format!("appending to {}", self.path.display()), e))
+    }
+}
+
+impl super::runner::TableSink for LogSink<'_, '_> {
+    fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()> {
+        self.inner.first_image(variant, spp, image)
+    }
+
+    fn round_done(&mut self, rows: &[Row]) -> crate::Result<()> {
+        let last = &rows[rows.len() - self.nv..];
+        self.append(
+            &export::rmse_csv(self.inner.plan, last),
+            last.iter().map(|r| r.seconds),
+        )
+    }
+}
+
+impl super::adaptive::runner::AdaptiveSink for LogSink<'_, '_> {
+    fn first_image(
+        &mut self,
+        variant: usize,
+        target: f64,
+        image: &crate::render::adaptive::AdaptiveImage,
+    ) -> crate::Result<()> {
+        self.inner.first_image(variant, target, image)
+    }
+
+    fn round_done(&mut self, rows: &[AdaptiveRow]) -> crate::Result<()> {
+        let last = &rows[rows.len() - self.nv..];
+        self.append(
+            &super::adaptive::export::rmse_csv(self.inner.plan, last),
+            last.iter().map(|r| r.seconds),
+        )
+    }
 }
 
 /// A shard's renders, read back.

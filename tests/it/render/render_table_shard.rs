@@ -216,3 +216,79 @@ fn render_table_merge_refuses_bad_sets_before_writing() {
     ok(&merge(&["a1", "a2"]));
     assert!(d.join("out/t/table.csv").is_file());
 }
+
+/// A shard's rounds' log cut after some rounds and half a row, as a killed shard leaves it:
+/// `--resume` keeps those rounds (re-rendering only the repetition-0 ones for their images)
+/// and the merge is one run's bytes. A log of another shard is refused and left in place.
+fn resume_a_cut_shard(spec: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("t.json"), spec).unwrap();
+    ok(&workbench(d, &["render", "t.json", "-q", "--results-dir", "one"]));
+    for i in 1..=2 {
+        let (s, out) = (format!("{i}/2"), format!("r/s{i}"));
+        ok(&workbench(
+            d,
+            &[
+                "render",
+                "t.json",
+                "-q",
+                "--results-dir",
+                "r",
+                "--shard",
+                &s,
+                "--out",
+                &out,
+            ],
+        ));
+    }
+    // Shard 1's log as it was after one round and half a row of the next.
+    let units = std::fs::read_to_string(d.join("r/s1/units.csv")).unwrap();
+    let lines: Vec<&str> = units.lines().collect();
+    let kept = 2 + 2;
+    let mut cut: String = lines[..kept].iter().map(|l| format!("{l}\n")).collect();
+    cut.push_str(&lines[kept][..5]);
+    std::fs::remove_dir_all(d.join("r/s1")).unwrap();
+    std::fs::create_dir(d.join("r/s1")).unwrap();
+    std::fs::write(d.join("r/s1/rounds.partial.csv"), &cut).unwrap();
+    let resume = |shard: &str| {
+        workbench(
+            d,
+            &[
+                "render",
+                "t.json",
+                "-q",
+                "--results-dir",
+                "r",
+                "--shard",
+                shard,
+                "--out",
+                "r/s1",
+                "--resume",
+            ],
+        )
+    };
+    refused(&resume("1/3"), "rounds.partial.csv: was written for another run");
+    assert!(d.join("r/s1/rounds.partial.csv").is_file());
+    let o = resume("1/2");
+    ok(&o);
+    assert!(stderr(&o).contains("resumed: 1 of"), "{}", stderr(&o));
+    ok(&workbench(d, &["merge", "r/t", "-q", "r/s1", "r/s2"]));
+    let manifest = std::fs::read_to_string(d.join("r/t/manifest.json")).unwrap();
+    assert_eq!(
+        manifest.replace("r/cache", "one/cache"),
+        std::fs::read_to_string(d.join("one/t/manifest.json")).unwrap()
+    );
+    std::fs::copy(d.join("one/t/manifest.json"), d.join("r/t/manifest.json")).unwrap();
+    same_files(&d.join("one/t"), &d.join("r/t"));
+}
+
+#[test]
+fn fixed_render_table_shards_resume_to_the_bytes_of_one_run() {
+    resume_a_cut_shard(FIXED);
+}
+
+#[test]
+fn adaptive_render_table_shards_resume_to_the_bytes_of_one_run() {
+    resume_a_cut_shard(ADAPTIVE);
+}
