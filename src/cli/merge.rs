@@ -10,9 +10,13 @@ use workbench::experiment as ex;
 #[command(after_help = "Examples:\n  \
     workbench run experiments/cos3.json --shard 1/2 --out shards/1\n  \
     workbench run experiments/cos3.json --shard 2/2 --out shards/2\n  \
-    workbench merge results/cos3 shards/1 shards/2\n\n\
+    workbench merge results/cos3 shards/1 shards/2\n  \
+    workbench render experiments/render-table.json --shard 1/2 --out shards/t1\n  \
+    workbench render experiments/render-table.json --shard 2/2 --out shards/t2\n  \
+    workbench merge results/render-table shards/t1 shards/t2\n\n\
     The merged files are byte for byte those of one run of the whole file (the timings* files and \
-    *-cost.svg aside).\n\n\
+    *-cost.svg aside). A render table's shards merge into the table's folder: OUT's parent is the \
+    results folder whose cache/ its manifest names, as --results-dir is for one run.\n\n\
     Exit codes: 0 every check passed; 1 a check failed (outputs are still written); 2 any error \
     (shards of different runs, a shard missing or given twice, an unfinished shard, I/O), before \
     anything is written for bad input.")]
@@ -28,14 +32,24 @@ pub struct MergeArgs {
 }
 
 pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
+    if ex::merge::check_kinds(&args.dirs)? == workbench::render::table::shard::KIND {
+        let report = workbench::render::table::shard::merge(&args.out, &args.dirs)?;
+        stdout(&report.table_md)?;
+        stdout(&format!("\n{}", report.times_md))?;
+        status!(
+            "merged the render table's shards into {}",
+            report.out_dir.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     let (plan, merged) = ex::merge::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
     let report = ex::RunReport {
         out_dir: merged.out_dir,
         cells: merged.findings.cells,
         checks: merged.findings.checks,
         calibration: merged.findings.calibration,
-        stopping: Vec::new(),
-        tolerance_checks: Vec::new(),
+        stopping: merged.stopping,
+        tolerance_checks: merged.tolerance_checks,
         wall_seconds: merged.wall_seconds,
         threads: 1,
         warnings: Vec::new(),
@@ -45,6 +59,11 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         units: plan.samples.len() * plan.trials,
     };
     stdout(&ex::format_report(&plan, &report))?;
+    stdout(&ex::adaptive::format_report(
+        &plan,
+        &report.stopping,
+        &report.tolerance_checks,
+    ))?;
     // Each shard printed its weight sets' messages when it ran; the merge has only the counts.
     let row_warnings: u64 = report.cells.iter().map(|c| c.warnings).sum();
     if row_warnings > 0 {
@@ -59,7 +78,9 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         report.out_dir.display(),
         report.wall_seconds
     );
-    let failed = report.checks.iter().any(|c| !c.passed()) || report.calibration.iter().any(|c| !c.passed());
+    let failed = report.checks.iter().any(|c| !c.passed())
+        || report.calibration.iter().any(|c| !c.passed())
+        || report.tolerance_checks.iter().any(|c| !c.passed());
     Ok(if failed {
         ExitCode::from(1)
     } else {

@@ -50,9 +50,9 @@ enum Command {
     /// Merge the shard folders of a run (`run --shard i/n`) into the files of one run.
     Merge(merge::MergeArgs),
     /// Compute a BMC quadrature rule (points and weights) for use in other code.
-    Rule(rule::RuleArgs),
+    Rule(Box<rule::RuleArgs>),
     /// Render the sphere-on-a-plane scene with any estimator, or an RMSE-against-spp table.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Print the JSON Schema (draft 2020-12) of experiment files or render tables.
     Schema(schema::SchemaArgs),
     /// List the catalogue of external data (maps, the thesis's images, Mitsuba's scenes) and
@@ -85,8 +85,8 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Validate(args) => run::validate(&args),
         Command::Merge(args) => merge::merge(args),
-        Command::Rule(args) => rule::rule(args),
-        Command::Render(args) => render::render(args),
+        Command::Rule(args) => rule::rule(*args),
+        Command::Render(args) => render::render(*args),
         Command::Schema(args) => schema::schema(args),
         Command::Reproduce(args) => reproduce::reproduce(args),
     };

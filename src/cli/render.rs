@@ -36,7 +36,7 @@ pub struct RenderArgs {
     /// reference and writes results/<name>/. Without it, one image is rendered to --out.
     #[arg(
         value_name = "SPEC.json",
-        conflicts_with_all = ["out", "integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
+        conflicts_with_all = ["integrator", "spp", "tolerance", "gps", "no_rotate", "width", "height",
                               "env", "env_lookup", "scene", "seed", "reference", "sd_out", "scale", "target_sd",
                               "max_spp"]
     )]
@@ -80,7 +80,8 @@ pub struct RenderArgs {
     /// `exact`, which draws nothing.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// The linear image (OpenEXR, .exr); a tone-mapped PNG is written beside it.
+    /// The linear image (OpenEXR, .exr); a tone-mapped PNG is written beside it. With a table
+    /// and --shard: the shard folder [default: <results-dir>/<name>-shard-<i>-of-<n>/].
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
     /// Reference image (OpenEXR): print the RMSE and write the error image <out>-error.png.
@@ -127,6 +128,14 @@ pub struct RenderArgs {
     /// (<dir>/cache/) [default: results].
     #[arg(long)]
     pub results_dir: Option<PathBuf>,
+    /// Tables only: render only shard i of n (1 <= i <= n) of the table's rounds (every variant
+    /// at one spp or target and repetition), into a shard folder for `workbench merge`.
+    #[arg(long, value_name = "i/n", requires = "spec")]
+    pub shard: Option<String>,
+    /// Tables with --shard: continue a killed shard from the rounds its folder's
+    /// rounds.partial.csv holds.
+    #[arg(long, requires = "shard")]
+    pub resume: bool,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -224,6 +233,23 @@ pub fn render(args: RenderArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
+    let shard = args
+        .shard
+        .as_deref()
+        .map(|s| {
+            workbench::experiment::unit_log::Shard::parse(s)
+                .map_err(|m| InputError::new(format!("--shard: {m}")))
+        })
+        .transpose()?;
+    if shard.is_none()
+        && let Some(out) = &args.out
+    {
+        return Err(InputError::new(format!(
+            "--out {}: a table writes <results-dir>/<name>/; --out names a shard's folder (with --shard i/n)",
+            out.display()
+        ))
+        .into());
+    }
     let plan = workbench::render::table::load(spec)?;
     if let Some(w) = plan.model.as_ref().and_then(|m| m.accuracy_warning()) {
         status!("warning: {w}");
@@ -233,6 +259,29 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("results"));
     let pool = workbench::util::threads::pool(None)?;
+    if let Some(shard) = shard {
+        let out = args
+            .out
+            .clone()
+            .unwrap_or_else(|| workbench::render::table::shard::default_out(&results, &plan, shard));
+        let report = pool.install(|| {
+            workbench::render::table::shard::run_shard(
+                &plan,
+                &results,
+                shard,
+                &out,
+                args.resume,
+                &Bar::new(args.quiet),
+            )
+        })?;
+        status!(
+            "wrote shard {shard} ({} renders) to {} ({:.2} s); merge the shards with `workbench merge OUT DIR…`",
+            report.renders,
+            report.out_dir.display(),
+            report.wall_seconds
+        );
+        return Ok(());
+    }
     let report = pool.install(|| workbench::render::table::run(&plan, &results, &Bar::new(args.quiet)))?;
     stdout(&report.table_md)?;
     stdout(&format!("\n{}", report.times_md))?;

@@ -9,12 +9,44 @@
 //! stopped; `stopping_trials.csv` how many points that took, and `stopping_summary.csv` per cell
 //! the mean N used, the share the rule stopped (`met`), the share of those whose actual error is
 //! within `A` (`within_given_met`) and the share that met zero evidence on the way.
+//!
+//! Every unit's outcomes are read back from the unit logs ([`read_outcomes`]; the log rows carry
+//! the stopping columns, [`super::rows::COST_HEADER`]), so a run in one go, a resumed run and
+//! merged shards write these files from the same rows, byte for byte
+//! ([`super::finish::write_stopping`]).
 
 use super::plan::Plan;
-use super::runner::Results;
 pub use super::tolerance::ToleranceCheck;
+use super::unit_log::LogSet;
 use crate::bq::stages::{self, Outcome, Tolerance};
 use std::fmt::Write;
+
+/// Every tolerance estimator's outcome in every unit: `(unit · integrands + integrand) ·
+/// estimators + estimator`, None for the other estimators.
+pub struct Outcomes {
+    outcomes: Vec<Option<Outcome>>,
+}
+
+/// Reads every unit's stopping outcomes from the run's logs (rows checked by whoever read the
+/// logs first: the resume or the merge, or written by this very run).
+pub fn read_outcomes(plan: &Plan, logs: &LogSet) -> crate::Result<Outcomes> {
+    let (ni, ne) = (plan.integrands.len(), plan.estimators.len());
+    let mut outcomes = vec![None; plan.samples.len() * plan.trials * ni * ne];
+    logs.for_each_row(plan, &mut |u, fi, ei, line| {
+        if plan.estimators[ei].tolerance.is_some() {
+            let o = super::rows::stopping_outcome(line).ok_or_else(|| {
+                crate::error::InputError::new(format!(
+                    "unit {u}: the row of {:?} on {} has no stopping outcome",
+                    plan.estimators[ei].label,
+                    plan.integrands[fi].name()
+                ))
+            })?;
+            outcomes[(u * ni + fi) * ne + ei] = Some(o);
+        }
+        Ok(())
+    })?;
+    Ok(Outcomes { outcomes })
+}
 
 /// One (integrand, tolerance estimator, first stage) cell of `stopping_summary.csv`.
 #[derive(Debug, Clone)]
@@ -42,12 +74,14 @@ pub struct Cell {
 }
 
 /// The sequential outcome of a tolerance estimator in one trial.
-fn outcome(plan: &Plan, results: &Results, fi: usize, ei: usize, ni: usize, t: usize) -> Outcome {
-    results.unit(plan, ni, t).sequential[fi][ei].expect("a tolerance estimator records its outcome")
+fn outcome(plan: &Plan, results: &Outcomes, fi: usize, ei: usize, ni: usize, t: usize) -> Outcome {
+    let u = ni * plan.trials + t;
+    results.outcomes[(u * plan.integrands.len() + fi) * plan.estimators.len() + ei]
+        .expect("a tolerance estimator records its outcome")
 }
 
 /// Every cell, ordered by integrand, estimator, first stage.
-pub fn summarize(plan: &Plan, results: &Results) -> Vec<Cell> {
+pub fn summarize(plan: &Plan, results: &Outcomes) -> Vec<Cell> {
     let mut out = Vec::new();
     for (fi, f) in plan.integrands.iter().enumerate() {
         for (ei, e) in plan.estimators.iter().enumerate() {
@@ -88,7 +122,7 @@ pub fn summarize(plan: &Plan, results: &Results) -> Vec<Cell> {
 }
 
 /// `stopping_trials.csv`: one row per (integrand, tolerance estimator, first stage, trial).
-pub fn trials_csv(plan: &Plan, results: &Results) -> Vec<u8> {
+pub fn trials_csv(plan: &Plan, results: &Outcomes) -> Vec<u8> {
     let mut s = String::from(
         "integrand,estimator,first_n,trial,tolerance,n_used,half_width95,stopped,abs_error,within,half_width,zero_evidence_stages\n",
     );

@@ -15,14 +15,10 @@ const GROW_BELOW_SECONDS: f64 = 0.25;
 const SHRINK_ABOVE_SECONDS: f64 = 2.0;
 const MAX_BATCH: usize = 1 << 14;
 
-/// What [`run_units`] returns: the grouped warnings and the tolerance estimators' outcomes.
-pub type Outcome = (Vec<(String, usize)>, Vec<runner::UnitResult>);
-
 /// Runs the units of `shard` from the `done`-th on (the earlier ones are in the log already),
 /// appending each batch to `log` and, if given, to `summary`. `tick` is called once per
-/// finished unit. Returns the weight sets' numerical warnings, grouped by their first words,
-/// and, for a plan with tolerance estimators, every unit's stopping outcomes (the rest of those
-/// units' results dropped; [`super::adaptive`] reads only them).
+/// finished unit. Returns the weight sets' numerical warnings, grouped by their first words
+/// (tolerance estimators' stopping outcomes are in the log's rows, [`super::adaptive`]).
 pub fn run_units(
     plan: &Plan,
     pool: &rayon::ThreadPool,
@@ -31,9 +27,7 @@ pub fn run_units(
     log: &mut LogWriter,
     mut summary: Option<&mut Accumulator>,
     tick: &(dyn Fn() + Sync),
-) -> crate::Result<Outcome> {
-    let tolerance = plan.estimators.iter().any(|e| e.tolerance.is_some());
-    let mut stopped = Vec::new();
+) -> crate::Result<Vec<(String, usize)>> {
     let threads = pool.current_num_threads();
     let todo: Vec<usize> = shard.units(plan.samples.len() * plan.trials).skip(done).collect();
     let mut warnings: Vec<(String, usize)> = Vec::new();
@@ -55,19 +49,6 @@ pub fn run_units(
             }
             group_warnings(&mut warnings, &r.messages);
         }
-        if tolerance {
-            stopped.extend(results.into_iter().map(|r| runner::UnitResult {
-                estimates: Vec::new(),
-                uncertainty: Vec::new(),
-                diagnostics: Vec::new(),
-                warnings: Vec::new(),
-                messages: Vec::new(),
-                fitted: Vec::new(),
-                chosen: Vec::new(),
-                sequential: r.sequential,
-                cost: runner::Cost::default(),
-            }));
-        }
         log.append(&text)?;
         start += units.len();
         let seconds = clock.elapsed().as_secs_f64();
@@ -77,7 +58,7 @@ pub fn run_units(
             batch = (batch / 2).max(threads);
         }
     }
-    Ok((warnings, stopped))
+    Ok(warnings)
 }
 
 /// Counts messages by their first words (the amounts differ).

@@ -6,7 +6,7 @@ use super::plan::Plan;
 use super::rows::{timing_part, trials_header, trials_part};
 use super::summary::{self, Accumulator, CalibrationOutcome, CellSummary, CheckOutcome};
 use super::unit_log::{LogSet, rows_per_unit};
-use super::{cost_plot, coverage_plot, export, plot};
+use super::{adaptive, adaptive_plot, cost_plot, coverage_plot, export, plot};
 use crate::error::Error;
 use crate::files::result_folder::ResultFolder;
 
@@ -124,4 +124,64 @@ pub fn write_set(
         checks,
         calibration,
     })
+}
+
+/// Writes `stopping_trials.csv`, `stopping_summary.csv` and the `<integrand>-tolerance.svg`
+/// figures of a finished run (or merge) into `folder`, from its logs, and returns the cells and
+/// the tolerance checks' outcomes (nothing for a plan without tolerance estimators).
+pub fn write_stopping(
+    plan: &Plan,
+    folder: &mut ResultFolder,
+    logs: &LogSet,
+) -> crate::Result<(Vec<adaptive::Cell>, Vec<adaptive::CheckOutcome>)> {
+    if plan.estimators.iter().all(|e| e.tolerance.is_none()) {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let results = adaptive::read_outcomes(plan, logs)?;
+    let stopping = adaptive::summarize(plan, &results);
+    let checks: Vec<_> = plan
+        .tolerance_checks
+        .iter()
+        .map(|c| adaptive::evaluate_check(plan, &stopping, c))
+        .collect();
+    folder.write(
+        "stopping_trials.csv",
+        "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance, the rule's half-width, zero-evidence stages",
+        &adaptive::trials_csv(plan, &results),
+    )?;
+    folder.write(
+        "stopping_summary.csv",
+        "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance, share met, share within among those met, share with a zero-evidence stage",
+        &adaptive::summary_csv(plan, &stopping),
+    )?;
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        if let Some(figure) = adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
+            crate::plot::write_figure(
+                folder,
+                &format!("{}-tolerance.svg", f.name()),
+                &format!(
+                    "mean n used and share within the tolerance against the tolerance for {}, every tolerance estimator",
+                    f.name()
+                ),
+                &figure,
+            )?;
+        }
+    }
+    Ok((stopping, checks))
+}
+
+/// A finished run's (or merge's) manifest: [`super::export::manifest_json`] with the tolerance
+/// checks and their outcomes when the plan has any.
+pub fn manifest(plan: &Plan, findings: &Findings, checks: &[adaptive::CheckOutcome]) -> serde_json::Value {
+    let mut manifest: serde_json::Value = serde_json::from_slice(&super::export::manifest_json(
+        plan,
+        &findings.checks,
+        &findings.calibration,
+    ))
+    .expect("the manifest is JSON");
+    if !plan.tolerance_checks.is_empty() {
+        manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
+        manifest["tolerance_checks"] = adaptive::checks_json(plan, checks);
+    }
+    manifest
 }

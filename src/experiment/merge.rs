@@ -71,13 +71,62 @@ pub fn shard_manifest(plan: &Plan, identity: &Identity) -> Vec<u8> {
 }
 
 /// One shard folder, read.
-struct ShardFolder {
-    dir: PathBuf,
-    identity: Identity,
-    spec: serde_json::Value,
+pub struct ShardFolder {
+    pub dir: PathBuf,
+    /// What was sharded: [`EXPERIMENT`] or another kind of job (a render table's shards name
+    /// theirs in `shard.json`'s `"kind"`).
+    pub kind: String,
+    pub identity: Identity,
+    /// The job as run: the experiment spec, or the kind's own record.
+    pub spec: serde_json::Value,
 }
 
-fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
+/// The kind of job of an experiment's shards (`shard.json` without `"kind"`).
+pub const EXPERIMENT: &str = "experiment";
+
+/// What kind of job the shard in `dir` is of (None if it has no readable `shard.json`).
+pub fn shard_kind(dir: &Path) -> Option<String> {
+    let text =
+        crate::files::read::read_text(&dir.join(SHARD_FILE), crate::files::read::FileKind::Record).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    Some(
+        v.get("kind")
+            .and_then(|k| k.as_str())
+            .unwrap_or(EXPERIMENT)
+            .to_string(),
+    )
+}
+
+/// Refuses, in one line, shards of different kinds of job (an experiment's and a render
+/// table's), before anything else is read; returns the kind.
+pub fn check_kinds(dirs: &[PathBuf]) -> Result<String, InputError> {
+    let kinds: Vec<Option<String>> = dirs.iter().map(|d| shard_kind(d)).collect();
+    let first = kinds.iter().position(Option::is_some).unwrap_or(0);
+    for (d, k) in dirs.iter().zip(&kinds) {
+        if let (Some(a), Some(b)) = (&kinds[first], k)
+            && a != b
+        {
+            let a_n = |k: &str| {
+                if k == EXPERIMENT {
+                    "an experiment"
+                } else {
+                    "a render table"
+                }
+            };
+            return Err(InputError::new(format!(
+                "merge: {} is a shard of {} and {} a shard of {}; merge the shards of one run",
+                dirs[first].display(),
+                a_n(a),
+                d.display(),
+                a_n(b)
+            )));
+        }
+    }
+    Ok(kinds[first].clone().unwrap_or_else(|| EXPERIMENT.to_string()))
+}
+
+/// Reads a shard folder of any kind: its `shard.json` and the first line of its `units.csv`.
+pub fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
     let shown = dir.display();
     let path = dir.join(SHARD_FILE);
     let text = crate::files::read::read_text(&path, crate::files::read::FileKind::Record).map_err(|_| {
@@ -126,15 +175,37 @@ fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
             units.display()
         )));
     }
+    let kind = v
+        .get("kind")
+        .and_then(|k| k.as_str())
+        .unwrap_or(EXPERIMENT)
+        .to_string();
     Ok(ShardFolder {
         dir: dir.to_path_buf(),
+        spec: field(if kind == EXPERIMENT { "experiment" } else { "job" })?.clone(),
+        kind,
         identity,
-        spec: field("experiment")?.clone(),
     })
 }
 
+/// Checks that the shards were written by this build (the merged manifest records one build,
+/// the one writing it: that must be the build whose rows it holds).
+pub fn check_build(shards: &[ShardFolder]) -> Result<(), InputError> {
+    let (ours, theirs) = (Build::current(), &shards[0].identity.build);
+    if theirs != &ours {
+        return Err(InputError::new(format!(
+            "merge: the shards in {} were written by workbench {}, this is workbench {}; merge them \
+             with the build that wrote them",
+            shards[0].dir.display(),
+            theirs.describe(),
+            ours.describe()
+        )));
+    }
+    Ok(())
+}
+
 /// Checks that `shards` are the shards 1…n of one run, and puts them in shard order.
-fn check_set(mut shards: Vec<ShardFolder>) -> Result<Vec<ShardFolder>, InputError> {
+pub fn check_set(mut shards: Vec<ShardFolder>) -> Result<Vec<ShardFolder>, InputError> {
     let first = &shards[0];
     let (d0, a) = (first.dir.display(), &first.identity);
     for s in &shards[1..] {
@@ -207,6 +278,9 @@ fn rebuild_plan(shard: &ShardFolder) -> Result<Plan, InputError> {
 pub struct MergeReport {
     pub out_dir: PathBuf,
     pub findings: Findings,
+    /// Tolerance estimators' cells and checks (empty without tolerance estimators).
+    pub stopping: Vec<super::adaptive::Cell>,
+    pub tolerance_checks: Vec<super::adaptive::CheckOutcome>,
     pub shards: usize,
     pub wall_seconds: f64,
 }
@@ -217,6 +291,7 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     if dirs.is_empty() {
         return Err(InputError::new("merge: give the shard folders to merge").into());
     }
+    check_kinds(dirs)?;
     let shards = dirs
         .iter()
         .map(|d| read_shard(d))
@@ -224,17 +299,7 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     let shards = check_set(shards)?;
     // The merged manifest records one build, the one writing it: that must be the build whose
     // rows it holds (its summary, fits and plots are computed again here).
-    let (ours, theirs) = (Build::current(), &shards[0].identity.build);
-    if theirs != &ours {
-        return Err(InputError::new(format!(
-            "merge: the shards in {} were written by workbench {}, this is workbench {}; merge them \
-             with the build that wrote them",
-            shards[0].dir.display(),
-            theirs.describe(),
-            ours.describe()
-        ))
-        .into());
-    }
+    check_build(&shards)?;
     let plan = rebuild_plan(&shards[0])?;
     let inputs: Vec<(&str, &Path)> = shards
         .iter()
@@ -282,13 +347,9 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     })?;
     reporter.finish();
     let findings = finish::write_set(&plan, &mut folder, &summary, &logs)?;
+    let (stopping, tolerance_checks) = finish::write_stopping(&plan, &mut folder, &logs)?;
     let wall_seconds = start.elapsed().as_secs_f64();
-    let manifest: serde_json::Value = serde_json::from_slice(&export::manifest_json(
-        &plan,
-        &findings.checks,
-        &findings.calibration,
-    ))
-    .expect("the manifest is JSON");
+    let manifest = finish::manifest(&plan, &findings, &tolerance_checks);
     // The merge's own seconds, not the run's: no plan hash, so `reproduce` does not take them
     // for the run's time.
     folder.commit(manifest, export::timings_json(1, wall_seconds, None))?;
@@ -297,6 +358,8 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
         MergeReport {
             out_dir: out.to_path_buf(),
             findings,
+            stopping,
+            tolerance_checks,
             shards: shards.len(),
             wall_seconds,
         },

@@ -132,20 +132,6 @@ pub fn run_plan(
         (Some(_), None) => return Err(InputError::new("--shard: needs the experiment file").into()),
         _ => None,
     };
-    if (overrides.shard.is_some() || overrides.resume)
-        && plan.estimators.iter().any(|e| e.tolerance.is_some())
-    {
-        return Err(InputError::new(format!(
-            "{}: the file has tolerance estimators, whose stopping outputs are not kept in the unit log \
-             yet; run it whole, without --shard or --resume",
-            if overrides.shard.is_some() {
-                "--shard"
-            } else {
-                "--resume"
-            }
-        ))
-        .into());
-    }
     // Every worker thread holds its weight sets at once: refused before anything is written.
     plan::check_memory(plan, crate::util::threads::worker_threads(overrides.threads))?;
     let inputs: Vec<(&str, &Path)> = overrides
@@ -183,68 +169,32 @@ pub fn run_plan(
     reporter.start("trials×N", units as u64);
     reporter.advance(resumed as u64);
     let start = Instant::now();
-    let (warnings, stopped) =
-        drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
-            reporter.advance(1)
-        })?;
+    let warnings = drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
+        reporter.advance(1)
+    })?;
     reporter.finish();
     drop(log);
     let wall_seconds = start.elapsed().as_secs_f64();
 
-    let (findings, manifest) = match (summary, shard_spec) {
+    let (findings, stopping, tolerance_checks, manifest) = match (summary, shard_spec) {
         (Some(summary), _) => {
             let logs = unit_log::LogSet {
                 paths: vec![log_path],
             };
             let findings = finish::write_set(plan, &mut folder, &summary, &logs)?;
-            let manifest = export::manifest_json(plan, &findings.checks, &findings.calibration);
-            (Some(findings), manifest)
+            // Tolerance estimators' stopping outputs, from the same log.
+            let (stopping, checks) = finish::write_stopping(plan, &mut folder, &logs)?;
+            let manifest = finish::manifest(plan, &findings, &checks);
+            (Some(findings), stopping, checks, manifest)
         }
         (None, Some(spec)) => {
             merge::write_shard(&spec, &identity, &mut folder, &log_path)?;
-            (None, merge::shard_manifest(plan, &identity))
+            let manifest = merge::shard_manifest(plan, &identity);
+            let manifest = serde_json::from_slice(&manifest).expect("the manifest is JSON");
+            (None, Vec::new(), Vec::new(), manifest)
         }
         (None, None) => unreachable!("a shard has its spec"),
     };
-    // Tolerance estimators' outcomes, kept per unit by the drive (only for plans that have
-    // them; `--shard` and `--resume` refuse those plans).
-    let results = runner::Results { units: stopped };
-    let stopping = adaptive::summarize(plan, &results);
-    let tolerance_checks: Vec<_> = plan
-        .tolerance_checks
-        .iter()
-        .map(|c| adaptive::evaluate_check(plan, &stopping, c))
-        .collect();
-    if !stopping.is_empty() {
-        folder.write(
-            "stopping_trials.csv",
-            "one row per (integrand, tolerance estimator, first n, trial): n used, 95% half-width, stopped by the rule, within the tolerance, the rule's half-width, zero-evidence stages",
-            &adaptive::trials_csv(plan, &results),
-        )?;
-        folder.write(
-            "stopping_summary.csv",
-            "one row per (integrand, tolerance estimator, first n): mean n used, share stopped by the rule, share within the tolerance, share met, share within among those met, share with a zero-evidence stage",
-            &adaptive::summary_csv(plan, &stopping),
-        )?;
-        for (fi, f) in plan.integrands.iter().enumerate() {
-            if let Some(figure) = adaptive_plot::tolerance_plot_svg(plan, &stopping, fi)? {
-                crate::plot::write_figure(
-                    &mut folder,
-                    &format!("{}-tolerance.svg", f.name()),
-                    &format!(
-                        "mean n used and share within the tolerance against the tolerance for {}, every tolerance estimator",
-                        f.name()
-                    ),
-                    &figure,
-                )?;
-            }
-        }
-    }
-    let mut manifest: serde_json::Value = serde_json::from_slice(&manifest).expect("the manifest is JSON");
-    if !plan.tolerance_checks.is_empty() && overrides.shard.is_none() {
-        manifest["plan"]["tolerance_checks"] = serde_json::json!(plan.tolerance_checks);
-        manifest["tolerance_checks"] = adaptive::checks_json(plan, &tolerance_checks);
-    }
     // The whole plan's time only: a shard's or a resumed remainder's would understate it.
     let whole = (overrides.shard.is_none() && !overrides.resume).then(|| unit_log::plan_hash(plan));
     folder.commit(manifest, export::timings_json(threads, wall_seconds, whole))?;

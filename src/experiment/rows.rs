@@ -20,14 +20,18 @@ pub const TRIALS_HEADER: &str = "integrand,estimator,method,design,n,trial,estim
 pub const MODEL_HEADER: &str = "model";
 
 /// The columns a unit log adds after [`TRIALS_HEADER`]: the chosen model ([`MODEL_HEADER`],
-/// kept in every log so that one row format serves every plan), integrand evaluations
-/// (deterministic) and wall-clock seconds (not).
-pub const COST_HEADER: &str = "model,evaluations,weight_set_seconds,seconds";
+/// kept in every log so that one row format serves every plan), a tolerance estimator's
+/// stopping outcome (`stopped`: whether the rule stopped it, `zero_evidence_stages`; empty for
+/// the other estimators — with the row's estimate, sd, amplitude, dof and evaluations they are
+/// its whole [`crate::bq::stages::Outcome`], so `stopping_*.csv` come from the log like every
+/// other output), integrand evaluations (deterministic) and wall-clock seconds (not).
+pub const COST_HEADER: &str = "model,stopped,zero_evidence_stages,evaluations,weight_set_seconds,seconds";
 
-/// Number of cost columns of [`COST_HEADER`] (after `model`).
-const COST_COLUMNS: usize = 3;
-/// Columns of a log row after the estimator label: `method` … `dof`, `model`, then the cost
-/// columns.
+/// Number of columns of [`COST_HEADER`] after `model`: the two stopping columns and the three
+/// cost columns.
+const COST_COLUMNS: usize = 2 + 3;
+/// Columns of a log row after the estimator label: `method` … `dof`, `model`, then the stopping
+/// and cost columns.
 const TAIL_COLUMNS: usize = 15 + 1 + COST_COLUMNS;
 
 /// The header of `trials.csv`: [`TRIALS_HEADER`], and [`MODEL_HEADER`] when `with_model`.
@@ -143,6 +147,9 @@ pub fn unit_rows(
     let rows = unit_row_values(plan, unit, n_index, trial);
     let mut values = Vec::with_capacity(rows.len());
     for (r, v) in rows {
+        // A tolerance estimator's stopping outcome (the rest of it is in the row already).
+        let stopping = unit.sequential[r.integrand][r.estimator]
+            .map_or(",".to_string(), |o| format!("{},{}", o.met, o.zero_evidence));
         // The weight set's diagnostics (empty for MC).
         let weight_set = r
             .weight_set
@@ -151,7 +158,7 @@ pub fn unit_rows(
             });
         writeln!(
             out,
-            "{},{},{},{},{},{},{:?},{:?},{:?},{},{},{weight_set},{},{},{},{},{:?},{:?}",
+            "{},{},{},{},{},{},{:?},{:?},{:?},{},{},{weight_set},{},{},{},{stopping},{},{:?},{:?}",
             plan.integrands[r.integrand].name(),
             csv_field(&plan.estimators[r.estimator].label),
             plan.estimators[r.estimator].method.name(),
@@ -213,7 +220,7 @@ pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues, Option<&str>), 
     tail.reverse();
     // After the prefix: 1 method, 2 design, 3 n, 4 trial, 5 estimate, 6 truth, 7 abs_error,
     // 8 posterior_sd, 9 warnings, 10–13 diagnostics, 14 amplitude, 15 dof, 16 model (the chosen
-    // model's label; its index is resolved by the caller), 17–19 cost.
+    // model's label; its index is resolved by the caller), 17–18 stopping, 19–21 cost.
     fn num<T: std::str::FromStr>(s: &str, what: &str) -> Result<T, String> {
         s.parse().map_err(|_| format!("has {what} {s:?}"))
     }
@@ -229,9 +236,9 @@ pub fn parse_row(line: &str) -> Result<(usize, usize, RowValues, Option<&str>), 
             abs_error: num(tail[7], "abs_error")?,
             sd,
             warnings: num(tail[9], "warnings")?,
-            evaluations: num(tail[17], "evaluations")?,
-            weight_set_seconds: num(tail[18], "weight_set_seconds")?,
-            seconds: num(tail[19], "seconds")?,
+            evaluations: num(tail[19], "evaluations")?,
+            weight_set_seconds: num(tail[20], "weight_set_seconds")?,
+            seconds: num(tail[21], "seconds")?,
             model: None,
         },
         (!tail[16].is_empty()).then_some(tail[16]),
@@ -323,13 +330,76 @@ pub fn check_row(plan: &Plan, fi: usize, ei: usize, line: &str) -> Result<(usize
             non_negative(14, "amplitude")?;
         }
     }
-    for (i, column) in [(18, "weight_set_seconds"), (19, "seconds")] {
+    for (i, column) in [(20, "weight_set_seconds"), (21, "seconds")] {
         non_negative(i, column)?;
+    }
+    // The stopping columns: a tolerance estimator's outcome, nothing for the others.
+    match e.tolerance {
+        None => {
+            if let Some(i) = [17, 18].into_iter().find(|&i| !tail[i].is_empty()) {
+                return Err(format!(
+                    "has {:?} in column {} where estimator {:?} has no tolerance",
+                    tail[i],
+                    i + 2,
+                    e.label
+                ));
+            }
+        }
+        Some(t) => {
+            if !matches!(tail[17], "true" | "false") {
+                return Err(format!("has stopped {:?}, not true or false", tail[17]));
+            }
+            tail[18]
+                .parse::<usize>()
+                .map_err(|_| format!("has zero_evidence_stages {:?}, not a whole number", tail[18]))?;
+            if values.evaluations == 0 || values.evaluations > t.max_n as u64 {
+                return Err(format!(
+                    "has evaluations {} where a tolerance estimator uses 1 to max_n = {} points",
+                    values.evaluations, t.max_n
+                ));
+            }
+        }
     }
     if let Some(label) = model {
         values.model = Some(model_index(plan, ei, label)?);
     }
     Ok((n, trial, values))
+}
+
+/// The stopping outcome of a tolerance estimator's row checked by [`check_row`] (None for the
+/// other estimators): its estimate, stated uncertainty (sd, dof, amplitude), points used
+/// (`evaluations`), whether the rule stopped it and its zero-evidence stages — the exact values
+/// the run had, since floats are written in shortest round-trip form.
+pub fn stopping_outcome(line: &str) -> Option<crate::bq::stages::Outcome> {
+    let mut tail: Vec<&str> = line.rsplitn(TAIL_COLUMNS + 1, ',').collect();
+    if tail.len() != TAIL_COLUMNS + 1 {
+        return None;
+    }
+    tail.reverse();
+    if tail[17].is_empty() {
+        return None;
+    }
+    let uncertainty = match tail[8] {
+        "" => None,
+        sd => Some(crate::bq::estimator::Uncertainty {
+            sd: sd.parse().ok()?,
+            dof: (!tail[15].is_empty())
+                .then(|| tail[15].parse())
+                .transpose()
+                .ok()?,
+            amplitude: (!tail[14].is_empty())
+                .then(|| tail[14].parse())
+                .transpose()
+                .ok()?,
+        }),
+    };
+    Some(crate::bq::stages::Outcome {
+        estimate: tail[5].parse().ok()?,
+        uncertainty,
+        n_used: tail[19].parse().ok()?,
+        met: tail[17].parse().ok()?,
+        zero_evidence: tail[18].parse().ok()?,
+    })
 }
 
 /// The index of the chosen model `label` among estimator `ei`'s fitted grid; `Err` when the
@@ -350,7 +420,7 @@ mod tests {
     #[test]
     fn a_log_row_reads_back_exactly_and_splits_into_its_parts() {
         let line = "cos3,\"BMC, ml\",bmc,uniform,16,7,0.1234567890123,0.125,0.0015432109877,\
-                    1e-300,2,1.0,0,0.0,12.5,0.3,,s=2.75 noise=1e-8,16,0.001,0.0025";
+                    1e-300,2,1.0,0,0.0,12.5,0.3,,s=2.75 noise=1e-8,,,16,0.001,0.0025";
         let (n, t, v, model) = parse_row(line).unwrap();
         assert_eq!(model, Some("s=2.75 noise=1e-8"));
         assert_eq!((n, t), (16, 7));
@@ -371,11 +441,19 @@ mod tests {
             timing_part(line).unwrap(),
             "cos3,\"BMC, ml\",16,7,16,0.001,0.0025"
         );
-        let mc = "f,MC,mc,uniform,1,0,0.5,0.25,0.25,,0,,,,,,,,1,0.0,1e-6";
+        let mc = "f,MC,mc,uniform,1,0,0.5,0.25,0.25,,0,,,,,,,,,,1,0.0,1e-6";
         assert_eq!(parse_row(mc).unwrap().2.sd, None);
         assert_eq!(parse_row(mc).unwrap().3, None);
-        let t = "f,BSQ,bsq,uniform,8,0,0.5,0.25,0.25,0.1,0,1.0,0,0.0,3.0,0.2,7,,8,0.0,1e-6";
+        let t = "f,BSQ,bsq,uniform,8,0,0.5,0.25,0.25,0.1,0,1.0,0,0.0,3.0,0.2,7,,,,8,0.0,1e-6";
         assert_eq!(parse_row(t).unwrap().2.sd, Some((0.1, Some(7))));
+        assert_eq!(stopping_outcome(t), None);
+        // A tolerance estimator's row gives back its whole stopping outcome.
+        let tol = "f,BMC tol,bmc,sobol,8,0,0.5,0.25,0.25,0.1,0,1.0,0,0.0,3.0,0.2,7,,true,2,32,0.0,1e-6";
+        let o = stopping_outcome(tol).unwrap();
+        assert_eq!((o.estimate, o.n_used, o.met, o.zero_evidence), (0.5, 32, true, 2));
+        let u = o.uncertainty.unwrap();
+        assert_eq!((u.sd, u.dof, u.amplitude), (0.1, Some(7), Some(0.2)));
+        assert_eq!(parse_row(tol).unwrap().2.evaluations, 32);
         assert!(parse_row("f,MC,mc,uniform,1,0").is_err());
         assert!(parse_row(&mc.replace("0.25,0.25", "0.25,zz")).is_err());
     }

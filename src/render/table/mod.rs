@@ -33,6 +33,7 @@ pub mod plan;
 pub mod plot;
 pub mod reference;
 pub mod runner;
+pub mod shard;
 pub mod spec;
 pub mod summary;
 
@@ -99,7 +100,16 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     )?;
 
     if let Some(adaptive_plan) = &plan.adaptive {
-        let report = adaptive::run(plan, adaptive_plan, &renderer, &reference, &mut folder, reporter)?;
+        let rows = adaptive::render(
+            plan,
+            adaptive_plan,
+            &renderer,
+            &reference,
+            &mut folder,
+            reporter,
+            &|_| true,
+        )?;
+        let report = adaptive::write_outputs(plan, adaptive_plan, &mut folder, &rows)?;
         let manifest: serde_json::Value =
             serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
         folder.commit(
@@ -121,73 +131,10 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     };
     let geometry = renderer.geometry();
     let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
-    let rows = runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter)?;
-
-    let cells = summary::summarise(plan, &rows);
-    folder.write("rmse.csv", "one row per render", &export::rmse_csv(plan, &rows))?;
-    folder.write(
-        "table.csv",
-        "mean RMSE per (variant, spp) with its 95% Student-t interval",
-        &export::table_csv(plan, &cells),
-    )?;
-    let mut table_md = export::table_md(plan, &cells);
-    if let Some(e) = &plan.external {
-        table_md.push_str(&external::external_md(e, &reference));
-        folder.write(
-            "external.csv",
-            "images made elsewhere against their reference and this table's",
-            &external::external_csv(e, &reference),
-        )?;
-        folder.write(
-            "their-reference.png",
-            "the external reference, tone-mapped",
-            &e.reference.to_png()?,
-        )?;
-        write_error_png(
-            &mut folder,
-            "reference-vs-theirs-error.png",
-            " (the external reference against this table's)",
-            &e.reference,
-            &reference,
-        )?;
-        for i in &e.images {
-            let name = plan::slug(&i.label);
-            folder.write(
-                &format!("theirs-{name}.png"),
-                &format!("{}, tone-mapped", i.label),
-                &i.image.to_png()?,
-            )?;
-            write_error_png(
-                &mut folder,
-                &format!("theirs-{name}-error.png"),
-                &format!(" ({} against this table's reference)", i.label),
-                &i.image,
-                &reference,
-            )?;
-        }
-    }
-    folder.write(
-        "table.md",
-        "table.csv laid out like thesis Table 4.1",
-        table_md.as_bytes(),
-    )?;
-    crate::plot::write_figure(
-        &mut folder,
-        "rmse_vs_spp.svg",
-        "mean RMSE against spp, log-log, with the intervals",
-        &plot::plot_svg(plan, &cells)?,
-    )?;
-    let times_md = export::times_md(plan, &cells);
-    folder.write_local(
-        "timings.csv",
-        "wall-clock seconds per render (machine-dependent; not committed)",
-        &export::timings_csv(plan, &rows),
-    )?;
-    folder.write_local(
-        "timings.md",
-        "mean seconds per image (machine-dependent; not committed)",
-        times_md.as_bytes(),
-    )?;
+    let rows = runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter, &|_| {
+        true
+    })?;
+    let (cells, table_md, times_md) = write_outputs(plan, &mut folder, &reference, &rows)?;
     let manifest: serde_json::Value =
         serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
     folder.commit(
@@ -201,6 +148,83 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         table_md,
         times_md,
     })
+}
+
+/// Writes a fixed-spp table's files from every render's row (not the manifest, nor
+/// `reference.png` and the first renders' images) into `folder`, and returns its cells,
+/// `table.md` and the times in Markdown: what one run and a merge of shards share.
+pub fn write_outputs(
+    plan: &TablePlan,
+    folder: &mut ResultFolder,
+    reference: &Image,
+    rows: &[Row],
+) -> crate::Result<(Vec<Cell>, String, String)> {
+    let cells = summary::summarise(plan, rows);
+    folder.write("rmse.csv", "one row per render", &export::rmse_csv(plan, rows))?;
+    folder.write(
+        "table.csv",
+        "mean RMSE per (variant, spp) with its 95% Student-t interval",
+        &export::table_csv(plan, &cells),
+    )?;
+    let mut table_md = export::table_md(plan, &cells);
+    if let Some(e) = &plan.external {
+        table_md.push_str(&external::external_md(e, reference));
+        folder.write(
+            "external.csv",
+            "images made elsewhere against their reference and this table's",
+            &external::external_csv(e, reference),
+        )?;
+        folder.write(
+            "their-reference.png",
+            "the external reference, tone-mapped",
+            &e.reference.to_png()?,
+        )?;
+        write_error_png(
+            folder,
+            "reference-vs-theirs-error.png",
+            " (the external reference against this table's)",
+            &e.reference,
+            reference,
+        )?;
+        for i in &e.images {
+            let name = plan::slug(&i.label);
+            folder.write(
+                &format!("theirs-{name}.png"),
+                &format!("{}, tone-mapped", i.label),
+                &i.image.to_png()?,
+            )?;
+            write_error_png(
+                folder,
+                &format!("theirs-{name}-error.png"),
+                &format!(" ({} against this table's reference)", i.label),
+                &i.image,
+                reference,
+            )?;
+        }
+    }
+    folder.write(
+        "table.md",
+        "table.csv laid out like thesis Table 4.1",
+        table_md.as_bytes(),
+    )?;
+    crate::plot::write_figure(
+        folder,
+        "rmse_vs_spp.svg",
+        "mean RMSE against spp, log-log, with the intervals",
+        &plot::plot_svg(plan, &cells)?,
+    )?;
+    let times_md = export::times_md(plan, &cells);
+    folder.write_local(
+        "timings.csv",
+        "wall-clock seconds per render (machine-dependent; not committed)",
+        &export::timings_csv(plan, rows),
+    )?;
+    folder.write_local(
+        "timings.md",
+        "mean seconds per image (machine-dependent; not committed)",
+        times_md.as_bytes(),
+    )?;
+    Ok((cells, table_md, times_md))
 }
 
 /// Saves the first image of each cell (into the set) and the rows so far (into

@@ -46,7 +46,9 @@ pub trait TableSink {
 
 /// Renders the table in spec order: spp, then repetition, then variant. Every render states
 /// its sds (the variant's amplitude scale; MC its standard error), so each row has its
-/// coverage; `edges` is the edge mask (row-major) of the edge columns.
+/// coverage; `edges` is the edge mask (row-major) of the edge columns. Only the units (rounds
+/// of variants at one spp and repetition, numbered in that order: [`super::shard`]) that `keep`
+/// takes are rendered.
 pub fn run(
     plan: &TablePlan,
     renderer: &Renderer,
@@ -54,12 +56,19 @@ pub fn run(
     edges: &[bool],
     sink: &mut dyn TableSink,
     reporter: &dyn Reporter,
+    keep: &dyn Fn(usize) -> bool,
 ) -> crate::Result<Vec<Row>> {
-    let total: usize = plan.repetitions.iter().sum::<usize>() * plan.variants.len();
+    let units = plan.repetitions.iter().sum::<usize>();
+    let total: usize = (0..units).filter(|&u| keep(u)).count() * plan.variants.len();
     reporter.start("renders", total as u64);
     let mut rows = Vec::with_capacity(total);
+    let mut unit = 0;
     for (&spp, &reps) in plan.spp.iter().zip(&plan.repetitions) {
         for rep in 0..reps {
+            unit += 1;
+            if !keep(unit - 1) {
+                continue;
+            }
             let seed = render_seed(plan.seed, spp, rep);
             for (v, variant) in plan.variants.iter().enumerate() {
                 reporter.working_on(&format!("{} {spp} spp #{rep}", variant.label));

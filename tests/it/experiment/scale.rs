@@ -502,26 +502,220 @@ fn a_killed_run_resumes_without_redoing_its_finished_units() {
     assert_same_files(&d.join("full"), &d.join("killed"));
 }
 
-/// Tolerance estimators' stopping outputs are not in the unit log: sharding or resuming such a
-/// file is refused before any work.
+/// Tolerance estimators (issue 31): MC and BMC stopping at a tolerance beside a fixed-N MC, with
+/// a `within_tolerance` check; `stopping_trials.csv`, `stopping_summary.csv`, the tolerance
+/// figure and the manifest's tolerance checks come from the unit log.
+const TOLERANCE: &str = r#"{
+  "name": "tol",
+  "title": "tolerance test",
+  "integrands": ["cos", "cos3"],
+  "estimators": [
+    { "label": "MC", "method": "mc" },
+    { "label": "MC tol", "method": "mc", "tolerance": { "abs": 0.6, "max_n": 64, "min_n": 4 } },
+    { "label": "BMC tol", "method": "bmc", "design": "sobol", "tolerance": { "abs": 0.3, "max_n": 64, "min_n": 4 } }
+  ],
+  "samples": [4, 16],
+  "trials": 11,
+  "seed": 7,
+  "checks": [{ "within_tolerance": "BMC tol", "level": 0.9 }]
+}"#;
+
+/// Issue 31 item 1: files with tolerance estimators were refused by `--shard` and `--resume`
+/// (their stopping outcomes were kept in memory, not in the unit log). Now shards of 1, 2 and 3
+/// on 1 and 2 threads merge to the bytes of one run, the stopping files included.
 #[test]
-fn files_with_tolerance_estimators_refuse_shard_and_resume() {
+fn tolerance_experiments_shard_and_merge_to_the_bytes_of_one_run() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let spec = SMALL.replace(
-        r#"{ "label": "MC", "method": "mc" },"#,
-        r#"{ "label": "MC", "method": "mc" }, { "label": "MC tol", "method": "mc", "tolerance": { "abs": 0.1, "max_n": 64 } },"#,
+    std::fs::write(d.join("tol.json"), TOLERANCE).unwrap();
+    ok(&workbench(d, &["run", "tol.json", "-q", "--out", "full"]));
+    let names = deterministic_files(&d.join("full"));
+    for n in [
+        "stopping_trials.csv",
+        "stopping_summary.csv",
+        "cos3-tolerance.svg",
+    ] {
+        assert!(names.contains(&n.to_string()), "{n} in {names:?}");
+    }
+    let manifest = std::fs::read_to_string(d.join("full/manifest.json")).unwrap();
+    assert!(manifest.contains("\"tolerance_checks\""), "{manifest}");
+    for count in 1..=3 {
+        let mut shards = Vec::new();
+        for index in 1..=count {
+            let out = format!("s{count}-{index}");
+            let threads = (1 + index % 2).to_string();
+            let shard = format!("{index}/{count}");
+            ok(&workbench(
+                d,
+                &[
+                    "run",
+                    "tol.json",
+                    "-q",
+                    "--threads",
+                    &threads,
+                    "--shard",
+                    &shard,
+                    "--out",
+                    &out,
+                ],
+            ));
+            shards.push(out);
+        }
+        let merged = format!("m{count}");
+        let mut args = vec!["merge", merged.as_str(), "-q"];
+        args.extend(shards.iter().rev().map(String::as_str));
+        let o = workbench(d, &args);
+        ok(&o);
+        assert!(
+            stdout(&o).contains("check BMC tol within tolerance given met"),
+            "the merge reports the tolerance check: {}",
+            stdout(&o)
+        );
+        assert_same_files(&d.join("full"), &d.join(&merged));
+    }
+}
+
+/// Issue 31 item 1: a tolerance run's log cut after five units and half a row, and a killed
+/// tolerance run, both resume to the bytes of one run.
+#[test]
+fn tolerance_experiments_resume_to_the_bytes_of_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("tol.json"), TOLERANCE).unwrap();
+    ok(&workbench(d, &["run", "tol.json", "-q", "--out", "full"]));
+    ok(&workbench(
+        d,
+        &["run", "tol.json", "-q", "--shard", "1/1", "--out", "whole"],
+    ));
+    let log = std::fs::read_to_string(d.join("whole/units.csv")).unwrap();
+    let lines: Vec<&str> = log.lines().collect();
+    let rows_per_unit = 2 * 3;
+    let kept_units = 5;
+    let mut cut: String = lines[..2 + kept_units * rows_per_unit + 4]
+        .iter()
+        .map(|l| format!("{l}\n"))
+        .collect();
+    cut.push_str(&lines[2 + kept_units * rows_per_unit + 4][..10]);
+    std::fs::create_dir(d.join("resumed")).unwrap();
+    std::fs::write(d.join("resumed/trials.partial.csv"), &cut).unwrap();
+    let o = workbench(
+        d,
+        &[
+            "run",
+            "tol.json",
+            "-q",
+            "--threads",
+            "2",
+            "--resume",
+            "--out",
+            "resumed",
+        ],
     );
-    std::fs::write(d.join("tol.json"), spec).unwrap();
-    refused(
-        &workbench(d, &["run", "tol.json", "-q", "--shard", "1/2"]),
-        "--shard: the file has tolerance estimators",
+    ok(&o);
+    assert!(
+        stderr(&o).contains(&format!("resumed: {kept_units} of {} units", 2 * 11)),
+        "{}",
+        stderr(&o)
     );
-    refused(
-        &workbench(d, &["run", "tol.json", "-q", "--resume"]),
-        "--resume: the file has tolerance estimators",
+    assert_same_files(&d.join("full"), &d.join("resumed"));
+
+    // A real interruption: a slower tolerance run (BMC doubling to 512 points) killed while its
+    // log grows.
+    let slow = TOLERANCE
+        .replace("\"trials\": 11", "\"trials\": 200")
+        .replace("\"max_n\": 64", "\"max_n\": 512")
+        .replace("\"abs\": 0.3", "\"abs\": 0.0001")
+        .replace(r#"[{ "within_tolerance": "BMC tol", "level": 0.9 }]"#, "[]");
+    assert!(slow.contains("\"checks\": []"));
+    std::fs::write(d.join("slow.json"), slow).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_workbench"))
+        .args(["run", "slow.json", "-q", "--threads", "1", "--out", "killed"])
+        .current_dir(d)
+        .stderr(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = d.join("killed/trials.partial.csv");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&log).map_or(0, |t| t.lines().count()) < 2 + rows_per_unit + 1 {
+        assert!(started.elapsed().as_secs() < 60, "the log never grew");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it was killed"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let running = child.try_wait().unwrap().is_none();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        running,
+        "the run finished before it could be killed; make it slower"
     );
-    assert!(!d.join("results").exists());
+    let o = workbench(d, &["run", "slow.json", "-q", "--resume", "--out", "killed"]);
+    ok(&o);
+    assert!(stderr(&o).contains("resumed: "), "{}", stderr(&o));
+    ok(&workbench(d, &["run", "slow.json", "-q", "--out", "slow"]));
+    assert_same_files(&d.join("slow"), &d.join("killed"));
+}
+
+/// The stopping columns of a shard's rows are checked like every other column: a tolerance
+/// estimator's `stopped` must be true or false, its points used within max_n, and a fixed-N
+/// estimator's stopping columns empty.
+#[test]
+fn merge_refuses_damaged_stopping_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("tol.json"), TOLERANCE).unwrap();
+    for i in 1..=2 {
+        let (s, out) = (format!("{i}/2"), format!("a{i}"));
+        ok(&workbench(
+            d,
+            &["run", "tol.json", "-q", "--shard", &s, "--out", &out],
+        ));
+    }
+    let units = d.join("a1/units.csv");
+    let good = std::fs::read_to_string(&units).unwrap();
+    let lines: Vec<&str> = good.lines().collect();
+    // Line 3: MC (fixed N), line 4: MC tol, both on cos.
+    assert!(lines[2].starts_with("cos,MC,mc,") && lines[3].starts_with("cos,MC tol,mc,"));
+    let with = |row: &str, from_end: usize, value: &str| -> String {
+        let mut cols: Vec<String> = row.split(',').map(String::from).collect();
+        let at = cols.len() - 1 - from_end;
+        cols[at] = value.to_string();
+        cols.join(",")
+    };
+    let cases = [
+        (
+            3,
+            with(lines[3], 4, "maybe"),
+            "has stopped \"maybe\", not true or false",
+        ),
+        (3, with(lines[3], 3, "-1"), "zero_evidence_stages \"-1\""),
+        (
+            3,
+            with(lines[3], 2, "128"),
+            "has evaluations 128 where a tolerance estimator uses 1 to max_n = 64",
+        ),
+        (
+            2,
+            with(lines[2], 4, "true"),
+            "where estimator \"MC\" has no tolerance",
+        ),
+    ];
+    for (target, row, what) in &cases {
+        let mut bad: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        bad[*target] = row.clone();
+        std::fs::write(&units, bad.join("\n") + "\n").unwrap();
+        let line = refused(&workbench(d, &["merge", "out", "-q", "a1", "a2"]), what);
+        assert!(
+            line.contains(&format!("a1/units.csv: line {}", target + 1)),
+            "{line}"
+        );
+        assert!(!d.join("out").exists(), "nothing written for a bad shard");
+    }
+    std::fs::write(&units, &good).unwrap();
+    ok(&workbench(d, &["merge", "out", "-q", "a1", "a2"]));
 }
 
 /// Issue 30 item 5: `merge` copied a shard's rows into the merged CSVs unchecked — NUL bytes in

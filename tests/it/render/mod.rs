@@ -6,4 +6,5 @@ mod render_cli;
 mod render_fitted;
 mod render_table;
 mod render_table_adaptive;
+mod render_table_shard;
 mod texel;

@@ -35,27 +35,47 @@ pub struct AdaptiveReport {
     pub times_md: String,
 }
 
-/// Renders the adaptive table and writes its files (not the manifest) into `folder`.
-pub fn run(
+/// Renders the adaptive table's units that `keep` takes (saving each cell's first render into
+/// `folder`) and returns their rows.
+pub fn render(
     plan: &TablePlan,
     adaptive_plan: &AdaptivePlan,
     renderer: &Renderer,
     reference: &Image,
     folder: &mut ResultFolder,
     reporter: &dyn Reporter,
-) -> crate::Result<AdaptiveReport> {
+    keep: &dyn Fn(usize) -> bool,
+) -> crate::Result<Vec<AdaptiveRow>> {
     let mut sink = super::FileSink {
         plan,
         folder,
         reference,
     };
-    let rows = runner::run(plan, adaptive_plan, renderer, reference, &mut sink, reporter)?;
+    runner::run(
+        plan,
+        adaptive_plan,
+        renderer,
+        reference,
+        &mut sink,
+        reporter,
+        keep,
+    )
+}
+
+/// Writes the adaptive table's files from every render's row (not the manifest, nor the first
+/// renders' images) into `folder`: what one run and a merge of shards share.
+pub fn write_outputs(
+    plan: &TablePlan,
+    adaptive_plan: &AdaptivePlan,
+    folder: &mut ResultFolder,
+    rows: &[AdaptiveRow],
+) -> crate::Result<AdaptiveReport> {
     let targets = &adaptive_plan.targets;
-    let cells = summary::summarise(plan, targets, &rows);
+    let cells = summary::summarise(plan, targets, rows);
     folder.write(
         "rmse.csv",
         "one row per adaptive render",
-        &export::rmse_csv(plan, &rows),
+        &export::rmse_csv(plan, rows),
     )?;
     folder.write(
         "table.csv",
@@ -87,7 +107,7 @@ pub fn run(
     folder.write_local(
         "timings.csv",
         "wall-clock seconds per render (machine-dependent; not committed)",
-        &export::timings_csv(plan, &rows),
+        &export::timings_csv(plan, rows),
     )?;
     folder.write_local(
         "timings.md",

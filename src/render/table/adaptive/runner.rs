@@ -46,7 +46,8 @@ pub trait AdaptiveSink {
     fn round_done(&mut self, rows: &[AdaptiveRow]) -> crate::Result<()>;
 }
 
-/// Renders the table in spec order: target, then repetition, then variant.
+/// Renders the table in spec order: target, then repetition, then variant; only the units
+/// (rounds of variants at one target and repetition, numbered in that order) that `keep` takes.
 pub fn run(
     plan: &TablePlan,
     adaptive_plan: &AdaptivePlan,
@@ -54,13 +55,20 @@ pub fn run(
     reference: &Image,
     sink: &mut dyn AdaptiveSink,
     reporter: &dyn Reporter,
+    keep: &dyn Fn(usize) -> bool,
 ) -> crate::Result<Vec<AdaptiveRow>> {
-    let total: usize = plan.repetitions.iter().sum::<usize>() * plan.variants.len();
+    let units = plan.repetitions.iter().sum::<usize>();
+    let total: usize = (0..units).filter(|&u| keep(u)).count() * plan.variants.len();
     reporter.start("renders", total as u64);
     let mut rows = Vec::with_capacity(total);
+    let mut unit = 0;
     for (column, (&target, &reps)) in adaptive_plan.targets.iter().zip(&plan.repetitions).enumerate() {
         let settings = adaptive_plan.settings(target);
         for rep in 0..reps {
+            unit += 1;
+            if !keep(unit - 1) {
+                continue;
+            }
             let seed = adaptive_render_seed(plan.seed, target, rep);
             for (v, variant) in plan.variants.iter().enumerate() {
                 reporter.working_on(&format!("{} target sd {target} #{rep}", variant.label));

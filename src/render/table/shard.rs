@@ -1,0 +1,731 @@
+//! Shards of a render table (fixed spp and adaptive) and their merge (issue 31): the same
+//! [`Shard`] split, [`Identity`] and checks as an experiment's ([`crate::experiment::merge`]).
+//!
+//! A table's **units** are its rounds: every variant at one spp (or target sd) and repetition,
+//! numbered in the order one run renders them (spp or target, then repetition), `u = 0 … Σ
+//! repetitions − 1`; shard `i` of `n` renders the units with `u mod n = i − 1`. A unit is the
+//! grain because every output is a function of its rows and of each cell's first render (its
+//! repetition 0), which the unit renders whole.
+//!
+//! `render SPEC --shard i/n --out DIR` writes a shard folder: `units.csv` (the identity line,
+//! then the `rmse.csv` columns and `seconds`, one row per render in unit order), the first
+//! renders' PNGs of its units (named and described as in the table's folder), `reference.exr`
+//! (the reference its renders were measured against, read from or written to the cache under
+//! `--results-dir`), `shard.json` (`"kind": "render-table"`, the identity, the spec's path and
+//! text), a manifest and `timings.json`. [`merge`] checks the set, reads every row back (floats
+//! are in shortest round-trip form, so they are the exact `f64`s), copies the PNGs and writes
+//! the table's other files with the code one run uses ([`super::write_outputs`],
+//! [`super::adaptive::write_outputs`]) — the same bytes as one run, `timings.*` aside.
+
+use super::adaptive::runner::{AdaptiveRow, adaptive_render_seed};
+use super::external::ExternalMeasures;
+use super::plan::TablePlan;
+use super::runner::{Row, render_seed};
+use super::{FileSink, TableReport, export, reference};
+use crate::error::{Error, InputError};
+use crate::experiment::merge::{self as shards, SHARD_FILE, ShardFolder};
+use crate::experiment::unit_log::{Identity, SHARD_UNITS, Shard};
+use crate::files::read::FileKind;
+use crate::files::result_folder::{MANIFEST, ResultFolder};
+use crate::provenance::Build;
+use crate::render::image::Image;
+use crate::render::renderer::Renderer;
+use crate::util::report::Reporter;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// `shard.json`'s `"kind"` for a render table's shards.
+pub const KIND: &str = "render-table";
+/// The shard's copy of its reference.
+const REFERENCE_COPY: &str = "reference.exr";
+
+/// The table's units: its rounds, `Σ repetitions`.
+pub fn units(plan: &TablePlan) -> usize {
+    plan.repetitions.iter().sum()
+}
+
+/// What a shard's log and record say it is (`trials` holds the number of units).
+pub fn identity(plan: &TablePlan, shard: Shard) -> Identity {
+    Identity {
+        plan_hash: export::plan_hash(plan),
+        seed: plan.seed,
+        trials: units(plan),
+        build: Build::current(),
+        shard,
+    }
+}
+
+/// Where `render SPEC --shard i/n` writes without `--out`: `<results>/<name>-shard-<i>-of-<n>/`.
+pub fn default_out(results: &Path, plan: &TablePlan, shard: Shard) -> PathBuf {
+    results.join(format!("{}-shard-{}-of-{}", plan.name, shard.index, shard.count))
+}
+
+/// What a shard produced.
+pub struct ShardReport {
+    pub out_dir: PathBuf,
+    pub renders: usize,
+    pub wall_seconds: f64,
+}
+
+/// The log's column line: the table's `rmse.csv` header and `seconds`.
+fn columns(plan: &TablePlan) -> String {
+    let header = match &plan.adaptive {
+        Some(_) => super::adaptive::export::rmse_csv(plan, &[]),
+        None => export::rmse_csv(plan, &[]),
+    };
+    format!("{},seconds", String::from_utf8_lossy(&header).trim_end())
+}
+
+/// `rmse.csv`'s rows with each render's seconds appended.
+fn log_rows(csv: &[u8], seconds: impl Iterator<Item = f64>) -> String {
+    let text = String::from_utf8_lossy(csv);
+    let mut out = String::new();
+    for (line, s) in text.lines().skip(1).zip(seconds) {
+        out.push_str(&format!("{line},{s:?}\n"));
+    }
+    out
+}
+
+/// Runs shard `shard` of the table into `out`: see the module documentation. The reference
+/// comes from (or goes to) the cache under `results`, as for a whole table.
+pub fn run_shard(
+    plan: &TablePlan,
+    results: &Path,
+    shard: Shard,
+    out: &Path,
+    resume: bool,
+    reporter: &dyn Reporter,
+) -> crate::Result<ShardReport> {
+    let cache = reference::cache_path(plan, results);
+    let mut inputs: Vec<(&str, &Path)> = vec![
+        ("the render-table file", &plan.file),
+        ("the reference cache", &cache),
+    ];
+    if !matches!(plan.env_arg.as_str(), "sky" | "white") {
+        inputs.push(("the environment map", Path::new(&plan.env_arg)));
+    }
+    let mut folder = ResultFolder::prepare(
+        out,
+        &format!("--out {}", out.display()),
+        "use another --out",
+        &inputs,
+        export::legacy_manifest_files,
+    )?;
+    if !cache.exists() {
+        crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
+    }
+    let spec_text = crate::files::spec_json::read_spec(&plan.file)?;
+    // The rounds' log, checked before any work: a resumed shard keeps the rounds it holds
+    // (re-rendering only the repetition-0 ones among them, whose images went with the killed
+    // run's staging folder).
+    let identity = identity(plan, shard);
+    let nv = plan.variants.len();
+    let mine: Vec<usize> = shard.units(units(plan)).collect();
+    let log_path = folder.partial_path(ROUNDS_LOG)?;
+    let (log, done_rows) = open_log(plan, &log_path, &identity, &mine, resume)?;
+    let done = done_rows.len() / nv;
+    let first_new = mine.get(done).copied().unwrap_or(usize::MAX);
+    let start = Instant::now();
+    let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
+    let reference = reference::reference(plan, &renderer, results, reporter)?;
+    folder.write(
+        REFERENCE_COPY,
+        "the reference this shard's renders were measured against (for workbench merge)",
+        &reference.to_exr()?,
+    )?;
+    let keep = |u: usize| u % shard.count == shard.index - 1 && (u >= first_new || repetition(plan, u) == 0);
+    let kept: Vec<usize> = mine.iter().copied().filter(|&u| keep(u)).collect();
+    let mut sink = LogSink {
+        inner: FileSink {
+            plan,
+            folder: &mut folder,
+            reference: &reference,
+        },
+        log,
+        path: log_path.clone(),
+        kept: &kept,
+        next: 0,
+        first_new,
+        nv,
+    };
+    let new_rows = match &plan.adaptive {
+        Some(a) => {
+            let rows =
+                super::adaptive::runner::run(plan, a, &renderer, &reference, &mut sink, reporter, &keep)?;
+            log_rows(
+                &super::adaptive::export::rmse_csv(plan, &rows),
+                rows.iter().map(|r| r.seconds),
+            )
+        }
+        None => {
+            let geometry = renderer.geometry();
+            let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
+            let rows = super::runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter, &keep)?;
+            log_rows(&export::rmse_csv(plan, &rows), rows.iter().map(|r| r.seconds))
+        }
+    };
+    drop(sink);
+    // Every round of the shard in order: the log's, or the one rendered now.
+    let mut new_lines = new_rows.lines();
+    let mut rows = String::new();
+    let mut renders = 0;
+    for (k, &u) in mine.iter().enumerate() {
+        for v in 0..nv {
+            let line = if keep(u) {
+                new_lines.next().expect("a row per kept render")
+            } else {
+                done_rows[k * nv + v].as_str()
+            };
+            rows.push_str(line);
+            rows.push('\n');
+        }
+        if keep(u) {
+            renders += nv;
+        }
+    }
+    if resume && done > 0 {
+        reporter.note(&format!(
+            "resumed: {done} of {} rounds were done already",
+            mine.len()
+        ));
+    }
+    folder.write(
+        SHARD_UNITS,
+        "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds",
+        format!("{}\n{}\n{rows}", identity.header(), columns(plan)).as_bytes(),
+    )?;
+    let mut record = serde_json::json!({
+        "kind": KIND,
+        "shard": shard.to_string(),
+        "plan_hash": identity.plan_hash,
+        "seed": identity.seed,
+        "trials": identity.trials,
+        "job": {
+            "spec": plan.file.display().to_string(),
+            "scene": plan.scene.name(),
+            "env": plan.env_arg,
+            "text": spec_text,
+        },
+    });
+    crate::provenance::manifest_fields(&mut record, &identity.build);
+    let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
+    bytes.push(b'\n');
+    folder.write(
+        SHARD_FILE,
+        "which shard this is, of which render table, and the table file as run (for workbench merge)",
+        &bytes,
+    )?;
+    let wall_seconds = start.elapsed().as_secs_f64();
+    folder.commit(
+        serde_json::json!({
+            "kind": KIND,
+            "name": plan.name,
+            "scene": super::reference::scene_version(plan),
+            "shard": shard.to_string(),
+        }),
+        serde_json::json!({ "seconds": wall_seconds }),
+    )?;
+    Ok(ShardReport {
+        out_dir: out.to_path_buf(),
+        renders,
+        wall_seconds,
+    })
+}
+
+/// The log of a shard's finished rounds while it runs (for `--resume`), in its folder.
+pub const ROUNDS_LOG: &str = "rounds.partial.csv";
+
+/// The repetition of unit `u`.
+fn repetition(plan: &TablePlan, u: usize) -> usize {
+    let mut rep = u;
+    for &r in &plan.repetitions {
+        if rep < r {
+            return rep;
+        }
+        rep -= r;
+    }
+    rep
+}
+
+/// Opens the rounds' log at `path`. Fresh (no `resume`, or no log): writes its identity and
+/// column lines. Resuming: checks that it is this shard's, reads the rows of its complete rounds
+/// (each checked as the merge checks it), cuts off a half-written last round, and returns them.
+fn open_log(
+    plan: &TablePlan,
+    path: &Path,
+    identity: &Identity,
+    mine: &[usize],
+    resume: bool,
+) -> crate::Result<(std::fs::File, Vec<String>)> {
+    use std::io::Write;
+    let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
+    if !(resume && path.exists()) {
+        let mut file = std::fs::File::create(path).map_err(|e| io("creating", e))?;
+        writeln!(file, "{}\n{}", identity.header(), columns(plan)).map_err(|e| io("writing", e))?;
+        return Ok((file, Vec::new()));
+    }
+    let refuse = |m: String| -> Error {
+        InputError::new(format!(
+            "--resume: {}: {m}; run without --resume to start over",
+            path.display()
+        ))
+        .into()
+    };
+    let text =
+        crate::files::read::read_text(path, FileKind::UnitLog).map_err(|e| InputError::new(e.to_string()))?;
+    let mut lines = text.split_inclusive('\n');
+    let first = lines.next().unwrap_or_default();
+    match Identity::from_header(first) {
+        Some(found) if found == *identity => {}
+        Some(_) => {
+            return Err(refuse(
+                "was written for another run (another table, seed, build or shard)".into(),
+            ));
+        }
+        None => return Err(refuse("is not a workbench unit log".into())),
+    }
+    let second = lines.next().unwrap_or_default();
+    if second.trim_end() != columns(plan) {
+        return Err(refuse("its column line is not this table's".into()));
+    }
+    let mut kept = (first.len() + second.len()) as u64;
+    let nv = plan.variants.len();
+    let mut rows = Vec::new();
+    let mut pending = Vec::new();
+    let mut pending_bytes = 0;
+    for line in lines {
+        if !line.ends_with('\n') {
+            break;
+        }
+        let k = rows.len() / nv;
+        let Some(&u) = mine.get(k) else {
+            return Err(refuse("holds more rounds than the shard has".into()));
+        };
+        parse_row(plan, u, pending.len(), line.trim_end())
+            .map_err(|m| refuse(format!("line {}: the row {m}", 3 + rows.len() + pending.len())))?;
+        pending.push(line.trim_end().to_string());
+        pending_bytes += line.len();
+        if pending.len() == nv {
+            rows.append(&mut pending);
+            kept += pending_bytes as u64;
+            pending_bytes = 0;
+        }
+    }
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(|e| io("opening", e))?;
+    file.set_len(kept).map_err(|e| io("truncating", e))?;
+    Ok((file, rows))
+}
+
+/// Saves each cell's first render (through the table's own sink) and appends every new round's
+/// rows to the rounds' log as it finishes.
+struct LogSink<'a, 'b> {
+    inner: FileSink<'a>,
+    log: std::fs::File,
+    path: PathBuf,
+    /// The units rendered, in order: the `next`-th round to finish is `kept[next]`.
+    kept: &'b [usize],
+    next: usize,
+    /// Units before this one were in the log already (re-rendered only for their images).
+    first_new: usize,
+    nv: usize,
+}
+
+impl LogSink<'_, '_> {
+    fn append(&mut self, csv: &[u8], seconds: impl Iterator<Item = f64>) -> crate::Result<()> {
+        use std::io::Write;
+        let u = self.kept[self.next];
+        self.next += 1;
+        if u < self.first_new {
+            return Ok(());
+        }
+        self.log
+            .write_all(log_rows(csv, seconds).as_bytes())
+            .map_err(|e| Error::io(format!("appending to {}", self.path.display()), e))
+    }
+}
+
+impl super::runner::TableSink for LogSink<'_, '_> {
+    fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()> {
+        self.inner.first_image(variant, spp, image)
+    }
+
+    fn round_done(&mut self, rows: &[Row]) -> crate::Result<()> {
+        let last = &rows[rows.len() - self.nv..];
+        self.append(
+            &export::rmse_csv(self.inner.plan, last),
+            last.iter().map(|r| r.seconds),
+        )
+    }
+}
+
+impl super::adaptive::runner::AdaptiveSink for LogSink<'_, '_> {
+    fn first_image(
+        &mut self,
+        variant: usize,
+        target: f64,
+        image: &crate::render::adaptive::AdaptiveImage,
+    ) -> crate::Result<()> {
+        self.inner.first_image(variant, target, image)
+    }
+
+    fn round_done(&mut self, rows: &[AdaptiveRow]) -> crate::Result<()> {
+        let last = &rows[rows.len() - self.nv..];
+        self.append(
+            &super::adaptive::export::rmse_csv(self.inner.plan, last),
+            last.iter().map(|r| r.seconds),
+        )
+    }
+}
+
+/// A shard's renders, read back.
+enum Rows {
+    Fixed(Vec<Row>),
+    Adaptive(Vec<AdaptiveRow>),
+}
+
+/// Parses a field written by [`export::num`] (empty: not finite).
+fn number(s: &str, column: &str) -> Result<f64, String> {
+    if s.is_empty() {
+        return Ok(f64::NAN);
+    }
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("has {column} {s:?}, not a finite number")),
+    }
+}
+
+/// Reads one log row of unit `u` and variant `v`, checking that it is the row that unit
+/// renders (variant, spp or target, repetition, seed) and that every number is one.
+fn parse_row(plan: &TablePlan, u: usize, v: usize, line: &str) -> Result<RowOf, String> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_reader(line.as_bytes());
+    let record = reader
+        .records()
+        .next()
+        .and_then(|r| r.ok())
+        .ok_or_else(|| "is not a CSV row".to_string())?;
+    let f: Vec<&str> = record.iter().collect();
+    let want = export::variant_fields(&plan.variants[v]);
+    if f.len() < 4 || f[..4] != want {
+        return Err(format!(
+            "starts with {:?} where the table renders variant {:?} there",
+            f.iter().take(4).collect::<Vec<_>>(),
+            want[0]
+        ));
+    }
+    // The unit's column and repetition.
+    let (mut column, mut rep) = (0, u);
+    while rep >= plan.repetitions[column] {
+        rep -= plan.repetitions[column];
+        column += 1;
+    }
+    let whole = |s: &str, what: &str| s.parse::<u64>().map_err(|_| format!("has {what} {s:?}"));
+    let external = plan.external.is_some();
+    match &plan.adaptive {
+        None => {
+            let n = 11 + if external { 3 } else { 0 } + 1;
+            if f.len() != n {
+                return Err(format!("has {} columns, not {n}", f.len()));
+            }
+            let spp = plan.spp[column];
+            let seed = render_seed(plan.seed, spp, rep);
+            if (
+                whole(f[4], "spp")?,
+                whole(f[5], "repetition")?,
+                whole(f[6], "seed")?,
+            ) != (spp as u64, rep as u64, seed)
+            {
+                return Err(format!(
+                    "is spp {}, repetition {}, seed {} where the unit renders spp {spp}, repetition {rep}, seed {seed}",
+                    f[4], f[5], f[6]
+                ));
+            }
+            Ok(RowOf::Fixed(Row {
+                variant: v,
+                spp,
+                repetition: rep,
+                seed,
+                rmse: number(f[7], "rmse")?,
+                rmse_edges: number(f[8], "rmse_edges")?,
+                coverage95: number(f[9], "coverage95")?,
+                coverage95_edges: number(f[10], "coverage95_edges")?,
+                seconds: number(f[n - 1], "seconds")?,
+                external: if external {
+                    Some(ExternalMeasures {
+                        rmse_theirs: number(f[11], "rmse_theirs")?,
+                        mean_l2_theirs: number(f[12], "mean_l2_theirs")?,
+                        mean_l2_ours: number(f[13], "mean_l2")?,
+                    })
+                } else {
+                    None
+                },
+            }))
+        }
+        Some(a) => {
+            if f.len() != 12 {
+                return Err(format!("has {} columns, not 12", f.len()));
+            }
+            let target = a.targets[column];
+            let seed = adaptive_render_seed(plan.seed, target, rep);
+            if (f[4], whole(f[5], "repetition")?, whole(f[6], "seed")?)
+                != (export::num(target).as_str(), rep as u64, seed)
+            {
+                return Err(format!(
+                    "is target {}, repetition {}, seed {} where the unit renders target {target}, repetition {rep}, seed {seed}",
+                    f[4], f[5], f[6]
+                ));
+            }
+            Ok(RowOf::Adaptive(AdaptiveRow {
+                variant: v,
+                column,
+                target,
+                repetition: rep,
+                seed,
+                rmse: number(f[7], "rmse")?,
+                mean_spp: number(f[8], "mean_spp")?,
+                share_met: number(f[9], "share_met")?,
+                within: number(f[10], "within")?,
+                seconds: number(f[11], "seconds")?,
+            }))
+        }
+    }
+}
+
+enum RowOf {
+    Fixed(Row),
+    Adaptive(AdaptiveRow),
+}
+
+/// One shard's log rows (after the two header lines), checked to hold exactly its units.
+fn read_log(plan: &TablePlan, s: &ShardFolder) -> Result<Vec<String>, InputError> {
+    let path = s.dir.join(SHARD_UNITS);
+    let text = crate::files::read::read_text(&path, FileKind::UnitLog)
+        .map_err(|e| InputError::new(format!("merge: {e}")))?;
+    let mut lines = text.split_inclusive('\n');
+    lines.next();
+    if lines.next().map(str::trim_end) != Some(columns(plan).as_str()) {
+        return Err(InputError::new(format!(
+            "merge: {}: its column line is not this table's",
+            path.display()
+        )));
+    }
+    let rows: Vec<String> = lines.map(String::from).collect();
+    let want = s.identity.shard.len(units(plan)) * plan.variants.len();
+    let complete = rows.iter().filter(|l| l.ends_with('\n')).count();
+    if complete != want || rows.len() != want {
+        return Err(InputError::new(format!(
+            "merge: {}: holds {complete} complete rows of the shard's {want}; this shard is half-written, run it again",
+            path.display()
+        )));
+    }
+    Ok(rows.into_iter().map(|l| l.trim_end().to_string()).collect())
+}
+
+/// Merges the shard folders `dirs` of a render table into `out` (the table's folder; its parent
+/// is the results folder whose `cache/` the manifest names, as `--results-dir` is for one run).
+/// Every check is made before `out` is touched.
+pub fn merge(out: &Path, dirs: &[PathBuf]) -> crate::Result<TableReport> {
+    if dirs.is_empty() {
+        return Err(InputError::new("merge: give the shard folders to merge").into());
+    }
+    shards::check_kinds(dirs)?;
+    let set = dirs
+        .iter()
+        .map(|d| shards::read_shard(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    // Another map or scene is another plan too; say which, before the plan hashes.
+    for field in ["scene", "env"] {
+        let of = |s: &ShardFolder| {
+            s.spec
+                .get(field)
+                .and_then(|v| v.as_str())
+                .unwrap_or_default()
+                .to_string()
+        };
+        if let Some(other) = set.iter().find(|s| of(s) != of(&set[0])) {
+            return Err(InputError::new(format!(
+                "merge: {} and {} are shards of different render tables ({} {:?} and {:?}); merge the shards of one run",
+                set[0].dir.display(),
+                other.dir.display(),
+                if field == "env" { "maps" } else { "scenes" },
+                of(&set[0]),
+                of(other)
+            ))
+            .into());
+        }
+    }
+    let set = shards::check_set(set)?;
+    shards::check_build(&set)?;
+    let start = Instant::now();
+    // The table as run, from the first shard's record; the other shards have its plan hash.
+    let record = &set[0].spec;
+    let at = set[0].dir.join(SHARD_FILE);
+    let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
+    let text = record
+        .get("text")
+        .and_then(|t| t.as_str())
+        .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
+    let spec = record
+        .get("spec")
+        .and_then(|t| t.as_str())
+        .ok_or_else(|| bad("\"job\" has no \"spec\"".into()))?;
+    let plan = super::plan::parse(text, Path::new(spec)).map_err(|e| bad(e.0))?;
+    if export::plan_hash(&plan) != set[0].identity.plan_hash {
+        return Err(bad(format!(
+            "the table resolves to another plan than the one its shards ran (a file it reads, {}, changed?)",
+            plan.env_arg
+        ))
+        .into());
+    }
+    // Every shard's rows, in unit order.
+    let logs: Vec<Vec<String>> = set.iter().map(|s| read_log(&plan, s)).collect::<Result<_, _>>()?;
+    let count = set.len();
+    let nv = plan.variants.len();
+    let mut rows = match plan.adaptive {
+        Some(_) => Rows::Adaptive(Vec::new()),
+        None => Rows::Fixed(Vec::new()),
+    };
+    for u in 0..units(&plan) {
+        let s = u % count;
+        for v in 0..nv {
+            let k = (u / count) * nv + v;
+            let row = parse_row(&plan, u, v, &logs[s][k]).map_err(|m| {
+                InputError::new(format!(
+                    "merge: {}: line {}: the row {m}; this shard is damaged, run it again",
+                    set[s].dir.join(SHARD_UNITS).display(),
+                    k + 3
+                ))
+            })?;
+            match (&mut rows, row) {
+                (Rows::Fixed(r), RowOf::Fixed(x)) => r.push(x),
+                (Rows::Adaptive(r), RowOf::Adaptive(x)) => r.push(x),
+                _ => unreachable!("the plan decides the kind of row"),
+            }
+        }
+    }
+    // One reference for all: the shards' copies, byte for byte.
+    let reference_bytes: Vec<Vec<u8>> = set
+        .iter()
+        .map(|s| {
+            crate::files::read::read(&s.dir.join(REFERENCE_COPY), FileKind::Image)
+                .map_err(|e| InputError::new(format!("merge: {e}; this shard is half-written, run it again")))
+        })
+        .collect::<Result<_, _>>()?;
+    if let Some(i) = (1..count).find(|&i| reference_bytes[i] != reference_bytes[0]) {
+        return Err(InputError::new(format!(
+            "merge: {} and {} were measured against different references (another results/cache entry?); \
+             run the shards against one reference",
+            set[0].dir.display(),
+            set[i].dir.display()
+        ))
+        .into());
+    }
+    let reference = Image::read(&set[0].dir.join(REFERENCE_COPY), "the shard's reference")?;
+    if (reference.width, reference.height) != (plan.width, plan.height) {
+        return Err(InputError::new(format!(
+            "merge: {}: {REFERENCE_COPY} is {}×{}, not the table's {}×{}",
+            set[0].dir.display(),
+            reference.width,
+            reference.height,
+            plan.width,
+            plan.height
+        ))
+        .into());
+    }
+    // The first renders' images each shard wrote, as its manifest lists them.
+    let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
+    for s in &set {
+        let path = s.dir.join(MANIFEST);
+        let manifest: serde_json::Value = crate::files::read::read_text(&path, FileKind::Record)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .ok_or_else(|| InputError::new(format!("merge: {}: missing or not JSON", path.display())))?;
+        let files = manifest
+            .get("files")
+            .and_then(|f| f.as_object())
+            .ok_or_else(|| InputError::new(format!("merge: {}: lists no files", path.display())))?;
+        for (name, what) in files {
+            if [MANIFEST, SHARD_FILE, SHARD_UNITS, REFERENCE_COPY].contains(&name.as_str()) {
+                continue;
+            }
+            if !name.ends_with(".png") || name.contains('/') || name.starts_with('.') {
+                return Err(InputError::new(format!(
+                    "merge: {}: lists {name:?}, not a render of the table",
+                    path.display()
+                ))
+                .into());
+            }
+            if images.iter().any(|(n, _, _)| n == name) {
+                return Err(InputError::new(format!(
+                    "merge: {name} is in more than one shard; give each shard once"
+                ))
+                .into());
+            }
+            let bytes = crate::files::read::read(&s.dir.join(name), FileKind::Image).map_err(|e| {
+                InputError::new(format!("merge: {e}; this shard is half-written, run it again"))
+            })?;
+            images.push((name.clone(), what.as_str().unwrap_or_default().to_string(), bytes));
+        }
+    }
+    let results = out.parent().map(Path::to_path_buf).unwrap_or_default();
+    let inputs: Vec<(&str, &Path)> = set
+        .iter()
+        .map(|s| ("the shard folder", s.dir.as_path()))
+        .collect();
+    let mut folder = ResultFolder::prepare(
+        out,
+        &out.display().to_string(),
+        "give another OUT",
+        &inputs,
+        export::legacy_manifest_files,
+    )?;
+    folder.write(
+        "reference.png",
+        "the reference image, tone-mapped",
+        &reference.to_png()?,
+    )?;
+    for (name, what, bytes) in &images {
+        folder.write(name, what, bytes)?;
+    }
+    let (cells, adaptive_cells, table_md, times_md) = match (&rows, &plan.adaptive) {
+        (Rows::Fixed(rows), _) => {
+            let (cells, md, times) = super::write_outputs(&plan, &mut folder, &reference, rows)?;
+            (cells, Vec::new(), md, times)
+        }
+        (Rows::Adaptive(rows), Some(a)) => {
+            let report = super::adaptive::write_outputs(&plan, a, &mut folder, rows)?;
+            (Vec::new(), report.cells, report.table_md, report.times_md)
+        }
+        (Rows::Adaptive(_), None) => unreachable!("adaptive rows come from an adaptive plan"),
+    };
+    // The cache the manifest names holds the reference, as after one run.
+    let cache = reference::cache_path(&plan, &results);
+    if !cache.exists() {
+        let dir = cache.parent().unwrap_or(&results);
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
+        crate::files::atomic::write_atomic(&cache, &reference_bytes[0])?;
+        crate::files::atomic::write_atomic(
+            &cache.with_extension("json"),
+            reference::reference_key(&plan).1.as_bytes(),
+        )?;
+    }
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&export::manifest(&plan, &results)).expect("the manifest is JSON");
+    // The merge's own seconds, without the plan hash: `reproduce` does not take them for the
+    // table's time.
+    folder.commit(
+        manifest,
+        serde_json::json!({ "merge_seconds": start.elapsed().as_secs_f64() }),
+    )?;
+    Ok(TableReport {
+        out_dir: out.to_path_buf(),
+        cells,
+        adaptive_cells,
+        table_md,
+        times_md,
+    })
+}
