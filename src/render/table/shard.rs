@@ -348,8 +348,14 @@ impl LogSink<'_, '_> {
 }
 
 impl super::runner::TableSink for LogSink<'_, '_> {
-    fn first_image(&mut self, variant: usize, spp: usize, image: &Image) -> crate::Result<()> {
-        self.inner.first_image(variant, spp, image)
+    fn first_image(
+        &mut self,
+        variant: usize,
+        spp: usize,
+        image: &Image,
+        sds: &crate::render::uncertainty::PixelSds,
+    ) -> crate::Result<()> {
+        self.inner.first_image(variant, spp, image, sds)
     }
 
     fn round_done(&mut self, rows: &[Row]) -> crate::Result<()> {
