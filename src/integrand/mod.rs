@@ -1,11 +1,14 @@
 //! Integrands with their exact integrals (math.md §1): `cos^k θ` here, the rendering-like
 //! families (lobe, cap, Gaussian about a tilted axis) in [`family`], and [`Integrand`], the one
-//! type experiments use; render-scene pixels in [`pixel`].
+//! type experiments use; render-scene pixels in [`pixel`]; functions given from outside (a Python
+//! callable) in [`external`].
 
+pub mod external;
 pub mod family;
 pub mod pixel;
 
 use crate::util::geometry::Vec3;
+use external::ExternalIntegrand;
 use family::AxisIntegrand;
 use pixel::PixelIntegrand;
 use std::f64::consts::TAU;
@@ -19,6 +22,8 @@ pub enum Integrand {
     Axis { name: String, f: AxisIntegrand },
     /// A render-scene pixel's integrand in one channel, with its name.
     Pixel { name: String, f: Box<PixelIntegrand> },
+    /// A batch function given from outside (a Python callable), with its name and truth.
+    External(Box<ExternalIntegrand>),
 }
 
 impl Integrand {
@@ -27,6 +32,7 @@ impl Integrand {
         match self {
             Integrand::Cos(c) => c.name(),
             Integrand::Axis { name, .. } | Integrand::Pixel { name, .. } => name.clone(),
+            Integrand::External(f) => f.name.clone(),
         }
     }
 
@@ -36,17 +42,47 @@ impl Integrand {
             Integrand::Cos(c) => c.display_name(),
             Integrand::Axis { f, .. } => f.display_name(),
             Integrand::Pixel { f, .. } => f.display_name(),
+            Integrand::External(f) => f.display_name.clone(),
         }
     }
 
-    /// `f(ω)`.
+    /// `f(ω)`; an external integrand's one-point batch (NaN when it fails: use
+    /// [`Integrand::values`], which says why).
     #[inline]
     pub fn value(&self, w: &Vec3) -> f64 {
         match self {
             Integrand::Cos(c) => c.value(w),
             Integrand::Axis { f, .. } => f.value(w),
             Integrand::Pixel { f, .. } => f.value(w),
+            Integrand::External(f) => f.values(std::slice::from_ref(w)).map_or(f64::NAN, |v| v[0]),
         }
+    }
+
+    /// `f` at every point, in one batch: an external integrand is called once (its errors,
+    /// wrong lengths and non-finite values are the message); the others cannot fail.
+    pub fn values(&self, points: &[Vec3]) -> Result<Vec<f64>, String> {
+        match self {
+            Integrand::External(f) => f.values(points),
+            _ => Ok(points.iter().map(|w| self.value(w)).collect()),
+        }
+    }
+
+    /// [`Integrand::values`] for trial `trial` at `n` of a run: a failure is an
+    /// [`crate::Error::Integrand`] naming the integrand, the trial and N (`what` says which set
+    /// when it is not the trial's N points).
+    pub fn trial_values(
+        &self,
+        points: &[Vec3],
+        trial: usize,
+        n: usize,
+        what: &str,
+    ) -> crate::Result<Vec<f64>> {
+        self.values(points).map_err(|m| {
+            crate::Error::Integrand(format!(
+                "integrand {:?}, trial {trial}, N = {n}: {what}{m}",
+                self.name()
+            ))
+        })
     }
 
     /// `I = ∫_H f dω`.
@@ -55,6 +91,7 @@ impl Integrand {
             Integrand::Cos(c) => c.integral(),
             Integrand::Axis { f, .. } => f.integral(),
             Integrand::Pixel { f, .. } => f.integral(),
+            Integrand::External(f) => f.integral(),
         }
     }
 
@@ -64,6 +101,7 @@ impl Integrand {
             Integrand::Cos(c) => c.constant_prior(),
             Integrand::Axis { f, .. } => f.integral() / TAU,
             Integrand::Pixel { f, .. } => f.integral() / TAU,
+            Integrand::External(f) => f.integral() / TAU,
         }
     }
 }
