@@ -212,8 +212,9 @@ fn error_plots_say_what_they_show() {
     assert!(has(&cos0, "MC-cos: slope") && caption("cos0").contains("exact: error 0 up to rounding"));
     assert!(!has(&cos3, "exact"));
     // The guide goes through uniform MC, and is left out when MC has no error to go through.
-    assert!(has(&cos, "∝ N^(−1/2) through MC") && has(&cos3, "∝ N^(−1/2) through MC"));
-    assert!(!has(&cos0, "N^(−1/2)"));
+    // Its exponent is typeset: a raised <tspan> (a text node of its own), never a caret.
+    assert!(has(&cos, "∝ N −1/2 through MC") && has(&cos3, "∝ N −1/2 through MC"));
+    assert!(!has(&cos0, "−1/2") && !has(&cos, "^("));
     // One axis and subtitle style: the integrand is named once, in the subtitle's integral.
     for texts in [&cos, &cos0, &cos3] {
         assert!(has(texts, "absolute error |Î − I|  [sr]"));
@@ -288,7 +289,9 @@ fn the_rmse_plot_names_its_reference_and_keeps_the_legend_off_the_data() {
     assert!(o.status.success(), "{}", stderr(&o));
     let texts = svg_texts(&d.join("r/t/rmse_vs_spp.svg"));
     assert!(has(&texts, "reference rendered with uniform MC at 32 spp"));
-    assert!(has(&texts, "∝ spp^(−1/2) through MC"));
+    assert!(has(&texts, "∝ spp −1/2 through MC") && !has(&texts, "^("));
+    let svg = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.svg")).unwrap();
+    assert!(svg.contains("spp<tspan baseline-shift=\"super\""), "the exponent is not raised");
     let caption = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.caption.txt")).unwrap();
     assert!(caption.contains("95% Student-t interval") && !has(&texts, "Student-t"));
     // No title given: the plot is titled with the table's name (render-table files set `title`).
