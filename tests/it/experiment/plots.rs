@@ -291,7 +291,10 @@ fn the_rmse_plot_names_its_reference_and_keeps_the_legend_off_the_data() {
     assert!(has(&texts, "reference rendered with uniform MC at 32 spp"));
     assert!(has(&texts, "∝ spp −1/2 through MC") && !has(&texts, "^("));
     let svg = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.svg")).unwrap();
-    assert!(svg.contains("spp<tspan baseline-shift=\"super\""), "the exponent is not raised");
+    assert!(
+        svg.contains("spp<tspan baseline-shift=\"super\""),
+        "the exponent is not raised"
+    );
     let caption = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.caption.txt")).unwrap();
     assert!(caption.contains("95% Student-t interval") && !has(&texts, "Student-t"));
     // No title given: the plot is titled with the table's name (render-table files set `title`).
