@@ -42,6 +42,10 @@ pub enum Error {
     /// The operating system refused a resource (threads).
     #[error("{0}")]
     System(String),
+    /// An integrand given from outside (a Python callable) failed or returned bad values; the
+    /// message names the integrand, the trial and N.
+    #[error("{0}")]
+    Integrand(String),
 }
 
 /// The library's result type.

@@ -41,24 +41,12 @@ def exact_image(binary: str, env: str, res: int, out_dir: str) -> tuple[np.ndarr
 
 def mitsuba_pixel_centres(scene_path: str, res: int, spp: int, seed: int, integrator: dict | None = None):
     """Mean and variance of ``spp`` samples of the integrator (default Mitsuba's ``direct``) at
-    each pixel centre, each (res, res, 3)."""
-    import drjit as dr
+    each pixel centre, each (res, res, 3) (``workbench.mitsuba.render_pixel_centres``)."""
+    import workbench.mitsuba as wbm
 
     scene = mi.load_file(scene_path, res=res, spp=1)
-    sensor = scene.sensors()[0]
     integ = mi.load_dict(integrator or {"type": "direct"})
-    n_pix = res * res
-    idx = dr.arange(mi.UInt32, n_pix * spp) // spp  # spp consecutive samples per pixel
-    i = mi.Float(idx % res)
-    j = mi.Float(idx // res)
-    pos = mi.Point2f((i + 0.5) / res, (j + 0.5) / res)
-    sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(seed, n_pix * spp)
-    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5))
-    value, _, _ = integ.sample(scene, sampler, ray, None, True)
-    rgb = np.stack([np.array(value[c]) for c in range(3)], axis=-1).astype(np.float64)
-    rgb = rgb.reshape(n_pix, spp, 3)
-    return rgb.mean(axis=1).reshape(res, res, 3), rgb.var(axis=1, ddof=1).reshape(res, res, 3)
+    return wbm.render_pixel_centres(scene, integ, spp=spp, seed=seed, variance=True)
 
 
 def check(res: int, spp: int, binary: str, out_dir: str, scenes_dir: str | None = None) -> dict:

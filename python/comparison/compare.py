@@ -86,29 +86,17 @@ def render(scene, method: str, n: int, seed: int, rule_seed: int = 0):
 
 def render_centres(scene, integ, spp: int, seed: int):
     """The integrator's estimate at each pixel's centre (docs/render-scene.md's pixel), the mean
-    of ``spp`` calls of its ``sample`` there: no pixel filter, no antialiasing, so the error is
-    the hemisphere integral's alone."""
+    of ``spp`` calls of its ``sample`` there (``workbench.mitsuba.render_pixel_centres``): no
+    pixel filter, no antialiasing, so the error is the hemisphere integral's alone; with the
+    seconds it took."""
     import drjit as dr
+    import workbench.mitsuba as wbm
 
-    sensor = scene.sensors()[0]
-    w, h = sensor.film().size()
     dr.sync_thread()
     t0 = time.perf_counter()
-    idx = dr.arange(mi.UInt32, w * h * spp) // spp
-    pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
-    sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(seed, w * h * spp)
-    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5))
-    value, _, aovs = integ.sample(scene, sampler, ray, None, True)
-    value = mi.Color3f(value)
-    if spp > 1:
-        value = mi.Color3f(*(dr.block_reduce(dr.ReduceOp.Add, value[c], spp) / spp for c in range(3)))
-    # The AOVs (the workbench integrator's sd) too, as mi.render computes them.
-    dr.eval(value, aovs)
+    rgb = wbm.render_pixel_centres(scene, integ, spp=spp, seed=seed)
     dr.sync_thread()
-    seconds = time.perf_counter() - t0
-    rgb = np.stack([np.array(value[c], dtype=np.float64) for c in range(3)], axis=-1).reshape(h, w, 3)
-    return rgb, seconds
+    return rgb, time.perf_counter() - t0
 
 
 def rmse(a, b) -> float:

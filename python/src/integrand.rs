@@ -7,7 +7,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyString;
 use workbench::experiment::spec::{FamilySpec, IntegrandSpec};
 
-/// An integrand as an experiment file names it, with its exact integral.
+/// An integrand of experiment files with its exact integral: ``Integrand("cos3")``
+/// (cos^k θ, truth 2π/(k+1)) or a family dict: ``{"type": "lobe", "axis": [...], "exponent":
+/// e}``, ``"cap"`` (``half_angle`` in degrees), ``"gaussian"`` (``sharpness``), each with
+/// ``"cosine": true`` for the × cos θ version and an optional ``"name"``; or a render-scene
+/// ``{"type": "pixel", "pixel": [i, j], "channel": "g", ...}``.
 #[pyclass(frozen, module = "workbench")]
 pub struct Integrand {
     f: workbench::integrand::Integrand,
@@ -41,25 +45,25 @@ impl Integrand {
         Ok(Integrand { f })
     }
 
-    /// The name in `trials.csv` (`cos3`, `lobe8-tilt30`, or the `name` given).
+    /// The name in ``trials.csv`` (``cos3``, ``lobe8-tilt30``).
     #[getter]
     fn name(&self) -> String {
         self.f.name()
     }
 
-    /// What it is, for people (`cos³θ`, `Phong lobe e = 8, tilt 30°`).
+    /// For people: ``cos³θ``, ``Phong lobe e = 8, tilt 30°``.
     #[getter]
     fn display_name(&self) -> String {
         self.f.display_name()
     }
 
-    /// `I = ∫_H f dω`, the truth of `trials.csv`.
+    /// ``I = ∫_H f dω``: the ``truth`` column of ``trials.csv``.
     #[getter]
     fn truth(&self) -> f64 {
         self.f.integral()
     }
 
-    /// The oracle prior `c = I / 2π` (BMCP's `"prior": "analytic"`).
+    /// The oracle prior ``c = I/2π`` (BMCP's ``"prior": "analytic"``).
     #[getter]
     fn constant_prior(&self) -> f64 {
         self.f.constant_prior()

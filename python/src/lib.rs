@@ -9,6 +9,7 @@
 
 mod args;
 mod arrays;
+mod external;
 mod integrand;
 mod model;
 mod rule;

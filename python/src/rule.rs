@@ -100,8 +100,19 @@ fn warn_diagnostics(py: Python<'_>, d: &Diagnostics) -> PyResult<()> {
 /// A rule as arrays: points `(n, 3)` and weights `(n,)`.
 type PointsAndWeights<'py> = (Bound<'py, numpy::PyArray2<f64>>, Bound<'py, numpy::PyArray1<f64>>);
 
-/// `rule(n=64, *, design="uniform", kernel=None, noise=None, kernel_mean=None,
-/// kernel_mean_samples=None, method="bmc", seed=0, values=None) -> (points, weights)`
+/// The rule ``workbench rule --n N --seed S [--design D] …`` writes: ``(points, weights)``,
+/// bit for bit the CLI's CSV.
+///
+/// ``design="rings"`` takes N = J·M (the ring solver; up to 65536 points with exact kernel
+/// means), other designs up to 16384. ``method="bsq"`` gives the Bayes–Sard weights (summing to
+/// 2π; N ≥ 2); ``"bmcp"`` shares BMC's. A fitted ``kernel`` needs ``values`` (the integrand at
+/// the points that ``rule`` with the same ``n``, ``seed`` and ``design`` draws): the weights are
+/// those of the grid model whose marginal likelihood of the values is largest. Numerical
+/// warnings (jitter, ill-conditioning, a negative posterior variance) are ``RuntimeWarning``s.
+///
+/// >>> points, weights = rule(64, seed=7)
+/// >>> points.shape, round(float(weights.sum()), 6)
+/// ((64, 3), 6.251944)
 #[pyfunction]
 #[pyo3(signature = (n=Whole::of(64), *, design=Text::of("uniform"), kernel=None, noise=None,
     kernel_mean=None, kernel_mean_samples=None, method=Text::of("bmc"), seed=Whole::of(0), values=None),
@@ -151,8 +162,9 @@ pub fn rule<'py>(
     ))
 }
 
-/// `weights(points, *, kernel=None, noise=None, kernel_mean=None, kernel_mean_samples=None,
-/// method="bmc", seed=0, values=None) -> weights`
+/// The BMC (BMCP) or Bayes–Sard weights of given points: ``workbench rule --points FILE``,
+/// bit for bit (a dense solve, at most 16384 points). ``seed`` drives MC kernel means only;
+/// ``values`` as in :func:`rule` for a fitted kernel.
 #[pyfunction]
 #[pyo3(signature = (points, *, kernel=None, noise=None, kernel_mean=None,
     kernel_mean_samples=None, method=Text::of("bmc"), seed=Whole::of(0), values=None),
@@ -190,7 +202,9 @@ pub fn weights<'py>(
     Ok(arrays::vector(py, weights.weights))
 }
 
-/// `kernel_means(points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0) -> z`
+/// The kernel means ``z_i = ∫_H k(x_i, ω) dω`` (math.md §4): exact (tabulated in the height
+/// ``x_i·n``), or the thesis's MC estimates (``"mc"``: fresh directions per point; ``"mc-shared"``:
+/// one set for all), drawn from ``seed`` as :func:`rule` draws them. Not for a fitted kernel.
 #[pyfunction]
 #[pyo3(signature = (points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=Whole::of(0)),
     text_signature = "(points, *, kernel=None, kernel_mean=None, kernel_mean_samples=None, seed=0)")]
@@ -212,7 +226,7 @@ pub fn kernel_means<'py>(
     Ok(arrays::vector(py, z))
 }
 
-/// `prior_variance(kernel=None) -> float`: `V̂ = ∫∫ k dω dω'` (exact).
+/// ``V̂ = ∫_H ∫_H k(ω, ω') dω dω'``, the prior variance of the integral (exact).
 #[pyfunction]
 #[pyo3(signature = (kernel=None))]
 pub fn prior_variance<'py>(py: Python<'py>, kernel: Option<Bound<'py, PyAny>>) -> PyResult<f64> {
@@ -231,8 +245,13 @@ fn fixed_model(py: Python<'_>, args: ModelArgs<'_>) -> PyResult<Arc<BmcModel>> {
     model::build(py, &resolved)
 }
 
-/// `fit(points, values, *, method="bmc", grid=None) -> dict`: the fitted model's choice (math.md
-/// §9), as `workbench rule --points P --kernel fitted --values V` makes it.
+/// The fitted model's choice on given points (math.md §9; ``workbench rule --points P --kernel
+/// fitted --values V``): every grid model (``grid={"s": [...], "noise": [...]}``, default s ∈
+/// {1.2, 1.6, 2.75, 3.75} × σ_n² ∈ {1e-2, 1e-8}) is factored and the one with the largest
+/// profiled log marginal likelihood (``"bsq"``: the restricted one) wins.
+///
+/// Returns ``{"chosen": index, "model": "s=3.75 noise=1e-8", "s": 3.75, "noise": 1e-08,
+/// "grid": [{"s", "noise", "log_marginal_likelihood"}, ...], "weights": array}``.
 #[pyfunction]
 #[pyo3(signature = (points, values, *, method=Text::of("bmc"), grid=None),
     text_signature = "(points, values, *, method='bmc', grid=None)")]
@@ -322,9 +341,13 @@ struct Kept {
     inverse_diagonal: OnceLock<Vec<f64>>,
 }
 
-/// A quadrature rule with everything an estimate needs: points, their BMC weights under a model
-/// and the factorisation of `Q` (for the fitted amplitude of the `ml` and `loo` scales), or, for a
-/// fitted kernel, every grid model's.
+/// A quadrature rule kept for estimates: points, their BMC weights under a model and the
+/// factorisation of ``Q = K + σ_n² I`` (the ``ml``/``loo`` amplitudes solve with it), or every
+/// grid model's for a fitted kernel.
+///
+/// ``Rule(points, ...)`` weights given points (a dense solve, as :func:`weights`);
+/// ``Rule(n=64, design=..., seed=...)`` draws them as :func:`rule` does (same points, same
+/// weights). ``seed`` also drives MC kernel means.
 #[pyclass(frozen, module = "workbench")]
 pub struct Rule {
     points: Vec<Vec3>,
@@ -431,6 +454,18 @@ impl Rule {
 
     /// `Î` and its sd (NaN where none is stated) of `method` (one with weights) on values `y`.
     fn estimate_values(&self, method: Method, y: &[f64], prior: f64, scale: Scale) -> (f64, f64) {
+        let (value, sd, _) = self.estimate_with_amplitude(method, y, prior, scale);
+        (value, sd)
+    }
+
+    /// [`Rule::estimate_values`] with the amplitude used (None for MC).
+    fn estimate_with_amplitude(
+        &self,
+        method: Method,
+        y: &[f64],
+        prior: f64,
+        scale: Scale,
+    ) -> (f64, f64, Option<f64>) {
         let (k, _, solve) = self.choose(method, y, prior, scale != Scale::Unit);
         let c = &self.kept[k];
         let inverse_diagonal = (scale == Scale::Loo).then(|| {
@@ -449,7 +484,11 @@ impl Rule {
             solved: solve.as_deref().map(Solved::Full),
         };
         let e = rule.estimate(method, values, prior, scale);
-        (e.value, e.uncertainty.map_or(f64::NAN, |u| u.sd))
+        (
+            e.value,
+            e.uncertainty.map_or(f64::NAN, |u| u.sd),
+            e.uncertainty.and_then(|u| u.amplitude),
+        )
     }
 
     /// The weight set `method` uses on `values` (a fitted rule needs them).
@@ -579,7 +618,7 @@ impl Rule {
         }
     }
 
-    /// The points, a float64 array of shape `(n, 3)` (a copy).
+    /// The points, shape ``(n, 3)`` (a copy).
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
         arrays::points_array(py, &self.points)
@@ -595,27 +634,26 @@ impl Rule {
         self.points.len()
     }
 
-    /// The design the points were generated with, or None for given points.
+    /// The design the points were drawn with, None for given points.
     #[getter]
     fn design(&self) -> Option<&'static str> {
         self.generated.then(|| self.design.name())
     }
 
-    /// Whether the kernel is fitted (math.md §9): the weights then depend on the values.
+    /// Whether the kernel is fitted: the weights then depend on the values.
     #[getter]
     fn fitted(&self) -> bool {
         self.model.is_fitted()
     }
 
-    /// The resolved model (kernel with its parameters, noise, kernel mean), as an experiment's
-    /// manifest states it.
+    /// The resolved model (kernel with parameters, noise, kernel mean), as a manifest states it.
     #[getter]
     fn model<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         json_to_python(py, &self.resolved.to_json())
     }
 
-    /// `weights(method="bmc", values=None)`: the rule's weights for `method` (`bsq`: Bayes–Sard's,
-    /// summing to 2π); a fitted rule needs the values that choose its model.
+    /// The weights for ``method`` (``"bsq"``: Bayes–Sard's); a fitted rule needs the values
+    /// that choose its model.
     #[pyo3(signature = (method=Text::of("bmc"), values=None),
         text_signature = "($self, method='bmc', values=None)")]
     fn weights<'py>(
@@ -630,8 +668,11 @@ impl Rule {
         Ok(arrays::vector(py, w.weights))
     }
 
-    /// `diagnostics(method="bmc", values=None) -> dict`: the weight set's diagnostics (as `workbench
-    /// rule --summary` states them) and, for a fitted rule, the chosen model with every model's ℓ.
+    /// The weight set's diagnostics as ``workbench rule --summary`` states them (``n``,
+    /// ``weight_sum``, ``negative_weights``, ``min_weight``, ``max_weight``, ``jitter``,
+    /// ``condition_estimate``, ``prior_variance``, ``posterior_variance`` (raw, unit amplitude),
+    /// ``posterior_sd``, ``warnings``); a fitted rule adds ``chosen``, ``model`` and
+    /// ``log_marginal_likelihoods``.
     #[pyo3(signature = (method=Text::of("bmc"), values=None),
         text_signature = "($self, method='bmc', values=None)")]
     fn diagnostics<'py>(
@@ -667,9 +708,8 @@ impl Rule {
         Ok(out)
     }
 
-    /// `q_inverse() -> ndarray`: `Q⁻¹ = (K + σ_n² I)⁻¹` of a fixed model's rule, float64 `(n, n)`
-    /// (from the kept factor, one solve per column): what a vectorised renderer needs for the
-    /// `ml` amplitude `λ̂ = YᵀQ⁻¹Y / N` of many pixels at once (`workbench.mitsuba`).
+    /// ``Q⁻¹ = (K + σ_n² I)⁻¹``, shape ``(n, n)``, of a fixed model's rule: what a vectorised
+    /// renderer needs for the ``ml`` amplitude ``λ̂ = YᵀQ⁻¹Y / N`` of many pixels at once.
     fn q_inverse<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
         if self.model.is_fitted() {
             return Err(value_error(
@@ -693,11 +733,13 @@ impl Rule {
             .into_pyarray(py))
     }
 
-    /// `estimate(values, method="bmc", prior=None, scale=None) -> (value, sd)`.
+    /// ``(Î, sd)`` as :func:`estimate` with ``weights=self`` (without the points argument),
+    /// with its ``RuntimeWarning``s.
     #[pyo3(signature = (values, method=Text::of("bmc"), prior=None, scale=None),
         text_signature = "($self, values, method='bmc', prior=None, scale=None)")]
     fn estimate(
         &self,
+        py: Python<'_>,
         values: &Bound<'_, PyAny>,
         method: Text,
         prior: Option<Number>,
@@ -707,7 +749,7 @@ impl Rule {
         let prior = args::number_opt(prior.as_ref(), "prior")?;
         let scale = args::text_opt(scale.as_ref(), "scale")?;
         let y = arrays::values(values, "values", self.points.len())?;
-        self.estimate_checked(method, &y, prior, scale)
+        self.estimate_checked(py, method, &y, prior, scale)
     }
 
     fn __repr__(&self) -> String {
@@ -730,6 +772,7 @@ impl Rule {
 impl Rule {
     fn estimate_checked(
         &self,
+        py: Python<'_>,
         method: Method,
         y: &[f64],
         prior: Option<f64>,
@@ -738,8 +781,41 @@ impl Rule {
         check_min_points(method, self.points.len(), "points")?;
         let prior = prior_arg(method, prior, &self.resolved)?;
         let scale = scale.map_or(Ok(Scale::DEFAULT), scale_arg)?;
-        Ok(self.estimate_values(method, y, prior, scale))
+        let (value, sd, amplitude) = self.estimate_with_amplitude(method, y, prior, scale);
+        for w in estimate_warnings(value, amplitude, scale) {
+            crate::model::warn(py, &w)?;
+        }
+        Ok((value, sd))
     }
+}
+
+/// The warnings the CLI counts in `trials.csv`'s `warnings` column for one estimate
+/// ([`workbench::experiment::runner::UnitResult::warnings_for`]), as sentences: a fitted
+/// amplitude of exactly 0 (`zero_amplitude`: zero evidence, e.g. all values equal to the prior
+/// mean, all zero for BMC), one that overflowed to ∞, and an estimate that is not finite.
+pub fn estimate_warnings(value: f64, amplitude: Option<f64>, scale: Scale) -> Vec<String> {
+    let mut out = Vec::new();
+    let fitted = scale != Scale::Unit;
+    match amplitude {
+        Some(a) if fitted && a == 0.0 => out.push(
+            "zero evidence: the fitted amplitude is 0 (the values are what the prior mean says, e.g. all \
+             zero for bmc), so the sd is 0 and an interval has width 0; the CLI counts it as zero_amplitude \
+             in trials.csv's warnings"
+                .to_string(),
+        ),
+        Some(a) if fitted && a.is_infinite() => out.push(
+            "the fitted amplitude overflowed to inf (values of magnitude near 1e146 or more), so the sd is inf; \
+             rescale the values"
+                .to_string(),
+        ),
+        _ => {}
+    }
+    if !value.is_finite() {
+        out.push(format!(
+            "the estimate is not finite ({value}); the CLI counts it in trials.csv's warnings"
+        ));
+    }
+    out
 }
 
 /// A `serde_json` value as the Python object `json.loads` gives.
@@ -747,8 +823,24 @@ pub fn json_to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResu
     py.import("json")?.getattr("loads")?.call1((value.to_string(),))
 }
 
-/// `estimate(method, points, values, *, weights=None, prior=None, scale=None, density=None) ->
-/// (value, sd)`
+/// ``(Î, sd)``: the estimate of ``∫_H f dω`` from the values at the points and the sd the
+/// estimator states (NaN where it states none: MC with one point) — the numbers of a
+/// ``trials.csv`` row, bit for bit.
+///
+/// - ``"mc"``: ``(1/N) Σ f/p`` with ``p`` the ``density`` the points were drawn from
+///   (``"uniform"``, default, or ``"cosine"``); sd ``s/√N`` (Student-t, N − 1 dof).
+/// - ``"bmc"``, ``"bmcp"`` (``prior`` = its constant c, required), ``"bsq"`` (N ≥ 2): with the
+///   weights and factor of ``weights``, a :class:`Rule` on these very points (its ``points``);
+///   ``None`` builds the default model's rule (a factorisation per call: keep a Rule instead).
+///   ``scale`` is the amplitude of the sd: ``"ml"`` (default; Student-t with N, for bsq N − 1,
+///   dof), ``"unit"`` or ``"loo"`` (math.md §7). A fitted rule chooses its model for these
+///   values, as the runner does.
+///
+/// What ``trials.csv``'s ``warnings`` column counts is a ``RuntimeWarning`` here: zero evidence
+/// (a fitted amplitude of exactly 0, e.g. all values 0 for ``"bmc"``: sd 0), an amplitude
+/// that overflowed to ∞ (values near 1e146 or larger: sd ∞), an estimate that is not finite.
+///
+/// The call costs about 0.5 µs besides the estimate itself at N = 64 (docs/python.md).
 #[pyfunction]
 #[pyo3(signature = (method, points, values, *, weights=None, prior=None, scale=None, density=None))]
 #[allow(clippy::too_many_arguments)]
@@ -828,7 +920,7 @@ pub fn estimate<'py>(
             let rule = rule.get();
             same_points(points, &rule.points)?;
             let y = arrays::values(values, "values", rule.points.len())?;
-            rule.estimate_checked(method, &y, prior, scale)
+            rule.estimate_checked(py, method, &y, prior, scale)
         }
         None => {
             let p = arrays::points(points, "points")?;
@@ -837,7 +929,7 @@ pub fn estimate<'py>(
             check_min_points(method, p.len(), "points")?;
             let resolved = ModelArgs::new(None, None, None, None)?.resolve(py)?;
             let rule = Rule::build(py, "points", p, Design::Iid(Density::Uniform), false, resolved, 0)?;
-            rule.estimate_checked(method, &y, prior, scale)
+            rule.estimate_checked(py, method, &y, prior, scale)
         }
     }
 }

@@ -31,6 +31,9 @@ def scene_dict(method, n, size=32, sphere=False, spp=1, scale="ml", **props):
     every pixel sample uses workbench.Rule(n)'s rule."""
     if method == "bmc":
         props.setdefault("rules", 1)
+        # The tests below compare with workbench.Rule(n), uniform points; the integrator's
+        # default, Sobol, has its own test.
+        props.setdefault("design", "uniform")
     d = {
         "type": "scene",
         "integrator": {"type": "workbench", "method": method, "n": n, "scale": scale, **props},
@@ -438,3 +441,46 @@ def test_hide_emitters_hides_the_sky_seen_directly_only():
     assert lit.sum() > 20
     assert np.all(img[~lit][..., :3] == 0)
     assert np.all(img[lit][..., :3] > 0.1)
+
+
+def test_the_default_design_is_sobol():
+    """Without ``design`` the rules are Sobol points: on the open ground every pixel is the
+    estimate of workbench.Rule(n, design="sobol")."""
+    n = 16
+    d = scene_dict("bmc", n)
+    del d["integrator"]["design"]
+    img = np.array(mi.render(mi.load_dict(d)), dtype=np.float64)
+    ground = img[..., 4] > 0
+    rule = wb.Rule(n=n, design="sobol")
+    want, _ = rule.estimate(ALBEDO / math.pi * rule.points[:, 2], "bmc")
+    uniform = wb.Rule(n=n)
+    other, _ = uniform.estimate(ALBEDO / math.pi * uniform.points[:, 2], "bmc")
+    assert abs(want - other) > 1e-4  # the two designs give different pixels here
+    assert np.allclose(img[..., :3][ground], want, rtol=2e-5)
+
+
+def test_pixel_centres_are_the_integrators_estimate_at_each_centre():
+    """``render_pixel_centres``: one ray through each pixel's centre. With cosine-sampled MC an
+    open ground under a constant sky is exact (ρ, variance 0); a lone sphere is exact too (its
+    colour where the centre ray hits it, the sky's 1 where it misses), with the sphere in the
+    middle of the image and the sky in its corners (image order); BMC gives its rule's estimate
+    at every ground pixel."""
+    sc = scene("mc_cosine", 8, size=12)
+    mean, var = wbm.render_pixel_centres(sc, spp=3, seed=5, variance=True)
+    assert mean.shape == var.shape == (12, 12, 3)
+    assert np.allclose(mean, ALBEDO, rtol=1e-5) and np.all(var < 1e-9)
+    d = scene_dict("mc_cosine", 8, size=12, sphere=True)
+    del d["ground"]
+    lone = wbm.render_pixel_centres(mi.load_dict(d))
+    assert np.allclose(lone[6, 6], SPHERE, rtol=1e-5), lone[6, 6]
+    for corner in [lone[0, 0], lone[0, -1], lone[-1, 0], lone[-1, -1]]:
+        assert np.allclose(corner, 1.0)
+    n = 16
+    bmc = wbm.render_pixel_centres(scene("bmc", n, size=12))
+    rule = wb.Rule(n=n)
+    want, _ = rule.estimate(ALBEDO / math.pi * rule.points[:, 2], "bmc")
+    assert np.allclose(bmc, want, rtol=2e-5)
+    for bad, message in [({"spp": 0}, "spp: must be"), ({"spp": 1, "variance": True}, "spp: variance=True"),
+                         ({"seed": -1}, "seed: must be")]:
+        with pytest.raises(ValueError, match=message):
+            wbm.render_pixel_centres(sc, **bad)

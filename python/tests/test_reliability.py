@@ -175,3 +175,35 @@ def test_a_sobolev_s_near_its_limit_but_clear_of_it_keeps_its_weights():
 def test_a_wrong_type_or_size_is_a_value_error_naming_the_argument(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+@pytest.mark.parametrize("scale", ["ml", "loo"])
+def test_zero_evidence_and_overflow_warn_as_the_cli_counts_them(scale):
+    """Issue 32: what trials.csv's warnings column counts is a RuntimeWarning — all-zero values
+    give a fitted amplitude of 0 (zero evidence, sd 0); values near 1e300 overflow it to inf.
+    Ordinary values and the unit amplitude (nothing fitted) warn nothing."""
+    import warnings
+
+    rule = wb.Rule(P)
+    with pytest.warns(RuntimeWarning, match="zero evidence: the fitted amplitude is 0"):
+        value, sd = rule.estimate(np.zeros(64), scale=scale)
+    assert (value, sd) == (0.0, 0.0)
+    with pytest.warns(RuntimeWarning, match="zero evidence"):
+        wb.estimate("bmc", P, np.zeros(64), weights=rule, scale=scale)
+    with pytest.warns(RuntimeWarning, match="overflowed to inf"):
+        _, sd = rule.estimate(np.full(64, 1e300), scale=scale)
+    assert sd == np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rule.estimate(Y, scale=scale)
+        rule.estimate(np.zeros(64), scale="unit")
+
+
+def test_a_run_warns_once_for_rows_with_warnings():
+    """A callable that returns zeros: the run's
+    rows count zero evidence in the warnings column, and run() says so once."""
+    spec = {"name": "z", "integrands": [{"type": "python", "name": "zero", "truth": 0.0}],
+            "estimators": [{"label": "BMC", "method": "bmc"}], "samples": [8], "trials": 3, "seed": 1}
+    with pytest.warns(RuntimeWarning, match=r"3 of 3 rows have warnings"):
+        rows = wb.run(spec, integrands={"zero": lambda p: np.zeros(len(p))})
+    assert list(rows["warnings"]) == [1, 1, 1]

@@ -80,3 +80,22 @@ def test_everything_public_has_a_docstring():
         obj = getattr(_workbench, name)
         if callable(obj):
             assert (obj.__doc__ or "").strip(), name
+
+
+def test_runtime_docstrings_are_the_stubs():
+    """``help(wb.Rule)`` says what the stubs say: every docstring of the stubs (functions,
+    classes, methods and properties) is the runtime object's, word for word."""
+    tree = stub_tree()
+    checked = 0
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and ast.get_docstring(node):
+            assert inspect.getdoc(getattr(_workbench, node.name)) == ast.get_docstring(node), node.name
+            checked += 1
+        if isinstance(node, ast.ClassDef):
+            runtime = getattr(_workbench, node.name)
+            for m in node.body:
+                if isinstance(m, ast.FunctionDef) and not m.name.startswith("__") and ast.get_docstring(m):
+                    got = inspect.getdoc(inspect.getattr_static(runtime, m.name))
+                    assert got == ast.get_docstring(m), f"{node.name}.{m.name}"
+                    checked += 1
+    assert checked >= 20

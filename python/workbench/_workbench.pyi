@@ -15,7 +15,7 @@ Models: ``kernel`` is ``None`` (Sobolev, s = 1.4), a name (``"sobolev"``, ``"se"
 """
 
 from os import PathLike
-from typing import Any, Literal, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Literal, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -131,6 +131,10 @@ def estimate(
       dof), ``"unit"`` or ``"loo"`` (math.md §7). A fitted rule chooses its model for these
       values, as the runner does.
 
+    What ``trials.csv``'s ``warnings`` column counts is a ``RuntimeWarning`` here: zero evidence
+    (a fitted amplitude of exactly 0, e.g. all values 0 for ``"bmc"``: sd 0), an amplitude
+    that overflowed to ∞ (values near 1e146 or larger: sd ∞), an estimate that is not finite.
+
     The call costs about 0.5 µs besides the estimate itself at N = 64 (docs/python.md).
     """
 
@@ -191,7 +195,8 @@ class Rule:
         prior: Optional[float] = None,
         scale: Optional[ScaleName] = None,
     ) -> tuple[float, float]:
-        """``(Î, sd)`` as :func:`estimate` with ``weights=self`` (without the points argument)."""
+        """``(Î, sd)`` as :func:`estimate` with ``weights=self`` (without the points argument),
+        with its ``RuntimeWarning``s."""
 
 class Integrand:
     """An integrand of experiment files with its exact integral: ``Integrand("cos3")``
@@ -216,13 +221,36 @@ class Integrand:
     def __call__(self, points: Points) -> Values:
         """``f`` at each direction."""
 
-def run(spec: Union[Mapping[str, Any], str, PathLike[str]], *, threads: Optional[int] = None) -> dict[str, Any]:
+def run(
+    spec: Union[Mapping[str, Any], str, PathLike[str]],
+    *,
+    integrands: Optional[Mapping[str, Callable[[Points], Values]]] = None,
+    out: Optional[Union[str, PathLike[str]]] = None,
+    threads: Optional[int] = None,
+) -> dict[str, Any]:
     """Runs an experiment (a dict holding an experiment file's JSON, or such a file's path) and
     returns the rows of its ``trials.csv``, in its order, as columns: ``integrand``,
     ``estimator``, ``method``, ``design`` and (for plans with a fitted kernel) ``model`` are lists
     of str; ``n``, ``trial``, ``warnings`` int64 arrays; the rest float64 arrays with NaN where
     the CSV is empty. ``pandas.DataFrame(run(spec))`` is the CSV as a frame. Every number is the
-    CLI's to the bit, whatever ``threads``. Writes no files (no summary, plots or stopping CSVs).
+    CLI's to the bit, whatever ``threads``. Without ``out`` it writes no files.
+
+    ``integrands`` maps names to your own integrands: callables taking a float64 array of shape
+    ``(n, 3)`` (unit directions, ``z ≥ 0``) and returning ``n`` values (anything
+    ``numpy.asarray(…, dtype=float64)`` turns into shape ``(n,)``), called once per trial's point
+    set, never per point, from the run's worker threads (one at a time, holding the GIL): they
+    must be pure functions of the points. The spec names each as ``{"type": "python", "name":
+    NAME}`` with optional ``"truth"`` (∫ f dω if known), ``"tolerance"`` (the absolute error
+    estimate of the computed truth; default 1e-10 · ∫|f| dω) and ``"display_name"``. Without a
+    truth it is computed by adaptive Gauss–Kronrod cubature over the hemisphere; its error
+    estimate goes into ``manifest.json`` (``truth_error_estimate``). A callable that raises,
+    returns another shape or non-finite values is a ``ValueError`` naming the integrand, the
+    trial and N, and nothing is written.
+
+    With ``out`` (a folder) it writes what ``workbench run FILE --out OUT`` writes — CSVs,
+    figures, summary, checks, manifest — and returns ``{"out": str, "report": str, "passed":
+    bool}``: the folder, the text the CLI prints and whether every check passed.
+
     Errors are the CLI's messages: for a file ``file: path: message``, for a dict ``path:
     message``.
     """

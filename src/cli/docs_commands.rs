@@ -60,6 +60,8 @@ fn commands_in(name: &str, text: &str) -> Vec<Shown> {
     let lines: Vec<&str> = text.lines().collect();
     let mut in_fence = false;
     let mut block_has_prompt = false;
+    // A Python block is Python (`import workbench as wb`), not a command line.
+    let mut python_block = false;
     let mut prose = String::new();
     let mut prose_start = 0;
     let mut k = 0;
@@ -69,6 +71,7 @@ fn commands_in(name: &str, text: &str) -> Vec<Shown> {
             if !in_fence {
                 scan_spans(name, prose_start, &prose, &mut found);
                 prose.clear();
+                python_block = line.trim_start().starts_with("```python");
                 // Prompted blocks show output after their commands: no indented continuations.
                 block_has_prompt = lines[k + 1..]
                     .iter()
@@ -84,6 +87,10 @@ fn commands_in(name: &str, text: &str) -> Vec<Shown> {
         if !in_fence {
             prose.push_str(line);
             prose.push('\n');
+            k += 1;
+            continue;
+        }
+        if python_block {
             k += 1;
             continue;
         }
@@ -305,7 +312,8 @@ fn commands_are_found_where_the_convention_says() {
                 parallel -j 4 workbench run e.json --shard {}/4 ::: 1 2 3 4\n\
                 sbatch --wrap 'workbench merge out shards/*'\n```\n\n\
                 ```\nworkbench rule --n 64 [--design uniform|sobol]   # or: --points p.csv\n               [--noise 0.01 | --scale ml]\n\
-                workbench reproduce\n```\n";
+                workbench reproduce\n```\n\n\
+                ```python\nimport workbench as wb   # Python, not a command\n```\n";
     let found: Vec<String> = commands_in("page", page)
         .iter()
         .map(|s| {

@@ -19,8 +19,10 @@ const LEVEL: f64 = 0.95;
 /// One series: the estimators (same settings but the tolerance) and their name.
 struct Series {
     name: String,
-    /// The method's name (the series' name without its N₀), which picks the colour.
+    /// The method's name (the series' name without its N₀).
     method: String,
+    /// Its estimators' face ([`super::faces`]): its colour, and its marker at the first stage.
+    face: SeriesStyle,
     /// The index of its first stage N₀ among the plot's, which picks line style and marker.
     stage: usize,
     /// `(tolerance, mean N used, share within)`, by tolerance.
@@ -39,26 +41,17 @@ fn stage_marker(m: usize, stage: usize) -> usize {
     }
 }
 
-/// How series are drawn: colour by method (in order of appearance), and per first stage a
-/// line style (solid, dashed, alternating) and a marker ([`stage_marker`]).
+/// How series are drawn: the colour of their estimators' face ([`super::faces`]), and per
+/// first stage a line style (solid, dashed, alternating) and a marker ([`stage_marker`]: the
+/// face's at the first).
 fn styles(series: &[Series]) -> Vec<SeriesStyle> {
-    let mut methods: Vec<&str> = Vec::new();
     series
         .iter()
-        .map(|s| {
-            let m = match methods.iter().position(|m| *m == s.method) {
-                Some(m) => m,
-                None => {
-                    methods.push(&s.method);
-                    methods.len() - 1
-                }
-            };
-            SeriesStyle {
-                colour: m,
-                marker: stage_marker(m, s.stage),
-                dashed: s.stage % 2 == 1,
-                grow: 0,
-            }
+        .map(|s| SeriesStyle {
+            colour: s.face.colour,
+            marker: stage_marker(s.face.marker, s.stage),
+            dashed: s.stage % 2 == 1,
+            grow: 0,
         })
         .collect()
 }
@@ -99,6 +92,7 @@ fn series_at(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Vec<Seri
     let mut keys: Vec<String> = Vec::new();
     let mut labels: Vec<Vec<String>> = Vec::new();
     let mut out: Vec<Series> = Vec::new();
+    let faces = super::faces::faces(&plan.estimators);
     for c in cells.iter().filter(|c| c.integrand == fi && c.first_n == first_n) {
         let e = &plan.estimators[c.estimator];
         let mut settings = serde_json::to_value(&e.settings).expect("settings serialize");
@@ -112,6 +106,7 @@ fn series_at(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Vec<Seri
                 out.push(Series {
                     name: String::new(),
                     method: String::new(),
+                    face: faces[c.estimator],
                     stage: 0,
                     points: Vec::new(),
                     max_n: Vec::new(),
@@ -337,9 +332,15 @@ mod tests {
     use super::*;
 
     fn series(name: &str, stage: usize) -> Series {
+        let method = if name == "MC" {
+            crate::bq::estimator::Method::Mc
+        } else {
+            crate::bq::estimator::Method::Bmc
+        };
         Series {
             name: format!("{name}, N₀ = {stage}"),
             method: name.into(),
+            face: super::super::faces::faces_of(&[(method, None, crate::experiment::faces::UNIFORM)])[0],
             stage,
             points: Vec::new(),
             max_n: Vec::new(),

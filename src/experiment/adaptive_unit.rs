@@ -46,8 +46,11 @@ pub fn run_unit(
             let values = plan
                 .integrands
                 .iter()
-                .map(|f| points.iter().map(|p| f.value(p)).collect())
-                .collect();
+                .map(|f| {
+                    let what = format!("on a tolerance estimator's set of {} points: ", points.len());
+                    f.trial_values(&points, trial, n, &what)
+                })
+                .collect::<crate::Result<Vec<Vec<f64>>>>()?;
             sets.push((key, points, values));
         }
     }

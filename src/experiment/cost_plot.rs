@@ -1,14 +1,15 @@
 //! One SVG per integrand, `<integrand>-cost.svg`: each estimator's mean absolute error against
 //! its median wall-clock seconds per trial, log–log, one point per N — the equal-time comparison
 //! ("is BMC worth it at equal time?"). An estimator below another at the same seconds is the
-//! better buy. The median, not the mean, of the seconds: on a busy machine a preempted trial
+//! better buy. Each point is labelled with its N; each estimator has its face ([`super::faces`]). The median, not the mean, of the seconds: on a busy machine a preempted trial
 //! takes milliseconds, which would swamp the mean of an estimator that needs microseconds.
 //! Wall-clock, so machine-dependent: the file is written but never committed. Same
 //! look as [`super::plot`].
 
 use super::plan::Plan;
 use super::summary::CellSummary;
-use crate::plot::{self as style, Axis, LegendEntry};
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
+use plotters::prelude::*;
 
 const CHART_HEIGHT: u32 = 560;
 
@@ -46,13 +47,14 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         super::plot::error_axis_label("mean absolute error |Î − I|"),
     );
 
+    let faces = super::faces::faces(&plan.estimators);
     let legend: Vec<LegendEntry> = plan
         .estimators
         .iter()
         .enumerate()
         .map(|(ei, e)| {
-            LegendEntry::series(
-                ei,
+            LegendEntry::key(
+                Swatch::Styled(faces[ei]),
                 match (series[ei].first(), series[ei].last()) {
                     (Some(a), Some(b)) => format!("{} (N = {} to {})", e.label, a.n, b.n),
                     _ => format!("{} (not drawn: error or time 0)", e.label),
@@ -63,7 +65,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let caption = [format!(
         "One point per N: mean |Î − I| over the {} trials against the median wall-clock seconds per trial \
              of the estimator alone (drawing its points, its weight set — shared sets counted in full for each \
-             estimator — evaluating the integrand, combining); machine-dependent.",
+             estimator — evaluating the integrand, combining); machine-dependent. The number beside a point \
+             is its N.",
         plan.trials
     )];
 
@@ -83,7 +86,15 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                     continue;
                 }
                 let line: Vec<(f64, f64)> = s.iter().map(|c| (c.median_seconds, c.mean_abs_error)).collect();
-                style::draw_line_with_markers(&mut chart, root, ei, &line)?;
+                style::draw_styled_line(&mut chart, root, faces[ei], &line)?;
+                // N beside each point, up and to the right of its marker, in the series' colour.
+                let font = (style::FONT, style::TICK_FONT - 3)
+                    .into_font()
+                    .color(&style::colour(faces[ei].colour));
+                for (c, p) in s.iter().zip(&line) {
+                    let (px, py) = chart.backend_coord(p);
+                    root.draw(&Text::new(format!("{}", c.n), (px + 7, py - 18), font.clone()))?;
+                }
             }
             Ok(())
         },

@@ -5,7 +5,7 @@
 
 use super::plan::Plan;
 use super::summary::{CellSummary, binomial_band};
-use crate::plot::{self as style, Axis, LegendEntry, SeriesStyle, Swatch};
+use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 
 const CHART_HEIGHT: u32 = 480;
 /// The level the plot is about.
@@ -63,7 +63,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         Swatch::Band,
         format!("99% binomial band around {LEVEL}"),
     ));
-    // Series that lie on an earlier one are drawn dashed over it (and said so).
+    // Series that lie on an earlier one are drawn over it, the earlier wider (and said so).
     let points: Vec<Vec<(f64, f64)>> = series
         .iter()
         .map(|s| s.iter().map(|&(n, c)| (n as f64, c)).collect())
@@ -72,9 +72,10 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let height = style::plot_height(CHART_HEIGHT);
     let to_px = move |v: f64| (v - y0) / (y1 - y0) * height;
     let found = style::coincidences(&names, &points, to_px, "N");
+    let faces = super::faces::faces(&plan.estimators);
     for entry in legend.iter_mut() {
         if let Swatch::Series(ei) = entry.swatch {
-            entry.swatch = Swatch::Styled(found.style(ei, SeriesStyle::of(ei)));
+            entry.swatch = Swatch::Styled(found.style(ei, faces[ei]));
         }
     }
     let coincident = found.notes.clone();
@@ -110,12 +111,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                 if s.is_empty() {
                     continue;
                 }
-                style::draw_styled_line(
-                    &mut chart,
-                    root,
-                    found.style(ei, SeriesStyle::of(ei)),
-                    &points[ei],
-                )?;
+                style::draw_styled_line(&mut chart, root, found.style(ei, faces[ei]), &points[ei])?;
             }
             Ok(())
         },

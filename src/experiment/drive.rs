@@ -61,8 +61,9 @@ pub fn run_units(
     Ok(warnings)
 }
 
-/// Counts messages by their first words (the amounts differ).
-fn group_warnings(warnings: &mut Vec<(String, usize)>, messages: &[String]) {
+/// Counts messages by their first words (the amounts differ): what the CLI prints once per
+/// group (`warning: 3 weight set(s): …`).
+pub fn group_warnings(warnings: &mut Vec<(String, usize)>, messages: &[String]) {
     for m in messages {
         let key = m
             .split(';')

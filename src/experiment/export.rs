@@ -136,7 +136,8 @@ pub fn plan_json(plan: &Plan) -> serde_json::Value {
     })
 }
 
-/// [`plan_json`] with how the figures are drawn, `"plot": {"bands": [labels]}` (what `validate`
+/// [`plan_json`] with how the figures are drawn, `"plot": {"bands": [labels]}` or, by default,
+/// `{"bands": "auto"}` (bands where they overlap no other; what `validate`
 /// prints and the manifest records). Kept out of [`plan_json`], which identifies the trials
 /// across shards and resumed runs: how a figure is drawn changes no trial.
 pub fn plan_json_with_plot(plan: &Plan) -> serde_json::Value {
@@ -148,7 +149,11 @@ pub fn plan_json_with_plot(plan: &Plan) -> serde_json::Value {
         .filter(|(_, on)| **on)
         .map(|(e, _)| e.label.as_str())
         .collect();
-    v["plot"] = serde_json::json!({ "bands": banded });
+    v["plot"] = if plan.auto_bands {
+        serde_json::json!({ "bands": "auto" })
+    } else {
+        serde_json::json!({ "bands": banded })
+    };
     v
 }
 
@@ -163,6 +168,17 @@ fn integrand_json(f: &crate::integrand::Integrand) -> serde_json::Value {
         v["axis"] = serde_json::json!([a.axis.x, a.axis.y, a.axis.z]);
         v[key] = param.into();
         v["cosine"] = a.cosine.into();
+    }
+    if let crate::integrand::Integrand::External(e) = f {
+        v["type"] = "python".into();
+        match e.truth_source {
+            crate::integrand::external::Truth::Given => v["truth_source"] = "given".into(),
+            crate::integrand::external::Truth::Cubature(c) => {
+                v["truth_source"] = "cubature".into();
+                v["truth_error_estimate"] = c.error.into();
+                v["truth_evaluations"] = c.evaluations.into();
+            }
+        }
     }
     if let crate::integrand::Integrand::Pixel { f: p, .. } = f {
         v["type"] = "pixel".into();

@@ -12,6 +12,7 @@ pub mod cost_plot;
 pub mod coverage_plot;
 pub mod drive;
 pub mod export;
+pub mod faces;
 pub mod finish;
 pub mod fit;
 pub mod merge;
@@ -139,6 +140,8 @@ pub fn run_plan(
         .iter()
         .map(|p| ("the experiment file", p.as_path()))
         .collect();
+    // Whether the folder is ours to remove again if an integrand fails (below).
+    let existed = out_dir.exists();
     let mut folder = ResultFolder::prepare(
         &out_dir,
         &what,
@@ -169,9 +172,23 @@ pub fn run_plan(
     reporter.start("trials×N", units as u64);
     reporter.advance(resumed as u64);
     let start = Instant::now();
-    let warnings = drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
+    let outcome = drive::run_units(plan, &pool, shard, resumed, &mut log, summary.as_mut(), &|| {
         reporter.advance(1)
-    })?;
+    });
+    let warnings = match outcome {
+        // A failing integrand (a Python callable) fails the same way on a resume: nothing of the
+        // run is kept, the unit log included.
+        Err(e @ crate::Error::Integrand(_)) => {
+            drop(log);
+            let _ = std::fs::remove_file(&log_path);
+            if !existed {
+                // Only if empty: the log was its only file.
+                let _ = std::fs::remove_dir(&out_dir);
+            }
+            return Err(e);
+        }
+        other => other?,
+    };
     reporter.finish();
     drop(log);
     let wall_seconds = start.elapsed().as_secs_f64();

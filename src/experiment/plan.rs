@@ -136,9 +136,12 @@ pub struct Plan {
     pub designs: Vec<Design>,
     /// Smallest N of the slope fits ([`super::fit`]).
     pub fit_from_n: usize,
-    /// Per estimator, whether the error plots draw its 10–90% band (`plot.bands`,
+    /// Per estimator, whether the error plots may draw its 10–90% band (`plot.bands`,
     /// [`resolve_bands`]).
     pub bands: Vec<bool>,
+    /// `plot.bands` not given: each error plot draws a band only where it overlaps no band
+    /// drawn before it ([`super::plot::non_overlapping`]).
+    pub auto_bands: bool,
 }
 
 /// The constant prior mean of an estimator that takes one ([`Method::uses_prior`]).
@@ -252,10 +255,25 @@ fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String 
     format!("{path}: {message}")
 }
 
-/// Checks every value and fills in defaults.
+/// Checks every value and fills in defaults. An integrand of `"type": "python"` is refused: it
+/// needs [`resolve_with`] and a callable.
 pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
+    resolve_with(spec, &mut |_| {
+        Err(
+            "type: \"python\" names a Python callable; only Python's workbench.run(spec, integrands={name: f}) \
+             can run it (docs/python.md)"
+                .into(),
+        )
+    })
+}
+
+/// Builds the integrand of a `"type": "python"` spec (its name already checked).
+pub type ExternalResolver<'a> = dyn FnMut(&ExternalSpec) -> Result<Integrand, String> + 'a;
+
+/// [`resolve`], with `external` building the integrands given from outside.
+pub fn resolve_with(spec: &ExperimentSpec, external: &mut ExternalResolver<'_>) -> Result<Plan, String> {
     check_name(&spec.name)?;
-    let integrands = resolve_integrands(spec)?;
+    let integrands = resolve_integrands(spec, external)?;
     check_counts(spec)?;
     let Estimators {
         estimators,
@@ -287,8 +305,10 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
         }
     }
     let bands = resolve_bands(spec, &estimators)?;
+    let auto_bands = spec.plot.as_ref().and_then(|p| p.bands.as_ref()).is_none();
     Ok(Plan {
         bands,
+        auto_bands,
         fit_from_n: resolve_fit_from(spec)?,
         name: spec.name.clone(),
         title: spec.title.clone().unwrap_or_else(|| spec.name.clone()),
@@ -307,14 +327,23 @@ pub fn resolve(spec: &ExperimentSpec) -> Result<Plan, String> {
 
 /// The integrands, each validated with its truth, under distinct names (and none named like
 /// another's calibration plot).
-fn resolve_integrands(spec: &ExperimentSpec) -> Result<Vec<Integrand>, String> {
+fn resolve_integrands(
+    spec: &ExperimentSpec,
+    external: &mut ExternalResolver<'_>,
+) -> Result<Vec<Integrand>, String> {
     if spec.integrands.is_empty() {
         return Err(err("integrands", "must name at least one integrand"));
     }
     let mut integrands: Vec<Integrand> = Vec::new();
     for (i, f) in spec.integrands.iter().enumerate() {
         let at = format!("integrands[{i}]");
-        let f = resolve_integrand(f).map_err(|m| err(&at, m))?;
+        let f = match f {
+            IntegrandSpec::External(e) => check_file_name(&e.name)
+                .map_err(|m| format!("name: {m}"))
+                .and_then(|()| external(e)),
+            _ => resolve_integrand(f),
+        }
+        .map_err(|m| err(&at, m))?;
         if let Some(j) = integrands.iter().position(|g| g.name() == f.name()) {
             return Err(err(
                 &at,
@@ -675,17 +704,14 @@ fn resolve_check(
     }))
 }
 
-/// The most estimators whose 10–90% bands are drawn by default: with more, overlapping bands hide
-/// each other and the lines.
-pub const DEFAULT_BANDS_UP_TO: usize = 3;
-
-/// Per estimator, whether its band is drawn: `plot.bands` as given (`"all"`, `"none"`, labels of
-/// estimators), else all of them when there are at most [`DEFAULT_BANDS_UP_TO`], none when more.
+/// Per estimator, whether its band may be drawn: `plot.bands` as given (`"all"`, `"none"`,
+/// labels of estimators), else every one, each figure then keeping those that overlap no band
+/// drawn before them ([`Plan::auto_bands`]: overlapping bands hide each other and the lines).
 pub fn resolve_bands(spec: &ExperimentSpec, estimators: &[PlannedEstimator]) -> Result<Vec<bool>, String> {
     use super::spec::{BandsName, BandsSpec};
     let all = |on: bool| vec![on; estimators.len()];
     Ok(match spec.plot.as_ref().and_then(|p| p.bands.as_ref()) {
-        None => all(estimators.len() <= DEFAULT_BANDS_UP_TO),
+        None => all(true),
         Some(BandsSpec::Named(BandsName::All)) => all(true),
         Some(BandsSpec::Named(BandsName::None)) => all(false),
         Some(BandsSpec::Labels(labels)) => {
@@ -741,6 +767,10 @@ pub fn resolve_integrand(spec: &IntegrandSpec) -> Result<Integrand, String> {
             }
             Ok(f)
         }
+        IntegrandSpec::External(_) => Err(
+            "type: \"python\" names a Python callable; give the callable to workbench.run(spec, integrands={name: f})"
+                .into(),
+        ),
     }
 }
 

@@ -1,9 +1,10 @@
 //! One SVG per integrand: absolute error against N on log–log axes (plotters), and its caption
-//! file. Each estimator has its mean error (line and markers) and, as `plot.bands` says
-//! ([`super::plan::resolve_bands`]), the 10–90% quantile band of its trials (light fill, dashed
-//! edges); the legend gives its slope fitted over the stated range ([`super::fit`]), or says that
-//! it is exact; a dashed N^(−1/2) guide goes through the MC series. A series that lies on an
-//! earlier one is drawn dashed over it, and the caption says where.
+//! file. Each estimator has its mean error (line and markers, in its face: [`super::faces`])
+//! and, as `plot.bands` says ([`super::plan::resolve_bands`]; by default where it overlaps no
+//! band drawn before it, [`non_overlapping`]), the 10–90% quantile band of its trials (light
+//! fill, dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]),
+//! or says that it is exact; a dashed N^(−1/2) guide goes through the MC series. A series that
+//! lies on an earlier one is drawn over it, the earlier one wider, and the caption says where.
 
 use super::fit::{PLATEAU_SLOPE, SeriesFit, SlopeFlag, fit_series, is_fittable};
 use super::plan::Plan;
@@ -77,6 +78,26 @@ pub fn fit_label(label: &str, fit: &SeriesFit) -> String {
     }
 }
 
+/// The default bands (`plot.bands` not given): per series (its cells as `(N, q10, q90)`), whether
+/// its band is drawn — in series order, a band is drawn unless, at some N both have, its
+/// interval `[q10, q90]` overlaps that of a band already drawn. So no two drawn bands cover each
+/// other, and the first series keeps its band.
+pub fn non_overlapping(series: &[Vec<(usize, f64, f64)>]) -> Vec<bool> {
+    let mut drawn: Vec<bool> = Vec::with_capacity(series.len());
+    for (i, s) in series.iter().enumerate() {
+        let clash = (0..i).filter(|&j| drawn[j]).any(|j| {
+            s.iter().any(|&(n, lo, hi)| {
+                series[j]
+                    .iter()
+                    .find(|c| c.0 == n)
+                    .is_some_and(|&(_, lo2, hi2)| lo.max(lo2) <= hi.min(hi2))
+            })
+        });
+        drawn.push(!clash && !s.is_empty());
+    }
+    drawn
+}
+
 /// Maximal runs of consecutive indices `i` (in `0..len`) with `keep(i)`.
 fn runs(len: usize, keep: impl Fn(usize) -> bool) -> Vec<std::ops::Range<usize>> {
     let mut out = Vec::new();
@@ -119,7 +140,21 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
             fit_series(&points, truth, from_n)
         })
         .collect();
-    let banded = |ei: usize| plan.bands.get(ei).copied().unwrap_or(false);
+    let allowed = |ei: usize| plan.bands.get(ei).copied().unwrap_or(false);
+    let bands_drawn: Vec<bool> = if plan.auto_bands {
+        let intervals: Vec<Vec<(usize, f64, f64)>> = series
+            .iter()
+            .map(|s| {
+                s.iter()
+                    .map(|c| (c.n, c.q10_abs_error, c.q90_abs_error))
+                    .collect()
+            })
+            .collect();
+        non_overlapping(&intervals)
+    } else {
+        (0..plan.estimators.len()).map(allowed).collect()
+    };
+    let banded = |ei: usize| bands_drawn[ei];
 
     let n_min = *plan.samples.iter().min().expect("samples") as f64;
     let n_max = *plan.samples.iter().max().expect("samples") as f64;
@@ -151,7 +186,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
     let y = Axis::log_values((y0, y1), error_axis_label("absolute error |Î − I|"));
 
-    // Series that lie on an earlier one are drawn dashed over it (and said so).
+    // Series that lie on an earlier one are drawn over it, the earlier wider (and said so).
     let means: Vec<Vec<(f64, f64)>> = series
         .iter()
         .map(|s| {
@@ -164,9 +199,8 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let labels: Vec<String> = plan.estimators.iter().map(|e| e.label.clone()).collect();
     let to_px = style::log_px((y0, y1), style::plot_height(CHART_HEIGHT));
     let found = style::coincidences(&labels, &means, &to_px, "N");
-    let styles: Vec<SeriesStyle> = (0..means.len())
-        .map(|ei| found.style(ei, SeriesStyle::of(ei)))
-        .collect();
+    let faces = super::faces::faces(&plan.estimators);
+    let styles: Vec<SeriesStyle> = (0..means.len()).map(|ei| found.style(ei, faces[ei])).collect();
     let mut coincident = found.notes;
     if let Some((ei, a, _)) = &guide {
         let on_guide = |n: f64| a / n.sqrt();
@@ -201,6 +235,12 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         "Lines and markers: the mean absolute error |Î − I| over the {} trials at each N, one series per estimator.",
         plan.trials
     )];
+    let rule = if plan.auto_bands {
+        "by default a band is drawn only where it overlaps no band drawn before it, in the legend's order, \
+         so that no two bands cover each other; plot.bands chooses"
+    } else {
+        "plot.bands"
+    };
     caption.push(if any_band {
         let which: Vec<&str> = labels
             .iter()
@@ -210,7 +250,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
             .collect();
         format!(
             "Bands (light fill, dashed edges in the series' colour): the 10–90% quantiles of |Î − I| over the {} \
-             trials, drawn for {} (plot.bands); every estimator's quantiles are in summary.csv.",
+             trials, drawn for {} ({rule}); every estimator's quantiles are in summary.csv.",
             plan.trials,
             if which.len() == labels.len() {
                 "every estimator".to_string()
@@ -219,11 +259,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
             }
         )
     } else {
-        format!(
-            "No quantile bands are drawn (plot.bands; by default none with more than {} estimators); the 10–90% \
-             quantiles of |Î − I| are in summary.csv.",
-            super::plan::DEFAULT_BANDS_UP_TO
-        )
+        format!("No quantile bands are drawn ({rule}); the 10–90% quantiles of |Î − I| are in summary.csv.")
     });
     let any_exact = fits.iter().any(|f| match f {
         SeriesFit::Exact => true,
@@ -286,7 +322,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
             // keep overlaps close to white; the dashed edges in the series' colour say whose band
             // is whose.
             for (ei, s) in series.iter().enumerate().filter(|(ei, _)| banded(*ei)) {
-                let colour = style::colour(ei);
+                let colour = style::colour(faces[ei].colour);
                 let edge = colour.mix(0.8).stroke_width(1);
                 for r in runs(s.len(), |i| ok(s[i].q90_abs_error)) {
                     let run = &s[r];
@@ -311,10 +347,11 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                 // Exact (or non-finite) means are gaps in the line, not points at an axis floor.
                 for r in runs(s.len(), |i| ok(s[i].mean_abs_error)) {
                     let line: Vec<(f64, f64)> = s[r].iter().map(|c| (c.n as f64, c.mean_abs_error)).collect();
+                    let stroke = colour.stroke_width(style.line_width());
                     if style.dashed {
-                        chart.draw_series(DashedLineSeries::new(line, 8, 5, colour.stroke_width(2)))?;
+                        chart.draw_series(DashedLineSeries::new(line, 8, 5, stroke))?;
                     } else {
-                        chart.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
+                        chart.draw_series(LineSeries::new(line, stroke))?;
                     }
                 }
             }
@@ -355,6 +392,26 @@ fn subtitle(name: &str, truth: f64, trials: usize) -> String {
 mod tests {
     use super::*;
     use crate::experiment::fit::SlopeFit;
+
+    /// Default bands: a band that would overlap one drawn before it is left out; one that
+    /// touches none is kept, whatever its place; series without cells get none.
+    #[test]
+    fn default_bands_never_overlap() {
+        let mc = vec![(4, 0.1, 0.5), (16, 0.05, 0.2)];
+        let bmc = vec![(4, 0.2, 0.6), (16, 0.001, 0.01)]; // overlaps MC at N = 4
+        let far = vec![(4, 1e-4, 1e-3), (16, 1e-5, 1e-4)];
+        let other_n = vec![(8, 0.1, 0.5)]; // no N in common with MC: no overlap
+        assert_eq!(
+            non_overlapping(&[mc.clone(), bmc.clone(), far.clone(), other_n, vec![]]),
+            [true, false, true, true, false]
+        );
+        // Touching intervals overlap (they would share an edge).
+        assert_eq!(
+            non_overlapping(&[vec![(4, 0.1, 0.2)], vec![(4, 0.2, 0.3)]]),
+            [true, false]
+        );
+        assert_eq!(non_overlapping(&[bmc, mc, far]), [true, false, true]);
+    }
 
     /// A short integrand name appears in the integral; a render-scene pixel's is named once,
     /// so the subtitle fits the figure.

@@ -157,22 +157,18 @@ pub fn run_unit(
     // Every integrand on every design's set, once (a scene pixel traces rays): the fitted
     // amplitudes' solves and the estimates both use them. `values[integrand][design]`.
     let mut evaluate_seconds = vec![vec![0.0; sets.len()]; plan.integrands.len()];
-    let values: Vec<Vec<Vec<f64>>> = plan
-        .integrands
-        .iter()
-        .enumerate()
-        .map(|(fi, f)| {
-            sets.iter()
-                .enumerate()
-                .map(|(d, s)| {
-                    let clock = Instant::now();
-                    let v: Vec<f64> = s.iter().map(|w| f.value(w)).collect();
-                    evaluate_seconds[fi][d] = clock.elapsed().as_secs_f64();
-                    v
-                })
-                .collect()
-        })
-        .collect();
+    // One batch per (integrand, set): an external integrand (a Python callable) is called once
+    // per set, never per point.
+    let mut values: Vec<Vec<Vec<f64>>> = Vec::with_capacity(plan.integrands.len());
+    for (fi, f) in plan.integrands.iter().enumerate() {
+        let mut per_set = Vec::with_capacity(sets.len());
+        for (d, s) in sets.iter().enumerate() {
+            let clock = Instant::now();
+            per_set.push(f.trial_values(s, trial, n, "")?);
+            evaluate_seconds[fi][d] = clock.elapsed().as_secs_f64();
+        }
+        values.push(per_set);
+    }
 
     // Weights per (model, design) pair in use, computed once. While the workspace still holds
     // a weight set's Cholesky factor, what the fitted amplitudes of the estimators that use it

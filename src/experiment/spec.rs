@@ -4,6 +4,7 @@
 
 use crate::bq::estimator::Method;
 pub use crate::bq::model::{KernelMeanName, KernelSpec, ModelSpec};
+pub use crate::integrand::external::ExternalSpec;
 pub use crate::integrand::family::FamilySpec;
 use crate::sampling::Design;
 use schemars::JsonSchema;
@@ -53,8 +54,8 @@ pub struct ExperimentSpec {
 #[serde(deny_unknown_fields)]
 pub struct PlotSpec {
     /// Which estimators get their 10–90% quantile band in the error plots: `"all"`, `"none"`,
-    /// or a list of estimator labels. Default: every estimator when there are at most three,
-    /// none when there are more (overlapping bands hide each other and the lines).
+    /// or a list of estimator labels. Default: in each figure, every band that overlaps no band
+    /// drawn before it (overlapping bands hide each other and the lines).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bands: Option<BandsSpec>,
 }
@@ -263,12 +264,14 @@ pub enum CheckSide {
     Lower,
 }
 
-/// An integrand: a name (`"cos3"`) or a family object (`{"type": "lobe", …}`).
+/// An integrand: a name (`"cos3"`), a family object (`{"type": "lobe", …}`) or, from Python
+/// only, a callable's (`{"type": "python", "name": …}`).
 #[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
 #[serde(untagged)]
 pub enum IntegrandSpec {
     Named(String),
     Family(FamilySpec),
+    External(ExternalSpec),
 }
 
 impl<'de> Deserialize<'de> for IntegrandSpec {
@@ -278,6 +281,11 @@ impl<'de> Deserialize<'de> for IntegrandSpec {
         use serde::de::Error;
         match serde_json::Value::deserialize(d)? {
             serde_json::Value::String(name) => Ok(IntegrandSpec::Named(name)),
+            v @ serde_json::Value::Object(_) if v.get("type").and_then(|t| t.as_str()) == Some("python") => {
+                serde_json::from_value(v)
+                    .map(IntegrandSpec::External)
+                    .map_err(D::Error::custom)
+            }
             v @ serde_json::Value::Object(_) => serde_json::from_value(v)
                 .map(IntegrandSpec::Family)
                 .map_err(D::Error::custom),

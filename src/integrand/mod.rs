@@ -1,14 +1,16 @@
 //! Integrands with their exact integrals (math.md §1): `cos^k θ` here, the rendering-like
 //! families (lobe, cap, Gaussian about a tilted axis) in [`family`], and [`Integrand`], the one
 //! type experiments use; render-scene pixels in [`pixel`]; real light (a map seen from a surface)
-//! in [`envmap`].
+//! in [`envmap`]; functions given from outside (a Python callable) in [`external`].
 
 pub mod envmap;
+pub mod external;
 pub mod family;
 pub mod pixel;
 
 use crate::util::geometry::Vec3;
 use envmap::EnvmapIntegrand;
+use external::ExternalIntegrand;
 use family::AxisIntegrand;
 use pixel::PixelIntegrand;
 use std::f64::consts::TAU;
@@ -24,6 +26,8 @@ pub enum Integrand {
     Pixel { name: String, f: Box<PixelIntegrand> },
     /// A map seen from an unoccluded surface, one channel, with its name.
     Envmap { name: String, f: Box<EnvmapIntegrand> },
+    /// A batch function given from outside (a Python callable), with its name and truth.
+    External(Box<ExternalIntegrand>),
 }
 
 impl Integrand {
@@ -34,6 +38,7 @@ impl Integrand {
             Integrand::Axis { name, .. } | Integrand::Pixel { name, .. } | Integrand::Envmap { name, .. } => {
                 name.clone()
             }
+            Integrand::External(f) => f.name.clone(),
         }
     }
 
@@ -44,10 +49,12 @@ impl Integrand {
             Integrand::Axis { f, .. } => f.display_name(),
             Integrand::Pixel { f, .. } => f.display_name(),
             Integrand::Envmap { f, .. } => f.display_name(),
+            Integrand::External(f) => f.display_name.clone(),
         }
     }
 
-    /// `f(ω)`.
+    /// `f(ω)`; an external integrand's one-point batch (NaN when it fails: use
+    /// [`Integrand::values`], which says why).
     #[inline]
     pub fn value(&self, w: &Vec3) -> f64 {
         match self {
@@ -55,7 +62,35 @@ impl Integrand {
             Integrand::Axis { f, .. } => f.value(w),
             Integrand::Pixel { f, .. } => f.value(w),
             Integrand::Envmap { f, .. } => f.value(w),
+            Integrand::External(f) => f.values(std::slice::from_ref(w)).map_or(f64::NAN, |v| v[0]),
         }
+    }
+
+    /// `f` at every point, in one batch: an external integrand is called once (its errors,
+    /// wrong lengths and non-finite values are the message); the others cannot fail.
+    pub fn values(&self, points: &[Vec3]) -> Result<Vec<f64>, String> {
+        match self {
+            Integrand::External(f) => f.values(points),
+            _ => Ok(points.iter().map(|w| self.value(w)).collect()),
+        }
+    }
+
+    /// [`Integrand::values`] for trial `trial` at `n` of a run: a failure is an
+    /// [`crate::Error::Integrand`] naming the integrand, the trial and N (`what` says which set
+    /// when it is not the trial's N points).
+    pub fn trial_values(
+        &self,
+        points: &[Vec3],
+        trial: usize,
+        n: usize,
+        what: &str,
+    ) -> crate::Result<Vec<f64>> {
+        self.values(points).map_err(|m| {
+            crate::Error::Integrand(format!(
+                "integrand {:?}, trial {trial}, N = {n}: {what}{m}",
+                self.name()
+            ))
+        })
     }
 
     /// `I = ∫_H f dω`.
@@ -65,6 +100,7 @@ impl Integrand {
             Integrand::Axis { f, .. } => f.integral(),
             Integrand::Pixel { f, .. } => f.integral(),
             Integrand::Envmap { f, .. } => f.integral(),
+            Integrand::External(f) => f.integral(),
         }
     }
 
@@ -75,6 +111,7 @@ impl Integrand {
             Integrand::Axis { f, .. } => f.integral() / TAU,
             Integrand::Pixel { f, .. } => f.integral() / TAU,
             Integrand::Envmap { f, .. } => f.integral() / TAU,
+            Integrand::External(f) => f.integral() / TAU,
         }
     }
 }

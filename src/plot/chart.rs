@@ -225,9 +225,35 @@ pub fn svg_figure(
         root.present()?;
     }
     Ok(Figure {
-        svg,
+        svg: superscripts(&svg),
         caption: caption_text(title, subtitle, caption),
     })
+}
+
+/// Text written `x^(e)` (a legend's `N^(−1/2)`) typeset with `e` raised and smaller: an SVG
+/// `<tspan>` with `baseline-shift="super"`, which plotters' text cannot make. Only inside text
+/// (no markup between the parentheses); the caption files keep the plain `^(…)`.
+pub fn superscripts(svg: &str) -> String {
+    let mut out = String::with_capacity(svg.len());
+    let mut rest = svg;
+    while let Some(i) = rest.find("^(") {
+        let after = &rest[i + 2..];
+        match after.find(')') {
+            Some(j) if !after[..j].contains(['<', '>', '(']) => {
+                out.push_str(&rest[..i]);
+                out.push_str("<tspan baseline-shift=\"super\" font-size=\"72%\">");
+                out.push_str(&after[..j]);
+                out.push_str("</tspan>");
+                rest = &after[j + 1..];
+            }
+            _ => {
+                out.push_str(&rest[..i + 2]);
+                rest = after;
+            }
+        }
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Series `i`'s line through `points` in its colour, then its marker at each point.
@@ -247,11 +273,11 @@ pub fn draw_styled_line<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
     style: SeriesStyle,
     points: &[(f64, f64)],
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let c = colour(style.colour);
+    let c = colour(style.colour).stroke_width(style.line_width());
     if style.dashed {
-        chart.draw_series(DashedLineSeries::new(points.to_vec(), 8, 5, c.stroke_width(2)))?;
+        chart.draw_series(DashedLineSeries::new(points.to_vec(), 8, 5, c))?;
     } else {
-        chart.draw_series(LineSeries::new(points.to_vec(), c.stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(points.to_vec(), c))?;
     }
     for p in points {
         draw_styled_marker(root, style, chart.backend_coord(p))?;
@@ -298,6 +324,18 @@ pub fn draw_bars<DB: DrawingBackend, X: F64Coord, Y: F64Coord>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `N^(−1/2)` becomes a raised exponent; text without one, and markup, are left alone.
+    #[test]
+    fn exponents_are_typeset() {
+        assert_eq!(
+            superscripts("<text>∝ N^(−1/2) through MC</text>"),
+            "<text>∝ N<tspan baseline-shift=\"super\" font-size=\"72%\">−1/2</tspan> through MC</text>"
+        );
+        for plain in ["<text>N = 4</text>", "a^(b<c>)", "x^(", "^(a(b))"] {
+            assert_eq!(superscripts(plain), plain);
+        }
+    }
 
     #[test]
     fn labels_read_as_counts_log_ticks_or_fixed_decimals() {

@@ -492,6 +492,12 @@ impl SeriesStyle {
     pub fn marker_scale(self) -> f64 {
         1.0 + 0.5 * self.grow.min(2) as f64
     }
+
+    /// The line's width in pixels: 2, and 5 or 8 for a series one or more later series lie on,
+    /// so that a later line drawn over it leaves it showing on both sides, in its own style.
+    pub fn line_width(self) -> u32 {
+        2 + 3 * self.grow.min(2) as u32
+    }
 }
 
 /// The sample drawn before a legend entry's text.
@@ -657,20 +663,19 @@ fn shares_a_segment(series: &[(f64, f64)], at: &[f64]) -> bool {
 /// Which series of a figure lie on one another, and what the caption says about it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Coincidences {
-    /// Per series, whether it lies on an earlier one (drawn dashed over it).
+    /// Per series, whether it lies on an earlier one (drawn over it).
     pub over: Vec<bool>,
-    /// Per series, how many later series lie on it (its markers grow).
+    /// Per series, how many later series lie on it (its line and markers grow).
     pub under: Vec<usize>,
     /// The caption's sentences, one per pair.
     pub notes: Vec<String>,
 }
 
 impl Coincidences {
-    /// Series `i`'s style from `base`: dashed if it lies on an earlier series, its markers
-    /// grown by the number of later ones on it.
+    /// Series `i`'s style from `base` (its face, whose colour, marker and line style never
+    /// change): its line and markers grown by the number of later series on it.
     pub fn style(&self, i: usize, base: SeriesStyle) -> SeriesStyle {
         SeriesStyle {
-            dashed: base.dashed || self.over.get(i).copied().unwrap_or(false),
             grow: self.under.get(i).copied().unwrap_or(0),
             ..base
         }
@@ -678,9 +683,9 @@ impl Coincidences {
 }
 
 /// Which series (their points, in drawing order) lie on an earlier one along at least one
-/// segment (two neighbouring points within [`COINCIDENT_PX`]): those are drawn dashed over it,
-/// and the earlier one's markers grow, so that nested markers of different shapes show every
-/// series. The caption's sentence for each pair: `"BMCP lies on BMC at N = 32, 64 (markers
+/// segment (two neighbouring points within [`COINCIDENT_PX`]): those are drawn over it, whose
+/// line and markers grow, so that a wide line under a narrow one and nested markers of different
+/// shapes show every series, each in its own face. The caption's sentence for each pair: `"BMCP lies on BMC at N = 32, 64 (markers
 /// within 4 px): …"`.
 pub fn coincidences(
     names: &[String],
@@ -702,8 +707,8 @@ pub fn coincidences(
             c.over[j] = true;
             c.under[i] += 1;
             c.notes.push(format!(
-                "{} lies on {} at {x_name} = {} (markers within {COINCIDENT_PX} px): it is drawn over it, dashed, \
-                 and {}'s markers are drawn larger, so that both stay visible.",
+                "{} lies on {} at {x_name} = {} (markers within {COINCIDENT_PX} px): it is drawn over it, \
+                 and {}'s line and markers are drawn wider, so that both stay visible.",
                 names[j],
                 names[i],
                 list_values(&at),
@@ -786,11 +791,13 @@ fn draw_swatch<DB: DrawingBackend>(
     match swatch {
         Swatch::Series(i) => draw_swatch(area, Swatch::Styled(SeriesStyle::of(i)), x, y)?,
         Swatch::Styled(style) => {
+            // The face as the series is drawn (a wider line and larger markers included).
             let c = colour(style.colour);
+            let stroke = c.stroke_width(style.line_width());
             if style.dashed {
-                dashed(area, x, x + w, y, c.stroke_width(2))?;
+                dashed(area, x, x + w, y, stroke)?;
             } else {
-                area.draw(&PathElement::new(vec![(x, y), (x + w, y)], c.stroke_width(2)))?;
+                area.draw(&PathElement::new(vec![(x, y), (x + w, y)], stroke))?;
             }
             draw_styled_marker(area, style, (x + w / 2, y))?;
         }
@@ -1005,9 +1012,10 @@ mod tests {
             "{}",
             found.notes[0]
         );
-        // BMC's markers grow, BMCP's line is dashed; the others keep their default.
+        // BMC's line and markers grow, BMCP keeps its face (a face never changes its line).
         assert_eq!(found.style(0, SeriesStyle::of(0)).marker_scale(), 1.5);
-        assert!(found.style(1, SeriesStyle::of(1)).dashed);
+        assert_eq!(found.style(0, SeriesStyle::of(0)).line_width(), 5);
+        assert_eq!(found.style(1, SeriesStyle::of(1)), SeriesStyle::of(1));
         assert_eq!(found.style(2, SeriesStyle::of(2)), SeriesStyle::of(2));
         assert_eq!(caption_name("cos3.svg"), "cos3.caption.txt");
     }

@@ -1,7 +1,8 @@
-//! The leaves every other module stands on: vectors, random streams, statistics, quadrature,
-//! progress reporting, thread pools and the memory budget. None of them imports from the rest of
-//! the crate.
+//! The leaves every other module stands on: vectors, random streams, statistics, quadrature and
+//! cubature, progress reporting, thread pools and the memory budget. None of them imports from
+//! the rest of the crate.
 
+pub mod cubature;
 pub mod geometry;
 pub mod memory;
 pub mod quadrature;

@@ -1,7 +1,8 @@
 //! `rmse_vs_spp.svg` and its caption: mean RMSE against spp, log–log, one line per variant
-//! (distinct colour and marker) at its true spp with its 95% intervals as bars, a dashed
-//! spp^(−1/2) guide through MC, and a legend below the chart. Variants that lie on an earlier
-//! one are drawn dashed over it and named in the caption; nothing is moved off its spp.
+//! (in its face, as an experiment's estimators: [`crate::experiment::faces`]) at its true spp
+//! with its 95% intervals as bars, a dashed spp^(−1/2) guide through MC, and a legend below the
+//! chart. Variants that lie on an earlier one are drawn over it, the earlier one wider, and
+//! named in the caption; nothing is moved off its spp.
 
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
@@ -96,27 +97,43 @@ fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
 /// What the y axis of a table's RMSE plot shows.
 pub const RMSE_AXIS: &str = "RMSE against the reference (linear RGB)";
 
-/// One legend entry per variant, in its series' colour and marker.
+/// One legend entry per variant, in its face.
 pub fn variant_entries(plan: &TablePlan) -> Vec<LegendEntry> {
+    let faces = variant_faces(plan);
     plan.variants
         .iter()
         .enumerate()
-        .map(|(v, variant)| LegendEntry::series(v, variant.label.clone()))
+        .map(|(v, variant)| LegendEntry::key(Swatch::Styled(faces[v]), variant.label.clone()))
         .collect()
 }
 
-/// The legend (one entry per variant, drawn dashed where it lies on an earlier one, the guide,
-/// the bars) and the caption (what the points, bars and guide are; which variants coincide).
+/// Each variant's face: its method, its own model's kernel, its sample sets' design
+/// ([`crate::experiment::faces::faces_of`]).
+pub fn variant_faces(plan: &TablePlan) -> Vec<SeriesStyle> {
+    let series: Vec<_> = plan
+        .variants
+        .iter()
+        .map(|v| {
+            let kernel = v.model.as_ref().and_then(|m| m.json.get("kernel"));
+            (v.kind.method, kernel, v.kind.set_design)
+        })
+        .collect();
+    crate::experiment::faces::faces_of(&series)
+}
+
+/// The legend (one entry per variant, in its face, wider where a later one lies on it, the
+/// guide, the bars) and the caption (what the points, bars and guide are; which variants coincide).
 fn legend_and_caption(
     plan: &TablePlan,
     frame: &Frame,
     found: &style::Coincidences,
     coincident: Vec<String>,
 ) -> (Vec<LegendEntry>, Vec<String>) {
+    let faces = variant_faces(plan);
     let mut legend: Vec<LegendEntry> = variant_entries(plan)
         .into_iter()
         .enumerate()
-        .map(|(v, e)| LegendEntry::key(Swatch::Styled(found.style(v, SeriesStyle::of(v))), e.text))
+        .map(|(v, e)| LegendEntry::key(Swatch::Styled(found.style(v, faces[v])), e.text))
         .collect();
     if let Some((v, _)) = &frame.guide {
         legend.push(LegendEntry::key(
@@ -154,6 +171,7 @@ fn draw_variants<'s, X: style::F64Coord, Y: style::F64Coord>(
     root: &style::SvgArea<'s>,
     per_variant: &[Vec<&Cell>],
     found: &style::Coincidences,
+    faces: &[SeriesStyle],
     guide: &Option<(usize, Vec<(f64, f64)>)>,
 ) -> style::FigureResult<()> {
     for (v, mine) in per_variant.iter().enumerate() {
@@ -161,10 +179,10 @@ fn draw_variants<'s, X: style::F64Coord, Y: style::F64Coord>(
             .iter()
             .filter(|c| finite_interval(c))
             .map(|c| (c.spp as f64, c.mean - c.half_width, c.mean + c.half_width));
-        style::draw_bars(chart, v, bars)?;
+        style::draw_bars(chart, faces[v].colour, bars)?;
     }
     for (v, points) in points_of(per_variant).iter().enumerate() {
-        style::draw_styled_line(chart, root, found.style(v, SeriesStyle::of(v)), points)?;
+        style::draw_styled_line(chart, root, found.style(v, faces[v]), points)?;
     }
     // Over the lines: it lies on MC's.
     if let Some((_, line)) = &guide {
@@ -200,6 +218,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> 
         coincident.extend(style::guide_note(mine, on_guide, &to_px, &names[*v], "spp"));
     }
     let (legend, caption) = legend_and_caption(plan, &frame, &found, coincident);
+    let faces = variant_faces(plan);
     style::svg_figure(
         &format!("{}: mean RMSE against samples per pixel", plan.title),
         &reference_caption(plan),
@@ -208,7 +227,7 @@ fn draw(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> 
         &caption,
         |root, area| {
             let mut chart = style::log_log_chart(root, area, &frame.x, &frame.y)?;
-            draw_variants(&mut chart, root, &frame.per_variant, &found, &frame.guide)
+            draw_variants(&mut chart, root, &frame.per_variant, &found, &faces, &frame.guide)
         },
     )
 }

@@ -212,8 +212,9 @@ fn error_plots_say_what_they_show() {
     assert!(has(&cos0, "MC-cos: slope") && caption("cos0").contains("exact: error 0 up to rounding"));
     assert!(!has(&cos3, "exact"));
     // The guide goes through uniform MC, and is left out when MC has no error to go through.
-    assert!(has(&cos, "∝ N^(−1/2) through MC") && has(&cos3, "∝ N^(−1/2) through MC"));
-    assert!(!has(&cos0, "N^(−1/2)"));
+    // Its exponent is typeset: a raised <tspan> (a text node of its own), never a caret.
+    assert!(has(&cos, "∝ N −1/2 through MC") && has(&cos3, "∝ N −1/2 through MC"));
+    assert!(!has(&cos0, "−1/2") && !has(&cos, "^("));
     // One axis and subtitle style: the integrand is named once, in the subtitle's integral.
     for texts in [&cos, &cos0, &cos3] {
         assert!(has(texts, "absolute error |Î − I|  [sr]"));
@@ -221,10 +222,10 @@ fn error_plots_say_what_they_show() {
     }
 }
 
-/// Issue 22 item 1: bands are drawn for at most three estimators by default, for those
-/// `plot.bands` names, and `validate` shows which.
+/// Issue 22 item 1, issue 32: bands are drawn by default where they overlap no other, for those
+/// `plot.bands` names otherwise, and `validate` shows which.
 #[test]
-fn bands_follow_plot_bands_and_default_to_none_beyond_three_estimators() {
+fn bands_follow_plot_bands_and_default_to_those_that_overlap_no_other() {
     let dir = tempfile::tempdir().unwrap();
     let spec = |plot: &str| {
         format!(
@@ -247,10 +248,16 @@ fn bands_follow_plot_bands_and_default_to_none_beyond_three_estimators() {
             String::from_utf8_lossy(&v.stdout).into(),
         )
     };
+    // By default a band is drawn where it overlaps no earlier band: MC's first, never all four
+    // here (BMC, BMCP and BSQ lie close together at every N).
     let (n, caption, validate) = bands("");
-    assert_eq!(n, 0, "four estimators: no bands by default");
-    assert!(caption.contains("No quantile bands are drawn"), "{caption}");
-    assert!(validate.contains("\"bands\": []"), "{validate}");
+    assert!((1..4).contains(&n), "{n} bands by default");
+    assert!(
+        caption.contains("by default a band is drawn only where it overlaps no band drawn before it"),
+        "{caption}"
+    );
+    assert!(caption.contains("drawn for MC"), "{caption}");
+    assert!(validate.contains("\"bands\": \"auto\""), "{validate}");
     let (n, caption, validate) = bands(r#", "plot": {"bands": ["MC", "BMC"]}"#);
     assert_eq!(n, 2);
     assert!(caption.contains("drawn for MC, BMC"), "{caption}");
@@ -282,7 +289,12 @@ fn the_rmse_plot_names_its_reference_and_keeps_the_legend_off_the_data() {
     assert!(o.status.success(), "{}", stderr(&o));
     let texts = svg_texts(&d.join("r/t/rmse_vs_spp.svg"));
     assert!(has(&texts, "reference rendered with uniform MC at 32 spp"));
-    assert!(has(&texts, "∝ spp^(−1/2) through MC"));
+    assert!(has(&texts, "∝ spp −1/2 through MC") && !has(&texts, "^("));
+    let svg = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.svg")).unwrap();
+    assert!(
+        svg.contains("spp<tspan baseline-shift=\"super\""),
+        "the exponent is not raised"
+    );
     let caption = std::fs::read_to_string(d.join("r/t/rmse_vs_spp.caption.txt")).unwrap();
     assert!(caption.contains("95% Student-t interval") && !has(&texts, "Student-t"));
     // No title given: the plot is titled with the table's name (render-table files set `title`).

@@ -6,7 +6,7 @@
 use super::summary::AdaptiveCell;
 use crate::plot::{self as style, Axis, LegendEntry, Swatch};
 use crate::render::table::plan::TablePlan;
-use crate::render::table::plot::{RMSE_AXIS, reference_caption, variant_entries};
+use crate::render::table::plot::{RMSE_AXIS, reference_caption, variant_entries, variant_faces};
 
 const CHART_HEIGHT: u32 = 500;
 
@@ -51,6 +51,7 @@ fn draw(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> style::Fig
     let y = Axis::log_values((y0, y1), RMSE_AXIS);
 
     let mut legend = variant_entries(plan);
+    let faces = variant_faces(plan);
     let listed = targets
         .iter()
         .map(|t| t.to_string())
@@ -72,15 +73,15 @@ fn draw(plan: &TablePlan, targets: &[f64], cells: &[AdaptiveCell]) -> style::Fig
         &caption,
         |root, area| {
             let mut chart = style::log_log_chart(root, area, &x, &y)?;
-            for v in 0..plan.variants.len() {
+            for (v, face) in faces.iter().enumerate() {
                 let mut mine: Vec<&&AdaptiveCell> = drawn.iter().filter(|c| c.variant == v).collect();
                 mine.sort_by(|a, b| a.mean_spp.total_cmp(&b.mean_spp));
                 let intervals = mine
                     .iter()
                     .filter_map(|c| bars(c).map(|(lo, hi)| (c.mean_spp, lo, hi)));
-                style::draw_bars(&mut chart, v, intervals)?;
+                style::draw_bars(&mut chart, face.colour, intervals)?;
                 let points: Vec<(f64, f64)> = mine.iter().map(|c| (c.mean_spp, c.mean)).collect();
-                style::draw_line_with_markers(&mut chart, root, v, &points)?;
+                style::draw_styled_line(&mut chart, root, *face, &points)?;
             }
             Ok(())
         },
