@@ -156,6 +156,18 @@ impl IntegratorKind {
         self.method.needs_weights()
     }
 
+    /// The design of the points its estimates use: MC's fresh samples drawn from its density
+    /// (uniform or cosine), the sample sets' design for the estimators with weights. This is what
+    /// a figure's marker shows ([`crate::experiment::faces`]), so cosine MC in a render table
+    /// looks as it does in an experiment.
+    pub fn design(self) -> Design {
+        if self.uses_sets() {
+            self.set_design
+        } else {
+            Design::Iid(self.density)
+        }
+    }
+
     /// Whether the integrator can sample adaptively ([`crate::render::adaptive`]): MC always; an
     /// estimator with weights when its sets nest, so that each stage extends the one before it
     /// (uniform sets do, ring sets do not).
