@@ -38,8 +38,8 @@ FITTED_MODELS = 8
 class Settings:
     method: str = "bmc"
     n: int = 64
-    #: Sobol points by default: on the workbench scene they halve BMC's RMSE at N = 256 against
-    #: uniform points (0.0090 against 0.0174, as issue 32 measured; docs/guide/mitsuba.md).
+    #: Sobol points by default: on the workbench scene they cut BMC's RMSE 1.6–2.6× against
+    #: uniform points at N = 16–256 (results/mitsuba/coverage; docs/guide/mitsuba.md).
     design: str = "sobol"
     kernel: str = "sobolev"
     s: float = 1.4
