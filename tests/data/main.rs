@@ -11,6 +11,8 @@
 //! panicking, as any test) and add `("name", name)` to that module's `TESTS`; a new topic is a
 //! new module and one line in [`TOPICS`].
 
+#[path = "../support/brute_force.rs"]
+mod brute_force;
 mod catalog;
 mod envmap;
 mod thesis;

@@ -2,6 +2,7 @@
 //! the camera and lookup against their renders' background pixels, the MC renderer against
 //! their 20 runs' error, and the texel sum against brute force under a real map.
 
+use crate::brute_force::assert_agrees_with_cosine_mc;
 use crate::{Data, Test};
 use workbench::render::env::Lookup;
 use workbench::render::exact;
@@ -106,26 +107,8 @@ fn texel_sum_agrees_with_brute_force_under_pisa(data: &Data) {
             let q = exact::integrate(&p, &r.scene, &r.env, 1e-6);
             assert!(q.error <= 1e-6, "({i}, {j}): error estimate {:e}", q.error);
             let mut rng = stream(3, &[(j * 500 + i) as u64]);
-            let (mut sum, mut sq) = ([0.0; 3], [0.0; 3]);
-            for _ in 0..samples {
-                let v = Density::Cosine.sample(&mut rng);
-                let f = p.integrand(&r.scene, &r.env, &v);
-                let pdf = Density::Cosine.pdf(&v);
-                for c in 0..3 {
-                    let y = f[c] / pdf;
-                    sum[c] += y;
-                    sq[c] += y * y;
-                }
-            }
-            for c in 0..3 {
-                let m = sum[c] / samples as f64;
-                let se = ((sq[c] / samples as f64 - m * m) / (samples - 1) as f64).sqrt();
-                assert!(
-                    (q.value[c] - m).abs() <= 5.0 * se + q.error,
-                    "{lookup:?} ({i}, {j}) channel {c}: texel sum {} vs MC {m} ± {se}",
-                    q.value[c]
-                );
-            }
+            let what = format!("{lookup:?} ({i}, {j})");
+            assert_agrees_with_cosine_mc(&q, &p, &r.scene, &r.env, samples, &mut rng, &what);
         }
     }
 }

@@ -6,6 +6,8 @@
 //! experiment runner and its outputs, the renderer, and the `rule` command with the docs.
 
 mod bq;
+#[path = "../support/brute_force.rs"]
+mod brute_force;
 mod cli;
 mod common;
 mod experiment;

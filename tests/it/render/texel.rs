@@ -7,9 +7,10 @@ use workbench::render::env::{EnvMap, Lookup};
 use workbench::render::exact;
 use workbench::render::integrator::ShadingPoint;
 use workbench::render::{Environment, Renderer, Scene, SceneKind};
-use workbench::sampling::Density;
 use workbench::util::geometry::Vec3;
 use workbench::util::rng::stream;
+
+use crate::brute_force::assert_agrees_with_cosine_mc;
 
 fn map(w: usize, h: usize, lookup: Lookup, texel: impl Fn(usize, usize) -> [f32; 3]) -> Environment {
     let texels = (0..h)
@@ -160,26 +161,8 @@ fn the_texel_sum_agrees_with_brute_force_on_the_thesis_scene() {
         for (px, p) in points(&r, 97) {
             let q = exact::integrate(&p, &r.scene, &r.env, 1e-7);
             let mut rng = stream(12, &[(px.1 * 40 + px.0) as u64]);
-            let (mut sum, mut sq) = ([0.0; 3], [0.0; 3]);
-            for _ in 0..samples {
-                let v = Density::Cosine.sample(&mut rng);
-                let f = p.integrand(&r.scene, &r.env, &v);
-                let pdf = Density::Cosine.pdf(&v);
-                for c in 0..3 {
-                    let y = f[c] / pdf;
-                    sum[c] += y;
-                    sq[c] += y * y;
-                }
-            }
-            for c in 0..3 {
-                let mean = sum[c] / samples as f64;
-                let se = ((sq[c] / samples as f64 - mean * mean) / (samples - 1) as f64).sqrt();
-                assert!(
-                    (q.value[c] - mean).abs() <= 5.0 * se + q.error,
-                    "{lookup:?} {px:?} channel {c}: texel sum {} vs MC {mean} ± {se}",
-                    q.value[c]
-                );
-            }
+            let what = format!("{lookup:?} {px:?}");
+            assert_agrees_with_cosine_mc(&q, &p, &r.scene, &r.env, samples, &mut rng, &what);
             checked += 1;
         }
         assert!(checked >= 5, "{checked}");
