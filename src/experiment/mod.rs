@@ -140,8 +140,6 @@ pub fn run_plan(
         .iter()
         .map(|p| ("the experiment file", p.as_path()))
         .collect();
-    // Whether the folder is ours to remove again if an integrand fails (below).
-    let existed = out_dir.exists();
     let mut folder = ResultFolder::prepare(
         &out_dir,
         &what,
@@ -180,11 +178,7 @@ pub fn run_plan(
         // run is kept, the unit log included.
         Err(e @ crate::Error::Integrand(_)) => {
             drop(log);
-            let _ = std::fs::remove_file(&log_path);
-            if !existed {
-                // Only if empty: the log was its only file.
-                let _ = std::fs::remove_dir(&out_dir);
-            }
+            folder.discard_partial(unit_log::PARTIAL_LOG);
             return Err(e);
         }
         other => other?,

@@ -63,6 +63,8 @@ pub struct ResultFolder {
     legacy: LegacyManifest,
     /// Folders created to hold the result folder, removed again if nothing comes of it.
     created: Vec<PathBuf>,
+    /// Whether the folder itself was there before the command.
+    existed: bool,
     committed: bool,
 }
 
@@ -142,6 +144,7 @@ impl ResultFolder {
             lock: None,
             legacy,
             created,
+            existed: std::fs::metadata(&target).is_ok(),
             committed: false,
         };
         // From here on, dropping `folder` undoes what was done.
@@ -262,6 +265,18 @@ impl ResultFolder {
         std::fs::create_dir_all(&self.target)
             .map_err(|e| Error::io(format!("creating folder {}", self.shown.display()), e))?;
         Ok(self.shown.join(name))
+    }
+
+    /// Removes one of [`PARTIAL_FILES`] again, and the folder with it if the command created it
+    /// and it is now empty: for a failure that a resume would only repeat (a Python integrand
+    /// that raises), where keeping the partial work would invite a `--resume` that fails again.
+    pub fn discard_partial(&self, name: &str) {
+        assert!(PARTIAL_FILES.contains(&name), "{name} is not a partial file");
+        let _ = std::fs::remove_file(self.target.join(name));
+        if !self.existed {
+            // Only if empty: the partial file was its only file.
+            let _ = std::fs::remove_dir(&self.target);
+        }
     }
 
     /// Writes one of [`PARTIAL_FILES`] straight into the folder (atomically), so that it
