@@ -13,7 +13,7 @@ use std::sync::{Arc, OnceLock};
 use workbench::bq::estimator::Method;
 use workbench::bq::factor::{Factor, SpdWorkspace};
 use workbench::bq::model::{BmcModel, ResolvedModel};
-use workbench::bq::rule::Values;
+use workbench::bq::rule::{FactorMemory, Values};
 use workbench::bq::weights::{BmcWeights, Diagnostics, Scale, Solved};
 use workbench::sampling::{Density, Design};
 use workbench::util::geometry::Vec3;
@@ -145,7 +145,11 @@ pub fn rule<'py>(
     }
     workbench::bq::rule::check_generated_count(n, design, exact, "n").map_err(|e| value_error(e.0))?;
     check_min_points(method, n, "n")?;
-    workbench::bq::rule::check_weight_set_memory("n", n, design, exact, 0).map_err(|e| value_error(e.0))?;
+    workbench::bq::rule::check_factor_memory(
+        "n",
+        &workbench::bq::rule::FactorMemory::weight_set(n, design, exact),
+    )
+    .map_err(|e| value_error(e.0))?;
     let values = values_for_model(values.as_ref(), &resolved, n)?;
     let model = model::build(py, &resolved)?;
     let (points, (weights, _)) = py
@@ -189,7 +193,7 @@ pub fn weights<'py>(
     let points = arrays::points(points, "points")?;
     workbench::bq::rule::check_point_count(points.len(), "points").map_err(|e| value_error(e.0))?;
     check_min_points(method, points.len(), "points")?;
-    dense_memory("points", points.len(), &resolved, 0)?;
+    dense_memory("points", points.len(), &resolved)?;
     let values = values_for_model(values.as_ref(), &resolved, points.len())?;
     let model = model::build(py, &resolved)?;
     let design = Design::Iid(Density::Uniform);
@@ -286,7 +290,7 @@ pub fn fit<'py>(
     let points = arrays::points(points, "points")?;
     workbench::bq::rule::check_point_count(points.len(), "points").map_err(|e| value_error(e.0))?;
     check_min_points(method, points.len(), "points")?;
-    dense_memory("points", points.len(), &resolved, 0)?;
+    dense_memory("points", points.len(), &resolved)?;
     let y = arrays::values(values, "values", points.len())?;
     let model = model::build(py, &resolved)?;
     let design = Design::Iid(Density::Uniform);
@@ -317,12 +321,52 @@ pub fn fit<'py>(
     Ok(out)
 }
 
-/// The memory guard ([`workbench::bq::rule::check_weight_set_memory`]) for `n` given points (a
-/// dense solve), `kept` factors kept besides.
-fn dense_memory(what: &str, n: usize, resolved: &ResolvedModel, kept: usize) -> PyResult<()> {
+/// The memory guard ([`workbench::bq::rule::check_factor_memory`]) for one weight set of `n`
+/// given points (a dense solve).
+fn dense_memory(what: &str, n: usize, resolved: &ResolvedModel) -> PyResult<()> {
     let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
-    workbench::bq::rule::check_weight_set_memory(what, n, Design::Iid(Density::Uniform), exact, kept)
-        .map_err(|e| value_error(e.0))
+    let need = FactorMemory::weight_set(n, Design::Iid(Density::Uniform), exact);
+    workbench::bq::rule::check_factor_memory(what, &need).map_err(|e| value_error(e.0))
+}
+
+/// The share of the memory budget a fitted rule may fill with every grid model's factor
+/// (cached: an estimate then costs one solve per model). Beyond it the rule streams its grid.
+const CACHE_SHARE: f64 = 0.5;
+
+/// Whether a rule of `n` points over `models` models caches every model's factor, after the
+/// memory guard of what it will keep (issue 30: "a fitted Rule keeps only what it must").
+///
+/// A fixed model keeps its one factor (`Q⁻¹Y`, `diag(Q⁻¹)` and `q_inverse` need it): the
+/// workspace's plus the kept copy. A fitted rule caches one factor per grid model when all of
+/// them (and the workspace) take at most [`CACHE_SHARE`] of the budget; otherwise it keeps only
+/// every model's weights and `log det Q` (`O(N)` each) and *streams* the grid at each estimate:
+/// it factors each model again in the grid's order (the same kernel-mean stream, so the same
+/// factors, bit for bit), scores its marginal likelihood and keeps the best factor so far — the
+/// workspace, the best so far and the one being scored, 3 factors whatever the grid's size, for
+/// one factorisation per model per estimate (`M N³/3` flops instead of `M N²`).
+fn keeps_all_factors(what: &str, n: usize, design: Design, exact: bool, models: usize) -> PyResult<bool> {
+    let all = FactorMemory {
+        subject: format!("a rule of {n} points"),
+        factor_bytes: workbench::bq::rule::weight_set_bytes(n, design, exact),
+        kept: models as u64,
+        kept_for: "one per model".into(),
+        besides: None,
+    };
+    let budget = workbench::util::memory::Budget::current().map_err(value_error)?;
+    let fits_share = budget
+        .bytes
+        .is_none_or(|b| all.bytes() as f64 <= CACHE_SHARE * b as f64);
+    if models == 1 || fits_share {
+        workbench::bq::rule::check_factor_memory(what, &all).map_err(|e| value_error(e.0))?;
+        return Ok(true);
+    }
+    let streamed = FactorMemory {
+        kept: 2,
+        kept_for: format!("its {models} grid models streamed: the best so far and the one being scored"),
+        ..all
+    };
+    workbench::bq::rule::check_factor_memory(what, &streamed).map_err(|e| value_error(e.0))?;
+    Ok(false)
 }
 
 fn sobolev_s(m: &BmcModel) -> Option<f64> {
@@ -333,17 +377,31 @@ fn sobolev_s(m: &BmcModel) -> Option<f64> {
 }
 
 /// One model's weights on a rule's points with its kept factor (what `Q⁻¹Y` and `diag(Q⁻¹)`
-/// need) and `log det Q` (what a fitted model's choice needs).
+/// need; `None` when a fitted rule streams its grid, [`keeps_all_factors`]) and `log det Q`
+/// (what a fitted model's choice needs).
 struct Kept {
     weights: BmcWeights,
-    factor: Factor,
+    factor: Option<Factor>,
     log_det: f64,
     inverse_diagonal: OnceLock<Vec<f64>>,
 }
 
+/// The model a rule's estimate uses ([`Rule::choose`]): its index, every grid model's `ℓ` (empty
+/// for a fixed model), `Q⁻¹Y` under it when asked for, and its factor when the grid was streamed
+/// (a cached rule's is in [`Kept`]).
+struct Chosen {
+    k: usize,
+    ells: Vec<f64>,
+    solve: Option<Vec<f64>>,
+    factor: Option<Factor>,
+}
+
 /// A quadrature rule kept for estimates: points, their BMC weights under a model and the
-/// factorisation of ``Q = K + σ_n² I`` (the ``ml``/``loo`` amplitudes solve with it), or every
-/// grid model's for a fitted kernel.
+/// factorisation of ``Q = K + σ_n² I`` (the ``ml``/``loo`` amplitudes solve with it). A fitted
+/// kernel keeps every grid model's weights, and every model's factor only when they all fit half
+/// the memory budget (``WORKBENCH_MEMORY``); otherwise each estimate factors the grid again, one
+/// model at a time, keeping the best so far (the same numbers, bit for bit; 3 factors in memory
+/// whatever the grid's size).
 ///
 /// ``Rule(points, ...)`` weights given points (a dense solve, as :func:`weights`);
 /// ``Rule(n=64, design=..., seed=...)`` draws them as :func:`rule` does (same points, same
@@ -357,6 +415,8 @@ pub struct Rule {
     resolved: ResolvedModel,
     model: Arc<BmcModel>,
     kept: Vec<Kept>,
+    /// The seed of the kernel-mean stream, for a streamed grid's factors.
+    seed: u64,
 }
 
 impl Rule {
@@ -373,8 +433,7 @@ impl Rule {
     ) -> PyResult<Rule> {
         let models = resolved.grid.as_ref().map_or(1, |g| g.len());
         let exact = resolved.kernel_mean == workbench::bq::model::KernelMeanName::Exact;
-        workbench::bq::rule::check_weight_set_memory(what, points.len(), design, exact, models)
-            .map_err(|e| value_error(e.0))?;
+        let cache = keeps_all_factors(what, points.len(), design, exact, models)?;
         let model = model::build(py, &resolved)?;
         let kept = py
             .detach(|| {
@@ -393,7 +452,7 @@ impl Rule {
                         let weights = m.weights_for_design(&points, design, &mut rng, &mut workspace)?;
                         Ok(Kept {
                             weights,
-                            factor: workspace.keep_factor(),
+                            factor: cache.then(|| workspace.keep_factor()),
                             log_det: workspace.log_det(),
                             inverse_diagonal: OnceLock::new(),
                         })
@@ -411,27 +470,73 @@ impl Rule {
             resolved,
             model,
             kept,
+            seed,
         })
     }
 
     /// `Q⁻¹Y` with model `k`'s factor.
     fn solve(&self, k: usize, y: &[f64]) -> Vec<f64> {
         let mut solve = y.to_vec();
-        self.kept[k].factor.solve_columns_in_place(&mut solve, 1);
+        self.kept[k]
+            .factor
+            .as_ref()
+            .expect("a fixed or cached rule keeps its factors")
+            .solve_columns_in_place(&mut solve, 1);
         solve
+    }
+
+    /// A streamed fitted rule's choice ([`keeps_all_factors`]): every grid model factored again
+    /// in the grid's order from the rule's kernel-mean stream (as [`Rule::build`] factored them),
+    /// scored, and its factor kept while it is the best so far ([`fitted::best`] of the scores so
+    /// far: the first largest, as on the whole grid). The chosen model, every `ℓ`, its `Q⁻¹Y` and
+    /// its factor.
+    ///
+    /// [`fitted::best`]: workbench::bq::fitted::best
+    fn stream(&self, method: Method, y: &[f64], prior: f64) -> PyResult<Chosen> {
+        let mut rng = workbench::bq::rule::kernel_mean_stream(self.seed);
+        let mut workspace = SpdWorkspace::new();
+        let mut ells = Vec::with_capacity(self.kept.len());
+        let mut best = None;
+        for (k, (m, c)) in self.model.candidates().iter().zip(&self.kept).enumerate() {
+            m.weights_for_design(&self.points, self.design, &mut rng, &mut workspace)
+                .map_err(|e| library_error(e.into()))?;
+            let factor = workspace.keep_factor();
+            let mut solve = y.to_vec();
+            factor.solve_columns_in_place(&mut solve, 1);
+            ells.push(
+                workbench::bq::fitted::log_marginal_likelihood(
+                    method, y, &solve, &c.weights, prior, c.log_det,
+                )
+                .unwrap_or(f64::NAN),
+            );
+            if workbench::bq::fitted::best(&ells) == k {
+                // The earlier best is dropped here: 3 factors at most (the workspace's too).
+                best = Some((solve, factor));
+            }
+        }
+        let k = workbench::bq::fitted::best(&ells);
+        let (solve, factor) = best.expect("a grid has a first model");
+        Ok(Chosen {
+            k,
+            ells,
+            solve: Some(solve),
+            factor: Some(factor),
+        })
     }
 
     /// The model an estimate of `method` on `y` uses (a fitted rule: the grid model of largest
     /// marginal likelihood, with every model's `ℓ`), and `Q⁻¹Y` under it when `needs_solve`.
-    fn choose(
-        &self,
-        method: Method,
-        y: &[f64],
-        prior: f64,
-        needs_solve: bool,
-    ) -> (usize, Vec<f64>, Option<Vec<f64>>) {
+    fn choose(&self, method: Method, y: &[f64], prior: f64, needs_solve: bool) -> PyResult<Chosen> {
         if !self.model.is_fitted() {
-            return (0, Vec::new(), needs_solve.then(|| self.solve(0, y)));
+            return Ok(Chosen {
+                k: 0,
+                ells: Vec::new(),
+                solve: needs_solve.then(|| self.solve(0, y)),
+                factor: None,
+            });
+        }
+        if self.kept[0].factor.is_none() {
+            return self.stream(method, y, prior);
         }
         let mut solves = Vec::with_capacity(self.kept.len());
         let ells: Vec<f64> = self
@@ -449,13 +554,18 @@ impl Rule {
             })
             .collect();
         let best = workbench::bq::fitted::best(&ells);
-        (best, ells, Some(solves.swap_remove(best)))
+        Ok(Chosen {
+            k: best,
+            ells,
+            solve: Some(solves.swap_remove(best)),
+            factor: None,
+        })
     }
 
     /// `Î` and its sd (NaN where none is stated) of `method` (one with weights) on values `y`.
-    fn estimate_values(&self, method: Method, y: &[f64], prior: f64, scale: Scale) -> (f64, f64) {
-        let (value, sd, _) = self.estimate_with_amplitude(method, y, prior, scale);
-        (value, sd)
+    fn estimate_values(&self, method: Method, y: &[f64], prior: f64, scale: Scale) -> PyResult<(f64, f64)> {
+        let (value, sd, _) = self.estimate_with_amplitude(method, y, prior, scale)?;
+        Ok((value, sd))
     }
 
     /// [`Rule::estimate_values`] with the amplitude used (None for MC).
@@ -465,12 +575,18 @@ impl Rule {
         y: &[f64],
         prior: f64,
         scale: Scale,
-    ) -> (f64, f64, Option<f64>) {
-        let (k, _, solve) = self.choose(method, y, prior, scale != Scale::Unit);
+    ) -> PyResult<(f64, f64, Option<f64>)> {
+        let Chosen { k, solve, factor, .. } = self.choose(method, y, prior, scale != Scale::Unit)?;
         let c = &self.kept[k];
         let inverse_diagonal = (scale == Scale::Loo).then(|| {
             c.inverse_diagonal
-                .get_or_init(|| c.factor.inverse_diagonal())
+                .get_or_init(|| {
+                    c.factor
+                        .as_ref()
+                        .or(factor.as_ref())
+                        .expect("the chosen model's factor, kept or streamed")
+                        .inverse_diagonal()
+                })
                 .as_slice()
         });
         let rule = workbench::bq::rule::Rule {
@@ -484,11 +600,11 @@ impl Rule {
             solved: solve.as_deref().map(Solved::Full),
         };
         let e = rule.estimate(method, values, prior, scale);
-        (
+        Ok((
             e.value,
             e.uncertainty.map_or(f64::NAN, |u| u.sd),
             e.uncertainty.and_then(|u| u.amplitude),
-        )
+        ))
     }
 
     /// The weight set `method` uses on `values` (a fitted rule needs them).
@@ -501,7 +617,7 @@ impl Rule {
             (None, false) => (0, Vec::new()),
             (Some(v), true) => {
                 let y = arrays::values(v, "values", self.points.len())?;
-                let (k, ells, _) = self.choose(method, &y, 0.0, false);
+                let Chosen { k, ells, .. } = self.choose(method, &y, 0.0, false)?;
                 (k, ells)
             }
             (None, true) => {
@@ -726,7 +842,11 @@ impl Rule {
         for i in 0..n {
             q[i * n + i] = 1.0;
         }
-        self.kept[0].factor.solve_columns_in_place(&mut q, n);
+        self.kept[0]
+            .factor
+            .as_ref()
+            .expect("a fixed rule keeps its factor")
+            .solve_columns_in_place(&mut q, n);
         // Column-major n × n; Q⁻¹ is symmetric, so the rows read the same.
         Ok(numpy::ndarray::Array2::from_shape_vec((n, n), q)
             .expect("n × n")
@@ -781,7 +901,7 @@ impl Rule {
         check_min_points(method, self.points.len(), "points")?;
         let prior = prior_arg(method, prior, &self.resolved)?;
         let scale = scale.map_or(Ok(Scale::DEFAULT), scale_arg)?;
-        let (value, sd, amplitude) = self.estimate_with_amplitude(method, y, prior, scale);
+        let (value, sd, amplitude) = self.estimate_with_amplitude(method, y, prior, scale)?;
         for w in estimate_warnings(value, amplitude, scale) {
             crate::model::warn(py, &w)?;
         }
@@ -989,7 +1109,7 @@ pub fn estimate_core_seconds(
     let start = std::time::Instant::now();
     let mut sink = 0.0;
     for _ in 0..iterations.max(1) {
-        let (v, sd) = rule.estimate_values(method, std::hint::black_box(&y), 0.0, scale);
+        let (v, sd) = rule.estimate_values(method, std::hint::black_box(&y), 0.0, scale)?;
         sink += v + sd;
     }
     std::hint::black_box(sink);

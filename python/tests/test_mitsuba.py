@@ -166,6 +166,7 @@ def test_the_symbolic_loops_give_the_unrolled_loops_pixels(method):
         ({"n": 1}, "n: must be at least 2, got 1"),
         ({"n": 2.5}, "n: must be an integer, got 2.5"),
         ({"n": 2 ** 31 - 1, "method": "mc_cosine"}, "n: at most 65536 for method 'mc_cosine', got 2147483647"),
+        ({"n": 2 ** 31, "method": "mc_bsdf"}, "n: at most 65536 for method 'mc_bsdf', got 2147483648"),
         ({"n": 1025}, "n: at most 1024 for method 'bmc', got 1025"),
         ({"method": "bmq"}, "method: unknown method 'bmq'"),
         ({"kernel": "gauss"}, "kernel: unknown kernel 'gauss'"),

@@ -1,6 +1,8 @@
 """Issue 30: no crash and no silent wrong number from the Python door — every reproduction of the
 issue as a regression test (each failed before its fix)."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -89,11 +91,53 @@ def test_the_issues_q_inverse_at_65536_ring_points_is_refused_by_the_default_bud
 
 def test_a_fitted_rule_states_what_its_grid_keeps(monkeypatch):
     # wb.Rule(n=4096, kernel=fitted 8×8) kept 64 factors of 128 MiB and, under a memory limit,
-    # raised a Rust panic across the FFI.
-    monkeypatch.setenv("WORKBENCH_MEMORY", "1GiB")
+    # raised a Rust panic across the FFI. Now it streams its grid (3 factors whatever the grid's
+    # size); what even that needs is refused by name.
+    monkeypatch.setenv("WORKBENCH_MEMORY", "256MiB")
     grid = {"s": [1.2, 1.4, 1.6, 1.8, 2.25, 2.75, 3.25, 3.75], "noise": [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9]}
-    raises(r"^n: a rule of 4096 points keeping 64 factors \(one per model\) needs 8.1 GiB \(8724152320 bytes\) of "
-           r"memory, more than the budget of 1.0 GiB", wb.Rule, n=4096, kernel={"type": "fitted", "grid": grid})
+    raises(r"^n: a rule of 4096 points keeping 2 factors \(its 64 grid models streamed: the best so far and the one "
+           r"being scored\) needs 384.0 MiB \(402653184 bytes\) of memory, more than the budget of 256.0 MiB",
+           wb.Rule, n=4096, kernel={"type": "fitted", "grid": grid})
+
+
+def _everything(rule, values):
+    """Every number a fitted rule gives on values, for bit-for-bit comparison."""
+    out = []
+    for y in values:
+        for scale in ["unit", "ml", "loo"]:
+            out.append(rule.estimate(y, "bmc", scale=scale))
+            out.append(rule.estimate(y, "bsq", scale=scale))
+            out.append(rule.estimate(y, "bmcp", prior=0.25, scale=scale))
+        d = rule.diagnostics(values=y)
+        out.append((d["chosen"], tuple(d["log_marginal_likelihoods"])))
+        out.append(tuple(rule.weights(values=y)))
+        out.append(tuple(rule.weights("bsq", values=y)))
+    return out
+
+
+@pytest.mark.parametrize("kwargs", [{"n": 512, "design": "sobol", "seed": 4}, {"n": 480, "design": "rings", "seed": 1}])
+def test_a_fitted_rule_over_its_budget_streams_its_grid_with_the_same_numbers(monkeypatch, kwargs):
+    # One dense factor of 512 points is 2 MiB. Caching all 8 grid models' factors (and the
+    # workspace) takes 18 MiB: refused under 12 MiB before ("keeping 8 factors ... needs 18.0 MiB").
+    # Now the rule streams (3 factors, 6 MiB) and every number is the cached rule's, bit for bit.
+    n = kwargs["n"]
+    points = wb.Rule(**kwargs).points
+    values = [points[:, 2] ** 3, np.exp(points[:, 0]) + points[:, 1] ** 2, (points[:, 2] > 0.5) * 1.0]
+    monkeypatch.delenv("WORKBENCH_MEMORY", raising=False)
+    cached = [wb.Rule(**kwargs, kernel="fitted"), wb.Rule(points, kernel="fitted")]
+    # A ring set's factor is 16·N·J bytes (150 KiB here; 9 of them 1.35 MiB, 3 of them 450 KiB);
+    # the same points given are a dense solve, 2 MiB a factor.
+    monkeypatch.setenv("WORKBENCH_MEMORY", "1MiB" if kwargs["design"] == "rings" else "12MiB")
+    streamed = [wb.Rule(**kwargs, kernel="fitted")]
+    monkeypatch.setenv("WORKBENCH_MEMORY", "12MiB")
+    streamed.append(wb.Rule(points, kernel="fitted"))
+    for c, s in zip(cached, streamed):
+        assert _everything(s, values) == _everything(c, values)
+    chosen = {c.diagnostics(values=y)["chosen"] for c in cached for y in values}
+    assert len(chosen) > 1, "the values choose different models"
+    # Less than the 3 factors of the stream: refused by name.
+    monkeypatch.setenv("WORKBENCH_MEMORY", "5MiB")
+    raises(rf"^points: a rule of {n} points keeping 2 factors \(its 8 grid models streamed", wb.Rule, points, kernel="fitted")
 
 
 def test_every_door_of_the_package_uses_the_guard(monkeypatch):
@@ -111,6 +155,29 @@ def test_every_door_of_the_package_uses_the_guard(monkeypatch):
            wb.run, spec, threads=1)
     monkeypatch.setenv("WORKBENCH_MEMORY", "lots")
     raises(r'^WORKBENCH_MEMORY: "lots" is not an amount of memory', wb.rule, 16)
+
+
+# --- item 2: bounded, typed reads -------------------------------------------------------------
+
+
+def test_a_map_that_is_a_device_or_a_fifo_is_refused_by_type_before_reading(tmp_path):
+    # wb.Integrand({..., "env": "/dev/zero"}) read the map whole: 22.7 GB before the OOM killer;
+    # a FIFO as a map hung.
+    pixel = {"type": "pixel", "pixel": [128, 200], "channel": "g"}
+    raises(r"^spec: env: /dev/zero: is a character device, not a regular file; environment maps are read "
+           r"from regular files only$", wb.Integrand, {**pixel, "env": "/dev/zero"})
+    fifo = tmp_path / "map.hdr"
+    os.mkfifo(fifo)
+    raises(rf"^spec: env: {fifo}: is a named pipe \(FIFO\), not a regular file", wb.Integrand, {**pixel, "env": str(fifo)})
+
+
+def test_an_experiment_path_that_is_a_device_or_a_fifo_is_refused_by_type(tmp_path):
+    # run(path) on a FIFO hung.
+    fifo = tmp_path / "spec.json"
+    os.mkfifo(fifo)
+    raises(rf"^{fifo}: is a named pipe \(FIFO\), not a regular file; spec files are read from regular files only$",
+           wb.run, str(fifo))
+    raises(r"^/dev/zero: is a character device, not a regular file", wb.run, "/dev/zero")
 
 
 # --- item 4: Sobolev s near 2 or 3 --------------------------------------------------------------

@@ -140,8 +140,11 @@ def estimate(
 
 class Rule:
     """A quadrature rule kept for estimates: points, their BMC weights under a model and the
-    factorisation of ``Q = K + σ_n² I`` (the ``ml``/``loo`` amplitudes solve with it), or every
-    grid model's for a fitted kernel.
+    factorisation of ``Q = K + σ_n² I`` (the ``ml``/``loo`` amplitudes solve with it). A fitted
+    kernel keeps every grid model's weights, and every model's factor only when they all fit half
+    the memory budget (``WORKBENCH_MEMORY``); otherwise each estimate factors the grid again, one
+    model at a time, keeping the best so far (the same numbers, bit for bit; 3 factors in memory
+    whatever the grid's size).
 
     ``Rule(points, ...)`` weights given points (a dense solve, as :func:`weights`);
     ``Rule(n=64, design=..., seed=...)`` draws them as :func:`rule` does (same points, same

@@ -114,27 +114,64 @@ pub fn check_memory(what: &str, bytes: u64) -> Result<(), InputError> {
     crate::util::memory::check(what, bytes).map_err(InputError::new)
 }
 
-/// The memory guard before weight sets of `n` points on `design` are computed, `kept` factors
-/// kept besides the one being computed (a Python `Rule` keeps one per model of its grid; 0
-/// elsewhere): `what` names the argument (`--n`, `n`, `points`).
-pub fn check_weight_set_memory(
-    what: &str,
-    n: usize,
-    design: Design,
-    exact_kernel_means: bool,
-    kept: usize,
-) -> Result<(), InputError> {
-    let one = weight_set_bytes(n, design, exact_kernel_means);
-    if kept == 0 {
-        return check_memory(&format!("{what}: a weight set of {n} points"), one);
+/// What a guarded computation of weight sets holds at its peak, for [`check_factor_memory`]:
+/// the factor being computed (`factor_bytes`, [`weight_set_bytes`]), `kept` more of that size
+/// kept besides it (`kept_for` says why: "one per model"), and `besides` bytes of something else
+/// (an image) with its description.
+#[derive(Clone, Debug)]
+pub struct FactorMemory {
+    /// What is computed: `a weight set of 512 points`, `8 sample sets of 1024 points for bmc`.
+    pub subject: String,
+    pub factor_bytes: u64,
+    pub kept: u64,
+    pub kept_for: String,
+    pub besides: Option<(String, u64)>,
+}
+
+impl FactorMemory {
+    /// One weight set of `n` points on `design`, nothing kept.
+    pub fn weight_set(n: usize, design: Design, exact_kernel_means: bool) -> FactorMemory {
+        FactorMemory {
+            subject: format!("a weight set of {n} points"),
+            factor_bytes: weight_set_bytes(n, design, exact_kernel_means),
+            kept: 0,
+            kept_for: String::new(),
+            besides: None,
+        }
     }
-    check_memory(
-        &format!(
-            "{what}: a rule of {n} points keeping {kept} factor{} (one per model)",
-            if kept == 1 { "" } else { "s" }
-        ),
-        one.saturating_mul(kept as u64 + 1),
-    )
+
+    /// `{what}: {subject} keeping {kept} factors ({kept_for}) on {besides}`, the parts present.
+    pub fn describe(&self, what: &str) -> String {
+        let keeping = match self.kept {
+            0 => String::new(),
+            k => format!(
+                " keeping {k} factor{} ({})",
+                if k == 1 { "" } else { "s" },
+                self.kept_for
+            ),
+        };
+        let besides = self
+            .besides
+            .as_ref()
+            .map_or(String::new(), |(b, _)| format!(" on {b}"));
+        format!("{what}: {}{keeping}{besides}", self.subject)
+    }
+
+    /// The bytes: `besides + factor_bytes · (kept + 1)`, saturating.
+    pub fn bytes(&self) -> u64 {
+        let factors = self.factor_bytes.saturating_mul(self.kept.saturating_add(1));
+        factors.saturating_add(self.besides.as_ref().map_or(0, |b| b.1))
+    }
+}
+
+/// The one memory guard of every door that computes weight sets (issue 30): the CLI's `rule`,
+/// `render` and render tables ([`crate::render::integrator::check_memory`]), and the Python
+/// package's `rule`, `weights`, `fit`, `Rule` and `estimate` (and through them the Mitsuba
+/// integrator). One line, exit 2 or a `ValueError`: `{what}: {subject} keeping {kept} factors
+/// ({kept_for}) on {besides} needs … bytes of memory, more than the budget of …`. `what` names
+/// the flag, field or argument (with its value where it helps: `--spp 1024`).
+pub fn check_factor_memory(what: &str, need: &FactorMemory) -> Result<(), InputError> {
+    check_memory(&need.describe(what), need.bytes())
 }
 
 /// Rejects `n = 0` and `n` whose matrices would not fit the memory budget.
@@ -337,6 +374,33 @@ mod tests {
         assert_eq!(far, "(1e100, 0, 0) is not a unit vector (norm 1e100)");
         let plain = check_point(Vec3::new(0.6, 0.0, -0.8)).unwrap_err();
         assert_eq!(plain, "z = -0.8 is below the horizon (need z >= 0)");
+    }
+
+    /// The one guard's accounting: the factor computed, the ones kept beside it, the rest; its
+    /// line names each part present.
+    #[test]
+    fn factor_memory_counts_what_is_kept_and_says_so() {
+        let one = FactorMemory::weight_set(512, Design::Iid(crate::sampling::Density::Uniform), true);
+        assert_eq!(one.bytes(), 8 * 512 * 512);
+        assert_eq!(one.describe("--n"), "--n: a weight set of 512 points");
+        let kept = FactorMemory {
+            subject: "2 sample sets of 64 points for bmc".into(),
+            factor_bytes: 100,
+            kept: 3,
+            kept_for: "one per set for the sds".into(),
+            besides: Some(("a 10-pixel image".into(), 480)),
+        };
+        assert_eq!(kept.bytes(), 480 + 4 * 100);
+        assert_eq!(
+            kept.describe("--spp 64"),
+            "--spp 64: 2 sample sets of 64 points for bmc keeping 3 factors (one per set for the sds) \
+             on a 10-pixel image"
+        );
+        let huge = FactorMemory {
+            kept: u64::MAX,
+            ..kept
+        };
+        assert_eq!(huge.bytes(), u64::MAX);
     }
 
     #[test]

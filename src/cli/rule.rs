@@ -123,7 +123,10 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
         design
     };
     let flag = if args.points.is_some() { "--points" } else { "--n" };
-    workbench::bq::rule::check_weight_set_memory(flag, points.len(), design, exact_kernel_means, 0)?;
+    workbench::bq::rule::check_factor_memory(
+        flag,
+        &workbench::bq::rule::FactorMemory::weight_set(points.len(), design, exact_kernel_means),
+    )?;
     let (weights, choice) =
         workbench::bq::rule::rule_weights(&points, design, &model, method, values.as_deref(), args.seed)?;
     // The model the weights are of: the chosen one of a fitted grid.

@@ -245,14 +245,13 @@ pub fn check_memory(
     pixels: usize,
 ) -> Result<(), InputError> {
     let image = 48u64.saturating_mul(pixels as u64);
+    let image_text = format!("a {pixels}-pixel image");
     let Some(model) = model.filter(|_| kind.uses_sets()) else {
-        return crate::bq::rule::check_memory(&format!("{what}: a {pixels}-pixel image"), image);
+        return crate::bq::rule::check_memory(&format!("{what}: {image_text}"), image);
     };
     let exact = model.mode == crate::bq::kernel_mean::KernelMeanMode::Exact;
-    let one = crate::bq::rule::weight_set_bytes(spp, kind.set_design, exact);
     let per_set = model.candidates().len() + usize::from(with_sd);
     let kept = (gps as u64).saturating_mul(per_set as u64);
-    let needed = image.saturating_add(one.saturating_mul(kept.saturating_add(1)));
     let mut kept_for = Vec::new();
     if model.is_fitted() {
         kept_for.push("one per set and grid model");
@@ -260,21 +259,23 @@ pub fn check_memory(
     if with_sd {
         kept_for.push("one per set for the sds");
     }
-    let keeping = if kept == 0 {
-        ", computed one at a time,".to_string()
-    } else {
-        format!(
-            " keeping {kept} factor{} ({})",
-            if kept == 1 { "" } else { "s" },
-            kept_for.join(", ")
-        )
-    };
-    crate::bq::rule::check_memory(
-        &format!(
-            "{what}: {gps} sample set{} of {spp} points for {kind}{keeping} on a {pixels}-pixel image",
-            if gps == 1 { "" } else { "s" },
-        ),
-        needed,
+    let sets = format!(
+        "{gps} sample set{} of {spp} points for {kind}",
+        if gps == 1 { "" } else { "s" }
+    );
+    crate::bq::rule::check_factor_memory(
+        what,
+        &crate::bq::rule::FactorMemory {
+            subject: if kept == 0 {
+                format!("{sets}, computed one at a time,")
+            } else {
+                sets
+            },
+            factor_bytes: crate::bq::rule::weight_set_bytes(spp, kind.set_design, exact),
+            kept,
+            kept_for: kept_for.join(", "),
+            besides: Some((image_text, image)),
+        },
     )
 }
 

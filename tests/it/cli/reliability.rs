@@ -211,3 +211,137 @@ fn render_counts_the_factors_its_sample_sets_keep_before_rendering() {
     );
     assert!(!d.join("out").exists() && !d.join("sd.exr").exists());
 }
+
+/// Issue 30 ("one message prints `String("mc")`"): a JSON value in a message is printed as JSON
+/// (`"mc"`, `5`, `[1]`), never as a Rust `serde_json::Value` (`String("mc")`, `Number(5)`).
+/// Wrong types and unknown values of the fields that take names (method, kernel, design, scale,
+/// kernel mean, prior, sweep values, integrands, checks, plot bands; a render table's integrator,
+/// repetitions, model) each refused in one line.
+#[test]
+fn json_values_in_messages_are_printed_as_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let experiment = |estimator: &str, extra: &str| {
+        format!(
+            r#"{{"name": "h", "integrands": ["cos3"], "samples": [16], "trials": 2, "seed": 1,
+                "estimators": [{estimator}, {{"label": "M", "method": "mc"}}]{extra}}}"#
+        )
+    };
+    let table = |variant: &str, extra: &str| {
+        format!(
+            r#"{{"name": "t", "width": 8, "height": 8, "spp": [4], "repetitions": 1,
+                "variants": [{variant}]{extra}}}"#
+        )
+    };
+    let cases = [
+        (
+            experiment(r#"{"label": "A", "method": "mc", "kernel": "mc"}"#, ""),
+            r#"string "mc""#,
+        ),
+        (experiment(r#"{"label": "A", "method": 5}"#, ""), "integer `5`"),
+        (experiment(r#"{"label": "A", "method": "zz"}"#, ""), "`zz`"),
+        (
+            experiment(r#"{"label": "A", "method": "bmc", "design": "mc"}"#, ""),
+            r#""mc""#,
+        ),
+        (
+            experiment(r#"{"label": "A", "method": "bmc", "scale": "mc"}"#, ""),
+            "`mc`",
+        ),
+        (
+            experiment(r#"{"label": "A", "method": "mc", "scale": "ml"}"#, ""),
+            r#""ml" is not used"#,
+        ),
+        (
+            experiment(r#"{"label": "A", "method": "mc", "kernel_mean": "mc"}"#, ""),
+            r#""mc" is not used"#,
+        ),
+        (
+            experiment(
+                r#"{"label": "A", "method": "mc", "kernel": {"type": "sobolev", "s": 1.5}}"#,
+                "",
+            ),
+            r#"{"type":"sobolev","s":1.5} is not used"#,
+        ),
+        (
+            experiment(r#"{"label": "A", "method": "bmcp", "prior": "mc"}"#, ""),
+            r#"string "mc""#,
+        ),
+        (
+            experiment(r#"{"label": "A", "method": "bmc", "kernel": {"type": "mc"}}"#, ""),
+            "`mc`",
+        ),
+        (
+            experiment(
+                r#"{"label": "A", "method": "bmc", "kernel": {"type": "fitted", "grid": "mc"}}"#,
+                "",
+            ),
+            r#"string "mc""#,
+        ),
+        (
+            experiment(
+                r#"{"label": "A {design}", "method": "bmc", "sweep": {"design": ["mc", 5]}}"#,
+                "",
+            ),
+            r#"unknown design "mc""#,
+        ),
+        (
+            experiment(
+                r#"{"label": "A", "method": "bmc", "sweep": {"kernel.type": [{"a": 1}]}}"#,
+                "",
+            ),
+            r#"kernel.type={"a":1}"#,
+        ),
+        (
+            experiment(r#"{"label": "A", "method": "bmc"}"#, r#", "plot": {"bands": 5}"#),
+            "got 5",
+        ),
+        (
+            experiment(
+                r#"{"label": "A", "method": "bmc"}"#,
+                r#", "plot": {"bands": ["mc"]}"#,
+            ),
+            r#""mc""#,
+        ),
+        (
+            experiment(
+                r#"{"label": "A", "method": "bmc"}"#,
+                r#", "checks": [{"better": "A", "than": "mc"}]"#,
+            ),
+            r#""mc""#,
+        ),
+        (table(r#"{"label": "A", "integrator": "mc-x"}"#, ""), r#""mc-x""#),
+        (
+            table(
+                r#"{"label": "A", "integrator": "mc"}"#,
+                r#", "model": {"kernel": "mc"}"#,
+            ),
+            r#"string "mc""#,
+        ),
+        (
+            table(r#"{"label": "A", "integrator": "mc", "scale": "ml"}"#, ""),
+            r#""ml" is not used"#,
+        ),
+    ];
+    let debug = [
+        "String(", "Number(", "Array(", "Object(", "Bool(", "Null", "Some(",
+    ];
+    for (spec, want) in cases {
+        // The table's file name says what it is (`validate` reads either).
+        let name = if spec.contains("\"variants\"") {
+            "t.json"
+        } else {
+            "s.json"
+        };
+        std::fs::write(d.join(name), &spec).unwrap();
+        let o = with_budget(d, "8GiB", &["validate", name]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{spec}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+        assert!(err.contains(want), "{want:?} not in {err}");
+        assert!(
+            !debug.iter().any(|p| err.contains(p)),
+            "a Debug-printed value: {err}"
+        );
+    }
+}
