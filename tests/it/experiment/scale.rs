@@ -457,9 +457,14 @@ fn resume_and_merge_report_the_warnings_of_units_run_before() {
 fn a_killed_run_resumes_without_redoing_its_finished_units() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let spec = SMALL
-        .replace("[4, 16, 32]", "[64, 128, 192]")
-        .replace("\"trials\": 13", "\"trials\": 40");
+    // 1200 units of about a millisecond: a run long enough that a test thread descheduled on a
+    // loaded machine still kills it before its log is complete; without the checks, whose
+    // verdicts at 400 trials are not this test's subject.
+    let mut spec: serde_json::Value = serde_json::from_str(SMALL).unwrap();
+    spec["samples"] = serde_json::json!([64, 128, 192]);
+    spec["trials"] = serde_json::json!(400);
+    spec.as_object_mut().unwrap().remove("checks");
+    let spec = spec.to_string();
     std::fs::write(d.join("slow.json"), spec).unwrap();
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_workbench"))
         .args(["run", "slow.json", "-q", "--threads", "1", "--out", "killed"])
@@ -497,7 +502,7 @@ fn a_killed_run_resumes_without_redoing_its_finished_units() {
         .and_then(|s| s.split(' ').next())
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("no resumed count in {err}"));
-    assert!((1..3 * 40).contains(&resumed), "{err}");
+    assert!((1..3 * 400).contains(&resumed), "{err}");
     ok(&workbench(d, &["run", "slow.json", "-q", "--out", "full"]));
     assert_same_files(&d.join("full"), &d.join("killed"));
 }
