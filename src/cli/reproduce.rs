@@ -525,8 +525,14 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
             })
         }
         Job::Irradiance(plan) => {
-            let report =
-                workbench::irradiance::run(plan, &item.out, Some(&item.file), threads, &Bar::new(quiet))?;
+            let report = workbench::irradiance::run(
+                plan,
+                &item.out,
+                Some(&item.file),
+                threads,
+                false,
+                &Bar::new(quiet),
+            )?;
             if !quiet {
                 stdout(&workbench::irradiance::export::summary(plan, &report.rows))?;
             }
