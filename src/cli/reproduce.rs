@@ -547,7 +547,7 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
                 status!("warning: {w}");
             }
             let pool = workbench::util::threads::pool(threads)?;
-            pool.install(|| table::run(plan, results, &Bar::new(quiet)))?;
+            pool.install(|| table::run(plan, results, false, &Bar::new(quiet)))?;
             Ok(Outcome {
                 checks: 0,
                 failed: 0,
