@@ -24,7 +24,7 @@ use super::runner::{Row, render_seed};
 use super::{FileSink, TableReport, export, reference};
 use crate::error::{Error, InputError};
 use crate::experiment::merge::{self as shards, SHARD_FILE, ShardFolder};
-use crate::experiment::unit_log::{Identity, SHARD_UNITS, Shard};
+use crate::experiment::unit_log::{self, Identity, SHARD_UNITS, Shard};
 use crate::files::read::FileKind;
 use crate::files::result_folder::{MANIFEST, ResultFolder};
 use crate::provenance::Build;
@@ -181,7 +181,7 @@ pub struct Rounds {
     identity: Identity,
     /// The run's rounds, in order.
     mine: Vec<usize>,
-    log: std::fs::File,
+    log: unit_log::LogWriter,
     log_path: PathBuf,
     /// The rows of the rounds done before (`variants` per round).
     done_rows: Vec<String>,
@@ -246,7 +246,6 @@ impl Rounds {
                 reference,
             },
             log: self.log,
-            path: self.log_path.clone(),
             kept: &kept,
             next: 0,
             first_new,
@@ -337,84 +336,42 @@ fn repetition(plan: &TablePlan, u: usize) -> usize {
     rep
 }
 
-/// Opens the rounds' log at `path`. Fresh (no `resume`, or no log): writes its identity and
-/// column lines. Resuming: checks that it is this shard's, reads the rows of its complete rounds
-/// (each checked as the merge checks it), cuts off a half-written last round, and returns them.
+/// Opens the rounds' log at `path` ([`unit_log::open_lines`], as an experiment's or an
+/// irradiance protocol's): fresh (no `resume`, or no log) it gets its identity and column
+/// lines; resuming, it must be this run's, the rows of its complete rounds are checked as the
+/// merge checks them and returned, and a half-written last round is cut off.
 fn open_log(
     plan: &TablePlan,
     path: &Path,
     identity: &Identity,
     mine: &[usize],
     resume: bool,
-) -> crate::Result<(std::fs::File, Vec<String>)> {
-    use std::io::Write;
-    let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
-    if !(resume && path.exists()) {
-        let mut file = std::fs::File::create(path).map_err(|e| io("creating", e))?;
-        writeln!(file, "{}\n{}", identity.header(), columns(plan)).map_err(|e| io("writing", e))?;
-        return Ok((file, Vec::new()));
-    }
-    let refuse = |m: String| -> Error {
-        InputError::new(format!(
-            "--resume: {}: {m}; run without --resume to start over",
-            path.display()
-        ))
-        .into()
-    };
-    let text =
-        crate::files::read::read_text(path, FileKind::UnitLog).map_err(|e| InputError::new(e.to_string()))?;
-    let mut lines = text.split_inclusive('\n');
-    let first = lines.next().unwrap_or_default();
-    match Identity::from_header(first) {
-        Some(found) if found == *identity => {}
-        Some(_) => {
-            return Err(refuse(
-                "was written for another run (another table, seed, build or shard)".into(),
-            ));
-        }
-        None => return Err(refuse("is not a workbench unit log".into())),
-    }
-    let second = lines.next().unwrap_or_default();
-    if second.trim_end() != columns(plan) {
-        return Err(refuse("its column line is not this table's".into()));
-    }
-    let mut kept = (first.len() + second.len()) as u64;
-    let nv = plan.variants.len();
+) -> crate::Result<(unit_log::LogWriter, Vec<String>)> {
     let mut rows = Vec::new();
-    let mut pending = Vec::new();
-    let mut pending_bytes = 0;
-    for line in lines {
-        if !line.ends_with('\n') {
-            break;
-        }
-        let k = rows.len() / nv;
-        let Some(&u) = mine.get(k) else {
-            return Err(refuse("holds more rounds than the shard has".into()));
-        };
-        parse_row(plan, u, pending.len(), line.trim_end())
-            .map_err(|m| refuse(format!("line {}: the row {m}", 3 + rows.len() + pending.len())))?;
-        pending.push(line.trim_end().to_string());
-        pending_bytes += line.len();
-        if pending.len() == nv {
-            rows.append(&mut pending);
-            kept += pending_bytes as u64;
-            pending_bytes = 0;
-        }
-    }
-    let file = std::fs::OpenOptions::new()
-        .append(true)
-        .open(path)
-        .map_err(|e| io("opening", e))?;
-    file.set_len(kept).map_err(|e| io("truncating", e))?;
-    Ok((file, rows))
+    let nv = plan.variants.len();
+    let (log, _) = unit_log::open_lines(
+        path,
+        identity,
+        &columns(plan),
+        mine,
+        nv,
+        resume,
+        &mut |u, lines| {
+            for (v, line) in lines.iter().enumerate() {
+                parse_row(plan, u, v, line).map_err(|m| format!("variant {}: the row {m}", v + 1))?;
+                rows.push(line.to_string());
+            }
+            Ok(())
+        },
+    )?;
+    Ok((log, rows))
 }
 
 /// Saves each cell's first render (through the table's own sink) and appends every new round's
 /// rows to the rounds' log as it finishes.
 struct LogSink<'a, 'b> {
     inner: FileSink<'a>,
-    log: std::fs::File,
-    path: PathBuf,
+    log: unit_log::LogWriter,
     /// The units rendered, in order: the `next`-th round to finish is `kept[next]`.
     kept: &'b [usize],
     next: usize,
@@ -425,15 +382,12 @@ struct LogSink<'a, 'b> {
 
 impl LogSink<'_, '_> {
     fn append(&mut self, csv: &[u8], seconds: impl Iterator<Item = f64>) -> crate::Result<()> {
-        use std::io::Write;
         let u = self.kept[self.next];
         self.next += 1;
         if u < self.first_new {
             return Ok(());
         }
-        self.log
-            .write_all(log_rows(csv, seconds).as_bytes())
-            .map_err(|e| Error::io(format!("appending to {}", self.path.display()), e))
+        self.log.append(&log_rows(csv, seconds))
     }
 }
 
