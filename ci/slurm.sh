@@ -13,73 +13,138 @@
 #
 # Usage: ci/slurm.sh [path/to/workbench]  (default: target/release/workbench, built by
 # `cargo test --release`).
-set -euo pipefail
+#
+# Any failure ends with exit 1 and, as the last line on stderr, `ci/slurm.sh: error: <reason>`
+# naming what failed (package install, munged, slurmctld, slurmd, the node not idle in time, a
+# command of this script, a job's result); the daemons' logs come before it.
+# For ci/slurm-test.sh (the start-up failures, without root or Slurm installed):
+#   CI_SLURM_BIN=DIR          take munged, mungekey, slurmctld, slurmd, sinfo, sbatch, squeue
+#                             and scancel from DIR (no root needed);
+#   CI_SLURM_INSTALL=COMMAND  how to install missing programs [default: apt-get update and
+#                             install slurm-wlm and munge];
+#   CI_SLURM_IDLE_TIMEOUT=S   how long the node may take to become idle [default: 60].
+set -Eeuo pipefail
 cd "$(dirname "$0")/.."
 repo=$(pwd)
 bin=$(realpath "${1:-target/release/workbench}")
 guide="$repo/docs/guide/merge-and-clusters.md"
 started=$SECONDS
+idle_timeout=${CI_SLURM_IDLE_TIMEOUT:-60}
+fake_bin=${CI_SLURM_BIN:-}
 
+reason=""
 fail() {
-  echo "ci/slurm.sh: error: $*" >&2
+  reason="$*"
   exit 1
 }
-[ "$(id -u)" = 0 ] || fail "must run as root (it installs slurm-wlm and munge and starts their daemons)"
-[ -x "$bin" ] || fail "$bin is not an executable workbench; build it first (cargo test --release)"
+# A command of this script that fails (with set -e) fails with its line and text.
+trap 'fail "line $LINENO: \`$BASH_COMMAND\` failed (exit $?)"' ERR
 
-if ! command -v slurmctld > /dev/null || ! command -v munged > /dev/null; then
-  export DEBIAN_FRONTEND=noninteractive
-  { apt-get update -qq && apt-get install -y -qq slurm-wlm munge > /dev/null; } ||
-    fail "could not install slurm-wlm and munge with apt-get"
-fi
-
-tmp=$(mktemp -d /tmp/workbench-slurm.XXXXXX)
+tmp=""
 pids=()
+names=()
 stop() {
   local code=$?
+  trap - ERR
+  set +e
   # Only what this script started: its jobs (on its own cluster) and its daemons, by pid.
-  if [ -n "${SLURM_CONF:-}" ] && [ -f "${SLURM_CONF:-}" ]; then
-    scancel --user root 2> /dev/null || true
+  if [ -n "${SLURM_CONF:-}" ] && [ -f "${SLURM_CONF:-}" ] && command -v scancel > /dev/null; then
+    scancel --user "$(id -un)" 2> /dev/null
   fi
   for pid in "${pids[@]}"; do
-    kill "$pid" 2> /dev/null || true
+    kill "$pid" 2> /dev/null
   done
   for pid in "${pids[@]}"; do
     for _ in $(seq 50); do
       kill -0 "$pid" 2> /dev/null || break
       sleep 0.1
     done
-    kill -9 "$pid" 2> /dev/null || true
+    kill -9 "$pid" 2> /dev/null
+    wait "$pid" 2> /dev/null
   done
-  if [ "$code" != 0 ]; then
-    for log in "$tmp"/log/*.log; do
-      [ -f "$log" ] && { echo "--- $log (last lines)" >&2; tail -n 20 "$log" >&2; }
+  if [ "$code" != 0 ] && [ -n "$tmp" ]; then
+    for log in "$tmp"/log/*; do
+      [ -s "$log" ] && { echo "--- $log (last lines)" >&2; tail -n 20 "$log" >&2; }
     done
   fi
-  rm -rf "$tmp"
+  [ -n "$tmp" ] && rm -rf "$tmp"
+  if [ "$code" != 0 ]; then
+    echo "ci/slurm.sh: error: ${reason:-exited with status $code}" >&2
+  fi
   exit "$code"
 }
-trap stop EXIT INT TERM
+trap stop EXIT
+trap 'reason="interrupted"; exit 1' INT TERM
 
+programs=(munged slurmctld slurmd sinfo sbatch squeue scancel)
+have() {
+  if [ -n "$fake_bin" ]; then [ -x "$fake_bin/$1" ]; else command -v "$1" > /dev/null; fi
+}
+missing() {
+  local p out=()
+  for p in "${programs[@]}"; do have "$p" || out+=("$p"); done
+  echo "${out[*]}"
+}
+if [ -n "$fake_bin" ]; then
+  export PATH="$fake_bin:$PATH"
+else
+  [ "$(id -u)" = 0 ] || fail "must run as root (it installs slurm-wlm and munge and starts their daemons)"
+fi
+[ -x "$bin" ] || fail "$bin is not an executable workbench; build it first (cargo test --release)"
+
+if [ -n "$(missing)" ]; then
+  export DEBIAN_FRONTEND=noninteractive
+  install=${CI_SLURM_INSTALL:-"apt-get update -qq && apt-get install -y -qq slurm-wlm munge > /dev/null"}
+  bash -c "$install" < /dev/null > /dev/null 2>&1 ||
+    fail "package install failed: \`$install\` exited with status $? ($(missing) missing)"
+  [ -z "$(missing)" ] || fail "package install: $(missing) still missing after \`$install\`"
+fi
+
+tmp=$(mktemp -d /tmp/workbench-slurm.XXXXXX)
 mkdir -p "$tmp"/{munge,state,spool,log,bin,work,one}
 chmod 700 "$tmp/munge"
+
+# Starts a daemon in the background, its output in $tmp/log/<name>.out.
+start() {
+  local name=$1
+  shift
+  "$@" > "$tmp/log/$name.out" 2>&1 &
+  pids+=($!)
+  names+=("$name")
+}
+# Fails naming the first daemon that is no longer running, with its exit status and last line.
+check_alive() {
+  local i status last
+  for i in "${!pids[@]}"; do
+    if ! kill -0 "${pids[$i]}" 2> /dev/null; then
+      status=0
+      wait "${pids[$i]}" || status=$?
+      last=$(tail -n 1 "$tmp/log/${names[$i]}.out" 2> /dev/null || true)
+      fail "${names[$i]} did not start: it exited with status $status (${last:-no output}) $1"
+    fi
+  done
+}
 
 # munge: a fresh key, the daemon on a socket of its own.
 mungekey --create --keyfile "$tmp/munge/munge.key" 2> "$tmp/log/mungekey.log" ||
   dd if=/dev/urandom of="$tmp/munge/munge.key" bs=1024 count=1 status=none
 chmod 600 "$tmp/munge/munge.key"
 socket="$tmp/munge/munge.socket"
-munged --foreground --force --key-file="$tmp/munge/munge.key" --socket="$socket" \
+start munged munged --foreground --force --key-file="$tmp/munge/munge.key" --socket="$socket" \
   --pid-file="$tmp/munge/munged.pid" --seed-file="$tmp/munge/seed" \
-  --log-file="$tmp/log/munged.log" > /dev/null 2>&1 &
-pids+=($!)
-for _ in $(seq 50); do [ -S "$socket" ] && break; sleep 0.1; done
-[ -S "$socket" ] || fail "munged did not start (see $tmp/log/munged.log above)"
+  --log-file="$tmp/log/munged.log"
+for _ in $(seq 50); do
+  [ -S "$socket" ] && break
+  check_alive "before creating its socket"
+  sleep 0.1
+done
+[ -S "$socket" ] || fail "munged did not start: no socket $socket after 5 s"
 
 # slurm.conf: this host as the one node (its name, CPUs and memory as slurmd sees them), the
 # plugins that need neither systemd nor cgroups, every state file under $tmp.
-node=$(slurmd -C | head -n 1 | sed 's/ UpTime=.*//')
-[[ $node == NodeName=* ]] || fail "slurmd -C did not describe this host: $node"
+node=$(slurmd -C 2> "$tmp/log/slurmd-C.log" | head -n 1 | sed 's/ UpTime=.*//') ||
+  fail "slurmd: \`slurmd -C\` failed: $(tail -n 1 "$tmp/log/slurmd-C.log")"
+[[ $node == NodeName=* ]] || fail "slurmd: \`slurmd -C\` did not describe this host: ${node:-no output}"
 host=$(echo "$node" | sed 's/^NodeName=\([^ ]*\).*/\1/')
 export SLURM_CONF="$tmp/slurm.conf"
 cat > "$SLURM_CONF" << EOF
@@ -112,17 +177,19 @@ SlurmdTimeout=30
 $node NodeAddr=127.0.0.1 State=UNKNOWN
 PartitionName=ci Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF
-slurmctld -D -f "$SLURM_CONF" > "$tmp/log/slurmctld.out" 2>&1 &
-pids+=($!)
-slurmd -D -f "$SLURM_CONF" > "$tmp/log/slurmd.out" 2>&1 &
-pids+=($!)
+start slurmctld slurmctld -D -f "$SLURM_CONF"
+start slurmd slurmd -D -f "$SLURM_CONF"
 state=""
-for _ in $(seq 120); do
+deadline=$((SECONDS + idle_timeout))
+while :; do
+  check_alive "before the node was up"
   state=$(sinfo -h -o %t 2> /dev/null || true)
   [ "$state" = idle ] && break
+  [ "$SECONDS" -ge "$deadline" ] && break
   sleep 0.5
 done
-[ "$state" = idle ] || fail "the node did not become idle within 60 s (sinfo says ${state:-nothing}; slurmctld and slurmd logs above)"
+[ "$state" = idle ] ||
+  fail "node not idle within $idle_timeout s (sinfo says ${state:-nothing}; slurmctld and slurmd logs above)"
 echo "ci/slurm.sh: one-node Slurm up on $host after $((SECONDS - started)) s"
 
 # The workbench the jobs run: the build under test, first on PATH (sbatch passes the

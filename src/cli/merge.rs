@@ -13,7 +13,9 @@ use workbench::experiment as ex;
     workbench merge results/cos3 shards/1 shards/2\n  \
     workbench render experiments/render-table.json --shard 1/2 --out shards/t1\n  \
     workbench render experiments/render-table.json --shard 2/2 --out shards/t2\n  \
-    workbench merge results/render-table shards/t1 shards/t2\n\n\
+    workbench merge results/render-table shards/t1 shards/t2\n  \
+    workbench run experiments/irradiance-pisa.json --shard 1/2 --out shards/i1   (and 2/2 into shards/i2)\n  \
+    workbench merge results/irradiance-pisa shards/i1 shards/i2\n\n\
     The merged files are byte for byte those of one run of the whole file (the timings* files and \
     *-cost.svg aside). A render table's shards merge into the table's folder: OUT's parent is the \
     results folder whose cache/ its manifest names, as --results-dir is for one run.\n\n\
@@ -32,7 +34,19 @@ pub struct MergeArgs {
 }
 
 pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
-    if ex::merge::check_kinds(&args.dirs)? == workbench::render::table::shard::KIND {
+    let kind = ex::merge::check_kinds(&args.dirs)?;
+    if kind == workbench::irradiance::shard::KIND {
+        let (plan, report) =
+            workbench::irradiance::shard::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
+        stdout(&workbench::irradiance::export::summary(&plan, &report.rows))?;
+        status!(
+            "merged the irradiance protocol's shards into {} ({:.2} s)",
+            report.out_dir.display(),
+            report.wall_seconds
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    if kind == workbench::render::table::shard::KIND {
         let report = workbench::render::table::shard::merge(&args.out, &args.dirs)?;
         stdout(&report.table_md)?;
         stdout(&format!("\n{}", report.times_md))?;

@@ -28,7 +28,8 @@ use workbench::util::report::Reporter;
     workbench render --integrator mc --spp 3000 --out ref-mc.exr\n  \
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr\n  \
     workbench render --integrator bmc --spp 40 --reference ref.exr --out bmc.exr --sd-out bmc-sd.exr\n  \
-    workbench render experiments/render-table.json\n\n\
+    workbench render experiments/render-table.json\n  \
+    workbench render experiments/render-table.json --resume             (after an interrupted table)\n\n\
     Render-table fields are documented in docs/guide/render.md (\"Tables\"); the scene in docs/render-scene.md.\n\n\
     Exit codes: 0 success; 2 any error (bad input, I/O).")]
 pub struct RenderArgs {
@@ -132,9 +133,9 @@ pub struct RenderArgs {
     /// at one spp or target and repetition), into a shard folder for `workbench merge`.
     #[arg(long, value_name = "i/n", requires = "spec")]
     pub shard: Option<String>,
-    /// Tables with --shard: continue a killed shard from the rounds its folder's
-    /// rounds.partial.csv holds.
-    #[arg(long, requires = "shard")]
+    /// Tables only: continue an interrupted table (or, with --shard, shard) from the rounds its
+    /// folder's rounds.partial.csv holds; the same files as an uninterrupted run.
+    #[arg(long, requires = "spec")]
     pub resume: bool,
     /// No progress bar.
     #[arg(long, short)]
@@ -282,7 +283,8 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    let report = pool.install(|| workbench::render::table::run(&plan, &results, &Bar::new(args.quiet)))?;
+    let report =
+        pool.install(|| workbench::render::table::run(&plan, &results, args.resume, &Bar::new(args.quiet)))?;
     stdout(&report.table_md)?;
     stdout(&format!("\n{}", report.times_md))?;
     status!("render: table → {}", report.out_dir.display());

@@ -525,8 +525,14 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
             })
         }
         Job::Irradiance(plan) => {
-            let report =
-                workbench::irradiance::run(plan, &item.out, Some(&item.file), threads, &Bar::new(quiet))?;
+            let report = workbench::irradiance::run(
+                plan,
+                &item.out,
+                Some(&item.file),
+                threads,
+                false,
+                &Bar::new(quiet),
+            )?;
             if !quiet {
                 stdout(&workbench::irradiance::export::summary(plan, &report.rows))?;
             }
@@ -541,7 +547,7 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
                 status!("warning: {w}");
             }
             let pool = workbench::util::threads::pool(threads)?;
-            pool.install(|| table::run(plan, results, &Bar::new(quiet)))?;
+            pool.install(|| table::run(plan, results, false, &Bar::new(quiet)))?;
             Ok(Outcome {
                 checks: 0,
                 failed: 0,

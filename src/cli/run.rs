@@ -28,11 +28,13 @@ pub struct RunArgs {
     /// Worker threads, 1 to 256 [default: one per core]. Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
-    /// Run only shard i of n (1 <= i <= n) of the (N, trial) units, into a shard folder for
-    /// `workbench merge` [default --out: results/<name>-shard-<i>-of-<n>/].
+    /// Run only shard i of n (1 <= i <= n) of the units — (N, trial) pairs; for an irradiance
+    /// file, rows of the grid of normals — into a shard folder for `workbench merge`
+    /// [default --out: results/<name>-shard-<i>-of-<n>/].
     #[arg(long, value_name = "i/n")]
     shard: Option<String>,
-    /// Continue an interrupted run from the units its folder's trials.partial.csv holds.
+    /// Continue an interrupted run (or shard) from the units its folder's log holds
+    /// (trials.partial.csv; irradiance.partial.csv for an irradiance file).
     #[arg(long)]
     resume: bool,
     /// No progress bar.
@@ -130,28 +132,71 @@ pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// `workbench run` of an irradiance protocol file (`"kind": "irradiance"`): into `--out` or
-/// `results/<name>/`; `--trials`, `--shard` and `--resume` do not apply.
+/// `results/<name>/`, or with `--shard i/n` into a shard folder; `--resume` continues from the
+/// log an interrupted run (or shard) left; `--trials` does not apply.
 fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
-    for (given, flag) in [
-        (args.trials.is_some(), "--trials"),
-        (args.shard.is_some(), "--shard"),
-        (args.resume, "--resume"),
-    ] {
-        if given {
-            return Err(workbench::InputError::new(format!(
-                "{flag}: does not apply to an irradiance protocol file ({})",
-                args.file.display()
-            ))
-            .into());
-        }
+    if args.trials.is_some() {
+        return Err(workbench::InputError::new(format!(
+            "--trials: does not apply to an irradiance protocol file ({})",
+            args.file.display()
+        ))
+        .into());
     }
+    let shard = args
+        .shard
+        .as_deref()
+        .map(ex::unit_log::Shard::parse)
+        .transpose()
+        .map_err(|m| workbench::InputError::new(format!("--shard: {m}")))?;
     let plan = workbench::irradiance::load(&args.file)?;
+    if let Some(shard) = shard {
+        let out = args.out.clone().unwrap_or_else(|| {
+            workbench::irradiance::shard::default_out(std::path::Path::new("results"), &plan, shard)
+        });
+        let report = workbench::irradiance::shard::run_shard(
+            &plan,
+            &args.file,
+            shard,
+            &out,
+            args.threads,
+            args.resume,
+            &Bar::new(args.quiet),
+        )?;
+        if report.resumed > 0 {
+            status!(
+                "resumed: {} of {} units were done already",
+                report.resumed,
+                report.units
+            );
+        }
+        status!(
+            "wrote shard {shard} to {} ({:.2} s on {} thread{}); merge the shards with `workbench merge OUT DIR…`",
+            report.out_dir.display(),
+            report.wall_seconds,
+            report.threads,
+            if report.threads == 1 { "" } else { "s" }
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&plan.name));
-    let report =
-        workbench::irradiance::run(&plan, &out, Some(&args.file), args.threads, &Bar::new(args.quiet))?;
+    let report = workbench::irradiance::run(
+        &plan,
+        &out,
+        Some(&args.file),
+        args.threads,
+        args.resume,
+        &Bar::new(args.quiet),
+    )?;
+    if report.resumed > 0 {
+        status!(
+            "resumed: {} of {} units were done already",
+            report.resumed,
+            plan.height
+        );
+    }
     stdout(&workbench::irradiance::export::summary(&plan, &report.rows))?;
     status!(
         "wrote {} ({:.2} s on {} thread{})",

@@ -106,12 +106,10 @@ pub fn check_kinds(dirs: &[PathBuf]) -> Result<String, InputError> {
         if let (Some(a), Some(b)) = (&kinds[first], k)
             && a != b
         {
-            let a_n = |k: &str| {
-                if k == EXPERIMENT {
-                    "an experiment"
-                } else {
-                    "a render table"
-                }
+            let a_n = |k: &str| match k {
+                EXPERIMENT => "an experiment",
+                "irradiance" => "an irradiance protocol",
+                _ => "a render table",
             };
             return Err(InputError::new(format!(
                 "merge: {} is a shard of {} and {} a shard of {}; merge the shards of one run",
@@ -228,7 +226,11 @@ pub fn check_set(mut shards: Vec<ShardFolder>) -> Result<Vec<ShardFolder>, Input
         }
         if a.plan_hash != b.plan_hash {
             return Err(differ(
-                "experiment plans",
+                if first.kind == EXPERIMENT {
+                    "experiment plans"
+                } else {
+                    "plans"
+                },
                 a.plan_hash.clone(),
                 b.plan_hash.clone(),
             ));

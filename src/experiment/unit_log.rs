@@ -287,6 +287,111 @@ pub fn open(
     ))
 }
 
+/// What [`open_lines`] hands each complete unit's lines to: `(unit, lines)`, an error naming
+/// what is wrong with a row.
+pub type UnitLines<'a> = dyn FnMut(usize, &[&str]) -> std::result::Result<(), String> + 'a;
+
+/// [`open`] for any kind of job whose log rows are lines checked by the job: the log at `path`
+/// of a run of `identity`'s units `units` (in order), `per_unit` lines each, under the column
+/// line `columns`. Fresh (`resume` false, or no log there): writes the two header lines.
+/// Resuming: checks the identity and the column line, hands each complete unit's lines (without
+/// their newlines) to `each(unit, lines)` — whose error, naming what is wrong with a row, refuses
+/// the log —, cuts off a half-written last unit, and returns how many units are done.
+pub fn open_lines(
+    path: &Path,
+    identity: &Identity,
+    columns: &str,
+    units: &[usize],
+    per_unit: usize,
+    resume: bool,
+    each: &mut UnitLines<'_>,
+) -> Result<(LogWriter, usize)> {
+    let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
+    if !(resume && path.exists()) {
+        let mut file = File::create(path).map_err(|e| io("creating", e))?;
+        writeln!(file, "{}\n{columns}", identity.header()).map_err(|e| io("writing", e))?;
+        return Ok((
+            LogWriter {
+                file,
+                path: path.to_path_buf(),
+            },
+            0,
+        ));
+    }
+    let refuse = |problem: String| -> Error {
+        InputError::new(format!(
+            "--resume: {}: {problem}; run without --resume to start over",
+            path.display()
+        ))
+        .into()
+    };
+    let mut reader = BufReader::with_capacity(1 << 16, bounded_open(path)?);
+    let mut line = String::new();
+    reader.read_line(&mut line).map_err(|e| io("reading", e))?;
+    let found = Identity::from_header(&line).ok_or_else(|| refuse("is not a workbench unit log".into()))?;
+    if found != *identity {
+        return Err(refuse(format!(
+            "was written for another run ({}; this run is {})",
+            describe(&found),
+            describe(identity)
+        )));
+    }
+    let mut kept = line.len() as u64;
+    line.clear();
+    reader.read_line(&mut line).map_err(|e| io("reading", e))?;
+    if line.trim_end() != columns {
+        return Err(refuse("its column line is not this version's".into()));
+    }
+    kept += line.len() as u64;
+    let mut done = 0;
+    let mut pending: Vec<String> = Vec::with_capacity(per_unit);
+    let mut pending_bytes = 0u64;
+    loop {
+        line.clear();
+        let read = reader.read_line(&mut line).map_err(|e| io("reading", e))?;
+        if read == 0 || !line.ends_with('\n') {
+            break; // the end, or a half-written last row
+        }
+        let Some(&u) = units.get(done) else {
+            return Err(refuse(format!(
+                "line {}: more rows than the run has units",
+                3 + done * per_unit + pending.len()
+            )));
+        };
+        pending.push(line.trim_end_matches(['\n', '\r']).to_string());
+        pending_bytes += read as u64;
+        if pending.len() == per_unit {
+            let lines: Vec<&str> = pending.iter().map(String::as_str).collect();
+            each(u, &lines).map_err(|m| {
+                refuse(format!(
+                    "unit {u} (lines {} to {}): {m}",
+                    3 + done * per_unit,
+                    2 + (done + 1) * per_unit
+                ))
+            })?;
+            pending.clear();
+            kept += pending_bytes;
+            pending_bytes = 0;
+            done += 1;
+        }
+    }
+    drop(reader);
+    let mut file = OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map_err(|e| io("opening", e))?;
+    file.set_len(kept).map_err(|e| io("truncating", e))?;
+    file.seek(std::io::SeekFrom::End(0))
+        .map_err(|e| io("seeking in", e))?;
+    Ok((
+        LogWriter {
+            file,
+            path: path.to_path_buf(),
+        },
+        done,
+    ))
+}
+
 fn describe(id: &Identity) -> String {
     format!(
         "plan {}, seed {}, {} trials, workbench {}, shard {}",
@@ -313,6 +418,23 @@ impl LogSet {
         plan: &Plan,
         f: &mut dyn FnMut(usize, usize, usize, &str) -> Result<()>,
     ) -> Result<()> {
+        let ne = plan.estimators.len();
+        self.for_each_line(
+            plan.samples.len() * plan.trials,
+            rows_per_unit(plan),
+            &mut |u, k, line| f(u, k / ne, k % ne, line),
+        )
+    }
+
+    /// Calls `f(unit, row, line)` for every row of every unit in unit order (`units` units of
+    /// `per_unit` rows, unit `u` in the log of shard `u mod n + 1`), the line without its
+    /// newline. Fails if a log ends early or runs on.
+    pub fn for_each_line(
+        &self,
+        units: usize,
+        per_unit: usize,
+        f: &mut dyn FnMut(usize, usize, &str) -> Result<()>,
+    ) -> Result<()> {
         let count = self.paths.len();
         let mut readers = Vec::with_capacity(count);
         for path in &self.paths {
@@ -331,9 +453,8 @@ impl LogSet {
             ))
             .into()
         };
-        let per_unit = rows_per_unit(plan);
         let mut line = String::new();
-        for u in 0..plan.samples.len() * plan.trials {
+        for u in 0..units {
             let s = u % count;
             for k in 0..per_unit {
                 line.clear();
@@ -343,12 +464,7 @@ impl LogSet {
                 if read == 0 || !line.ends_with('\n') {
                     return Err(incomplete(&self.paths[s], "ends before its last unit"));
                 }
-                f(
-                    u,
-                    k / plan.estimators.len(),
-                    k % plan.estimators.len(),
-                    line.trim_end_matches(['\n', '\r']),
-                )?;
+                f(u, k, line.trim_end_matches(['\n', '\r']))?;
             }
         }
         for (r, path) in readers.iter_mut().zip(&self.paths) {

@@ -35,7 +35,12 @@ pub const TIMINGS: &str = "timings.json";
 /// Files a command may write into its result folder while it runs (outside the staging folder),
 /// so that an interrupted command keeps what it measured. They are never part of a finished
 /// set: the next successful run replaces the folder, and them with it.
-pub const PARTIAL_FILES: &[&str] = &["rmse.partial.csv", "trials.partial.csv", "rounds.partial.csv"];
+pub const PARTIAL_FILES: &[&str] = &[
+    "rmse.partial.csv",
+    "trials.partial.csv",
+    "rounds.partial.csv",
+    "irradiance.partial.csv",
+];
 
 /// Reads a manifest of the caller's kind for the names it accounts for beyond its `files`, or
 /// `None` if it is not one: every file of its run, for manifests written before they listed

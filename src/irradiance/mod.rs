@@ -12,12 +12,14 @@
 
 pub mod export;
 pub mod plot;
+pub mod shard;
 
 use crate::bq::model::{BmcModel, KernelSpec, ModelSpec};
 use crate::error::InputError;
 use crate::integrand::envmap::load_map;
 use crate::render::env::{Environment, Lookup};
 use crate::render::integrator::{Integrator, IntegratorKind, ShadingPoint, check_spp};
+use crate::render::scene::Scene;
 use crate::render::texel;
 use crate::util::geometry::{Frame, Vec3};
 use crate::util::report::Reporter;
@@ -328,30 +330,21 @@ impl IrradiancePlan {
         }
     }
 
-    /// `E(n)` for every normal by the texel sum, in parallel (in the caller's pool).
-    pub fn exact(&self, reporter: &dyn Reporter) -> Exact {
-        let tol = self.exact_tolerance();
-        let count = self.width * self.height;
-        reporter.start("normals (exact)", count as u64);
-        let q: Vec<_> = (0..count)
-            .into_par_iter()
-            .map(|k| {
-                let n = self.point(k).frame.n;
-                let q = texel::irradiance(n, &self.env, self.map(), tol);
-                reporter.advance(1);
-                q
-            })
-            .collect();
-        reporter.finish();
-        Exact {
-            max_error: q.iter().map(|q| q.error).fold(0.0, f64::max),
-            values: q.into_iter().map(|q| q.value).collect(),
-        }
+    /// The number of normals, `W·H`; normal `k` is grid cell `(k mod W, ⌊k / W⌋)`.
+    pub fn normals(&self) -> usize {
+        self.width * self.height
     }
 
-    /// Every estimator at every N against `exact`: rows in (N, estimator) order.
-    pub fn estimate(&self, exact: &Exact, reporter: &dyn Reporter) -> crate::Result<Vec<Row>> {
-        let scene = texel::unoccluded();
+    /// The content of the map (its size and a hash of its texels, [`Environment::key`]): what a
+    /// shard's identity adds to [`plan_hash`], so that shards of another map under the same
+    /// name are never merged.
+    pub fn map_key(&self) -> String {
+        self.env.key()
+    }
+
+    /// One rule per (N, estimator), in (N, estimator) order: one set drawn from the seed and N
+    /// ([`Integrator::build`] with one set), rotated per normal when used.
+    pub fn rules(&self) -> crate::Result<Vec<Integrator>> {
         let default_model = ModelSpec::default()
             .resolve()
             .expect("the default model resolves")
@@ -363,42 +356,131 @@ impl IrradiancePlan {
         .resolve()
         .expect("the default fitted model resolves")
         .build();
-        let count = self.width * self.height;
-        reporter.start("estimator × N", (self.n.len() * self.estimators.len()) as u64);
-        let mut rows = Vec::new();
+        let mut rules = Vec::with_capacity(self.n.len() * self.estimators.len());
         for &n in &self.n {
-            for (e, est) in self.estimators.iter().enumerate() {
-                reporter.working_on(&format!("{} at N = {n}", est.name));
+            for est in &self.estimators {
                 let model: &BmcModel = if est.fitted { &fitted_model } else { &default_model };
-                // One rule per N: one set (drawn from the seed and N), rotated per normal.
                 let set_seed = splitmix64(splitmix64(self.seed) ^ n as u64);
-                let integrator = Integrator::build(est.kind, n, 1, true, Some(model), set_seed)?;
-                let estimates: Vec<[f64; 3]> = (0..count)
-                    .into_par_iter()
-                    .map(|k| {
-                        let mut rng = stream(self.seed, &[n as u64, k as u64]);
-                        integrator.estimate(&self.point(k), &scene, &self.env, &mut rng, [0.0; 3])
-                    })
-                    .collect();
-                let mut sq = [0.0f64; 3];
-                for (got, want) in estimates.iter().zip(&exact.values) {
-                    for c in 0..3 {
-                        let d = got[c] - want[c];
-                        sq[c] += d * d;
-                    }
-                }
-                let mse = sq.map(|s| s / count as f64);
-                rows.push(Row {
-                    estimator: e,
-                    n,
-                    rms_channel: mse.map(f64::sqrt),
-                    rms: (mse.iter().sum::<f64>() / 3.0).sqrt(),
-                });
-                reporter.advance(1);
+                rules.push(Integrator::build(est.kind, n, 1, true, Some(model), set_seed)?);
             }
         }
-        reporter.finish();
-        Ok(rows)
+        Ok(rules)
+    }
+
+    /// Normal `k`'s numbers: `E(n)` by the texel sum (to `tolerance`, [`Self::exact_tolerance`])
+    /// and every rule's estimate, MC drawing from the normal's own stream `(seed, N, k)` — so
+    /// they do not depend on which normals are computed together, or in which order.
+    pub fn normal_values(
+        &self,
+        k: usize,
+        rules: &[Integrator],
+        tolerance: f64,
+        scene: &Scene,
+    ) -> NormalValues {
+        let point = self.point(k);
+        let q = texel::irradiance(point.frame.n, &self.env, self.map(), tolerance);
+        let ne = self.estimators.len();
+        let estimates = rules
+            .iter()
+            .enumerate()
+            .map(|(r, rule)| {
+                let n = self.n[r / ne];
+                let mut rng = stream(self.seed, &[n as u64, k as u64]);
+                rule.estimate(&point, scene, &self.env, &mut rng, [0.0; 3])
+            })
+            .collect();
+        NormalValues {
+            exact: q.value,
+            error: q.error,
+            estimates,
+        }
+    }
+
+    /// The values of the normals `normals`, in parallel (in the caller's pool), in order.
+    pub fn values(
+        &self,
+        normals: &[usize],
+        rules: &[Integrator],
+        tolerance: f64,
+        reporter: &dyn Reporter,
+    ) -> Vec<NormalValues> {
+        let scene = texel::unoccluded();
+        normals
+            .par_iter()
+            .map(|&k| {
+                let v = self.normal_values(k, rules, tolerance, &scene);
+                reporter.advance(1);
+                v
+            })
+            .collect()
+    }
+}
+
+/// One normal's numbers: the exact irradiance, its error estimate, and every (N, estimator)'s
+/// estimate in (N, estimator) order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalValues {
+    pub exact: [f64; 3],
+    pub error: f64,
+    pub estimates: Vec<[f64; 3]>,
+}
+
+/// The results, from every normal's values taken in grid order (`k = 0, 1, …`): the sums of
+/// squared errors are added in that order whether the normals come from one run, a resumed
+/// run's log or the shards' logs, so the RMS are the same bytes.
+pub struct Totals {
+    values: Vec<[f64; 3]>,
+    max_error: f64,
+    sq: Vec<[f64; 3]>,
+}
+
+impl Totals {
+    pub fn new(plan: &IrradiancePlan) -> Totals {
+        Totals {
+            values: Vec::with_capacity(plan.normals()),
+            max_error: 0.0,
+            sq: vec![[0.0; 3]; plan.n.len() * plan.estimators.len()],
+        }
+    }
+
+    /// Adds the next normal.
+    pub fn push(&mut self, v: &NormalValues) {
+        self.values.push(v.exact);
+        self.max_error = self.max_error.max(v.error);
+        for (sq, got) in self.sq.iter_mut().zip(&v.estimates) {
+            for c in 0..3 {
+                let d = got[c] - v.exact[c];
+                sq[c] += d * d;
+            }
+        }
+    }
+
+    /// The exact irradiance and the rows in (N, estimator) order; every normal must be in.
+    pub fn finish(self, plan: &IrradiancePlan) -> (Exact, Vec<Row>) {
+        assert_eq!(self.values.len(), plan.normals(), "every normal is added");
+        let count = plan.normals() as f64;
+        let ne = plan.estimators.len();
+        let rows = self
+            .sq
+            .iter()
+            .enumerate()
+            .map(|(r, sq)| {
+                let mse = sq.map(|s| s / count);
+                Row {
+                    estimator: r % ne,
+                    n: plan.n[r / ne],
+                    rms_channel: mse.map(f64::sqrt),
+                    rms: (mse.iter().sum::<f64>() / 3.0).sqrt(),
+                }
+            })
+            .collect();
+        (
+            Exact {
+                values: self.values,
+                max_error: self.max_error,
+            },
+            rows,
+        )
     }
 }
 
@@ -425,15 +507,19 @@ pub struct Report {
     pub rows: Vec<Row>,
     pub wall_seconds: f64,
     pub threads: usize,
+    /// Units (rows of the grid) read back from the log of an interrupted run.
+    pub resumed: usize,
 }
 
 /// Runs the protocol and writes `out` ([`export`]); everything that can be refused is refused
-/// before the work.
+/// before the work. The normals' values go to `out/irradiance.partial.csv` as they are computed
+/// ([`shard`]); with `resume`, the units that log holds are read back instead of computed.
 pub fn run(
     plan: &IrradiancePlan,
     out: &Path,
     spec_path: Option<&Path>,
     threads: Option<usize>,
+    resume: bool,
     reporter: &dyn Reporter,
 ) -> crate::Result<Report> {
     use crate::files::result_folder::ResultFolder;
@@ -448,11 +534,19 @@ pub fn run(
     let pool = crate::util::threads::pool(threads)?;
     let threads = pool.current_num_threads();
     let start = std::time::Instant::now();
-    let (exact, rows) = pool.install(|| -> crate::Result<_> {
-        let exact = plan.exact(reporter);
-        let rows = plan.estimate(&exact, reporter)?;
-        Ok((exact, rows))
+    let log = folder.partial_path(shard::PARTIAL_LOG)?;
+    let mut totals = Totals::new(plan);
+    let resumed = pool.install(|| {
+        shard::compute(
+            plan,
+            &shard::identity(plan, crate::experiment::unit_log::Shard::WHOLE),
+            &log,
+            resume,
+            reporter,
+            &mut |v| totals.push(v),
+        )
     })?;
+    let (exact, rows) = totals.finish(plan);
     let wall_seconds = start.elapsed().as_secs_f64();
     export::write(&mut folder, plan, &exact, &rows)?;
     folder.commit(
@@ -464,5 +558,6 @@ pub fn run(
         rows,
         wall_seconds,
         threads,
+        resumed,
     })
 }

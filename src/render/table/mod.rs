@@ -22,9 +22,9 @@
 //! (against mean spp) and per-cell PNGs (`<variant>-sd<T>.png`, `-spp.png`, `-error.png`) of
 //! their own.
 //!
-//! While the table runs, `rmse.partial.csv` in the folder holds the rows of every finished
-//! round, so an interrupted table keeps what it measured; the finished table's folder does not
-//! have it.
+//! While the table runs, `rounds.partial.csv` in the folder holds the rows of every finished
+//! round ([`shard::Rounds`]), so an interrupted table keeps what it measured and `--resume`
+//! continues it; the finished table's folder does not have it.
 
 pub mod adaptive;
 pub mod export;
@@ -68,8 +68,16 @@ pub fn output_dir(results: &Path, plan: &TablePlan) -> PathBuf {
 
 /// Runs the table and writes its outputs under `results/<name>/` (the reference cache under
 /// `results/cache/`). Everything that can be refused is refused before the first render; the
-/// folder changes only when every output is written (apart from `rmse.partial.csv`).
-pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::Result<TableReport> {
+/// folder changes only when every output is written (apart from `rounds.partial.csv`, the log of
+/// every finished round, [`shard::Rounds`]). With `resume`, the rounds an interrupted run's log
+/// holds are kept and only the others rendered (and again each cell's first render, for its
+/// images): the same files, byte for byte, as an uninterrupted run (the `timings*` aside).
+pub fn run(
+    plan: &TablePlan,
+    results: &Path,
+    resume: bool,
+    reporter: &dyn Reporter,
+) -> crate::Result<TableReport> {
     let out = output_dir(results, plan);
     let cache = reference::cache_path(plan, results);
     let mut inputs: Vec<(&str, &Path)> = vec![
@@ -90,6 +98,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         // The reference is written there after it is rendered: fail now, not then.
         crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
     }
+    let rounds = shard::Rounds::open(plan, &folder, crate::experiment::unit_log::Shard::WHOLE, resume)?;
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
 
     let reference = reference::reference(plan, &renderer, results, reporter)?;
@@ -98,43 +107,18 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
         "the reference image, tone-mapped",
         &reference.to_png()?,
     )?;
-
-    if let Some(adaptive_plan) = &plan.adaptive {
-        let rows = adaptive::render(
-            plan,
-            adaptive_plan,
-            &renderer,
-            &reference,
-            &mut folder,
-            reporter,
-            &|_| true,
-        )?;
-        let report = adaptive::write_outputs(plan, adaptive_plan, &mut folder, &rows)?;
-        let manifest: serde_json::Value =
-            serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
-        folder.commit(
-            manifest,
-            serde_json::json!({ "plan_hash": export::plan_hash(plan) }),
-        )?;
-        return Ok(TableReport {
-            out_dir: out,
-            cells: Vec::new(),
-            adaptive_cells: report.cells,
-            table_md: report.table_md,
-            times_md: report.times_md,
-        });
-    }
-    let mut sink = FileSink {
-        plan,
-        folder: &mut folder,
-        reference: &reference,
+    let rendered = rounds.render(plan, &renderer, &reference, &mut folder, reporter)?;
+    let (cells, adaptive_cells, table_md, times_md) = match (&rendered.rows, &plan.adaptive) {
+        (shard::Rows::Fixed(rows), _) => {
+            let (cells, md, times) = write_outputs(plan, &mut folder, &reference, rows)?;
+            (cells, Vec::new(), md, times)
+        }
+        (shard::Rows::Adaptive(rows), Some(a)) => {
+            let report = adaptive::write_outputs(plan, a, &mut folder, rows)?;
+            (Vec::new(), report.cells, report.table_md, report.times_md)
+        }
+        (shard::Rows::Adaptive(_), None) => unreachable!("adaptive rows come from an adaptive plan"),
     };
-    let geometry = renderer.geometry();
-    let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
-    let rows = runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter, &|_| {
-        true
-    })?;
-    let (cells, table_md, times_md) = write_outputs(plan, &mut folder, &reference, &rows)?;
     let manifest: serde_json::Value =
         serde_json::from_slice(&export::manifest(plan, results)).expect("the manifest is JSON");
     folder.commit(
@@ -144,7 +128,7 @@ pub fn run(plan: &TablePlan, results: &Path, reporter: &dyn Reporter) -> crate::
     Ok(TableReport {
         out_dir: out,
         cells,
-        adaptive_cells: Vec::new(),
+        adaptive_cells,
         table_md,
         times_md,
     })

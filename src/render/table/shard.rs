@@ -24,7 +24,7 @@ use super::runner::{Row, render_seed};
 use super::{FileSink, TableReport, export, reference};
 use crate::error::{Error, InputError};
 use crate::experiment::merge::{self as shards, SHARD_FILE, ShardFolder};
-use crate::experiment::unit_log::{Identity, SHARD_UNITS, Shard};
+use crate::experiment::unit_log::{self, Identity, SHARD_UNITS, Shard};
 use crate::files::read::FileKind;
 use crate::files::result_folder::{MANIFEST, ResultFolder};
 use crate::provenance::Build;
@@ -115,16 +115,9 @@ pub fn run_shard(
         crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
     }
     let spec_text = crate::files::spec_json::read_spec(&plan.file)?;
-    // The rounds' log, checked before any work: a resumed shard keeps the rounds it holds
-    // (re-rendering only the repetition-0 ones among them, whose images went with the killed
-    // run's staging folder).
-    let identity = identity(plan, shard);
-    let nv = plan.variants.len();
-    let mine: Vec<usize> = shard.units(units(plan)).collect();
-    let log_path = folder.partial_path(ROUNDS_LOG)?;
-    let (log, done_rows) = open_log(plan, &log_path, &identity, &mine, resume)?;
-    let done = done_rows.len() / nv;
-    let first_new = mine.get(done).copied().unwrap_or(usize::MAX);
+    // The rounds' log, checked before any work.
+    let rounds = Rounds::open(plan, &folder, shard, resume)?;
+    let identity = rounds.identity.clone();
     let start = Instant::now();
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
     let reference = reference::reference(plan, &renderer, results, reporter)?;
@@ -133,62 +126,8 @@ pub fn run_shard(
         "the reference this shard's renders were measured against (for workbench merge)",
         &reference.to_exr()?,
     )?;
-    let keep = |u: usize| u % shard.count == shard.index - 1 && (u >= first_new || repetition(plan, u) == 0);
-    let kept: Vec<usize> = mine.iter().copied().filter(|&u| keep(u)).collect();
-    let mut sink = LogSink {
-        inner: FileSink {
-            plan,
-            folder: &mut folder,
-            reference: &reference,
-        },
-        log,
-        path: log_path.clone(),
-        kept: &kept,
-        next: 0,
-        first_new,
-        nv,
-    };
-    let new_rows = match &plan.adaptive {
-        Some(a) => {
-            let rows =
-                super::adaptive::runner::run(plan, a, &renderer, &reference, &mut sink, reporter, &keep)?;
-            log_rows(
-                &super::adaptive::export::rmse_csv(plan, &rows),
-                rows.iter().map(|r| r.seconds),
-            )
-        }
-        None => {
-            let geometry = renderer.geometry();
-            let edges = crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
-            let rows = super::runner::run(plan, &renderer, &reference, &edges, &mut sink, reporter, &keep)?;
-            log_rows(&export::rmse_csv(plan, &rows), rows.iter().map(|r| r.seconds))
-        }
-    };
-    drop(sink);
-    // Every round of the shard in order: the log's, or the one rendered now.
-    let mut new_lines = new_rows.lines();
-    let mut rows = String::new();
-    let mut renders = 0;
-    for (k, &u) in mine.iter().enumerate() {
-        for v in 0..nv {
-            let line = if keep(u) {
-                new_lines.next().expect("a row per kept render")
-            } else {
-                done_rows[k * nv + v].as_str()
-            };
-            rows.push_str(line);
-            rows.push('\n');
-        }
-        if keep(u) {
-            renders += nv;
-        }
-    }
-    if resume && done > 0 {
-        reporter.note(&format!(
-            "resumed: {done} of {} rounds were done already",
-            mine.len()
-        ));
-    }
+    let rendered = rounds.render(plan, &renderer, &reference, &mut folder, reporter)?;
+    let (rows, renders) = (rendered.lines, rendered.renders);
     folder.write(
         SHARD_UNITS,
         "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds",
@@ -235,6 +174,156 @@ pub fn run_shard(
 /// The log of a shard's finished rounds while it runs (for `--resume`), in its folder.
 pub const ROUNDS_LOG: &str = "rounds.partial.csv";
 
+/// A run's rounds' log (a shard's, or a whole table's), opened and checked before any work: a
+/// resumed run keeps the rounds it holds (re-rendering only the repetition-0 ones among them,
+/// whose images went with the killed run's staging folder).
+pub struct Rounds {
+    identity: Identity,
+    /// The run's rounds, in order.
+    mine: Vec<usize>,
+    log: unit_log::LogWriter,
+    log_path: PathBuf,
+    /// The rows of the rounds done before (`variants` per round).
+    done_rows: Vec<String>,
+}
+
+/// What [`Rounds::render`] produced: every round's rows in round order, as rows and as the
+/// log's lines (`rmse.csv` columns and `seconds`, each with its newline).
+pub struct Rendered {
+    pub rows: Rows,
+    pub lines: String,
+    /// Renders made now.
+    pub renders: usize,
+    /// Rounds read back from the log.
+    pub resumed: usize,
+}
+
+impl Rounds {
+    /// Opens `folder`'s [`ROUNDS_LOG`] for `shard` of the table: fresh, or with `resume` (and a
+    /// log there) checked and read ([`open_log`]).
+    pub fn open(
+        plan: &TablePlan,
+        folder: &ResultFolder,
+        shard: Shard,
+        resume: bool,
+    ) -> crate::Result<Rounds> {
+        let identity = identity(plan, shard);
+        let mine: Vec<usize> = shard.units(units(plan)).collect();
+        let log_path = folder.partial_path(ROUNDS_LOG)?;
+        let (log, done_rows) = open_log(plan, &log_path, &identity, &mine, resume)?;
+        Ok(Rounds {
+            identity,
+            mine,
+            log,
+            log_path,
+            done_rows,
+        })
+    }
+
+    /// Renders the rounds not done (and the done repetition-0 ones, for their images) into
+    /// `folder` through the table's sink, appending each new round's rows to the log as it
+    /// finishes. The rows of rounds rendered now are the renderer's own; those of rounds kept
+    /// from the log are read back from their shortest round-trip decimals — the same numbers.
+    pub fn render(
+        self,
+        plan: &TablePlan,
+        renderer: &Renderer,
+        reference: &Image,
+        folder: &mut ResultFolder,
+        reporter: &dyn Reporter,
+    ) -> crate::Result<Rendered> {
+        let shard = self.identity.shard;
+        let nv = plan.variants.len();
+        let done = self.done_rows.len() / nv;
+        let first_new = self.mine.get(done).copied().unwrap_or(usize::MAX);
+        let keep =
+            |u: usize| u % shard.count == shard.index - 1 && (u >= first_new || repetition(plan, u) == 0);
+        let kept: Vec<usize> = self.mine.iter().copied().filter(|&u| keep(u)).collect();
+        let mut sink = LogSink {
+            inner: FileSink {
+                plan,
+                folder,
+                reference,
+            },
+            log: self.log,
+            kept: &kept,
+            next: 0,
+            first_new,
+            nv,
+        };
+        let (new, new_text) = match &plan.adaptive {
+            Some(a) => {
+                let rows =
+                    super::adaptive::runner::run(plan, a, renderer, reference, &mut sink, reporter, &keep)?;
+                let text = log_rows(
+                    &super::adaptive::export::rmse_csv(plan, &rows),
+                    rows.iter().map(|r| r.seconds),
+                );
+                (Rows::Adaptive(rows), text)
+            }
+            None => {
+                let geometry = renderer.geometry();
+                let edges =
+                    crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
+                let rows = super::runner::run(plan, renderer, reference, &edges, &mut sink, reporter, &keep)?;
+                let text = log_rows(&export::rmse_csv(plan, &rows), rows.iter().map(|r| r.seconds));
+                (Rows::Fixed(rows), text)
+            }
+        };
+        drop(sink);
+        // Every round of the run in order: the one rendered now, or the log's.
+        let mut new_lines = new_text.lines();
+        let mut next_new = 0;
+        let mut lines = String::new();
+        let mut rows = match &new {
+            Rows::Fixed(_) => Rows::Fixed(Vec::new()),
+            Rows::Adaptive(_) => Rows::Adaptive(Vec::new()),
+        };
+        let mut renders = 0;
+        for (k, &u) in self.mine.iter().enumerate() {
+            for v in 0..nv {
+                if keep(u) {
+                    lines.push_str(new_lines.next().expect("a row per kept render"));
+                    match (&mut rows, &new) {
+                        (Rows::Fixed(r), Rows::Fixed(n)) => r.push(n[next_new].clone()),
+                        (Rows::Adaptive(r), Rows::Adaptive(n)) => r.push(n[next_new].clone()),
+                        _ => unreachable!("the plan decides the kind of row"),
+                    }
+                    next_new += 1;
+                } else {
+                    let line = self.done_rows[k * nv + v].as_str();
+                    lines.push_str(line);
+                    // Checked when the log was opened.
+                    let row = parse_row(plan, u, v, line).map_err(|m| {
+                        InputError::new(format!("--resume: {}: the row {m}", self.log_path.display()))
+                    })?;
+                    match (&mut rows, row) {
+                        (Rows::Fixed(r), RowOf::Fixed(x)) => r.push(x),
+                        (Rows::Adaptive(r), RowOf::Adaptive(x)) => r.push(x),
+                        _ => unreachable!("the plan decides the kind of row"),
+                    }
+                }
+                lines.push('\n');
+            }
+            if keep(u) {
+                renders += nv;
+            }
+        }
+        if done > 0 {
+            reporter.note(&format!(
+                "resumed: {done} of {} rounds were done already",
+                self.mine.len()
+            ));
+        }
+        Ok(Rendered {
+            rows,
+            lines,
+            renders,
+            resumed: done,
+        })
+    }
+}
+
 /// The repetition of unit `u`.
 fn repetition(plan: &TablePlan, u: usize) -> usize {
     let mut rep = u;
@@ -247,84 +336,42 @@ fn repetition(plan: &TablePlan, u: usize) -> usize {
     rep
 }
 
-/// Opens the rounds' log at `path`. Fresh (no `resume`, or no log): writes its identity and
-/// column lines. Resuming: checks that it is this shard's, reads the rows of its complete rounds
-/// (each checked as the merge checks it), cuts off a half-written last round, and returns them.
+/// Opens the rounds' log at `path` ([`unit_log::open_lines`], as an experiment's or an
+/// irradiance protocol's): fresh (no `resume`, or no log) it gets its identity and column
+/// lines; resuming, it must be this run's, the rows of its complete rounds are checked as the
+/// merge checks them and returned, and a half-written last round is cut off.
 fn open_log(
     plan: &TablePlan,
     path: &Path,
     identity: &Identity,
     mine: &[usize],
     resume: bool,
-) -> crate::Result<(std::fs::File, Vec<String>)> {
-    use std::io::Write;
-    let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
-    if !(resume && path.exists()) {
-        let mut file = std::fs::File::create(path).map_err(|e| io("creating", e))?;
-        writeln!(file, "{}\n{}", identity.header(), columns(plan)).map_err(|e| io("writing", e))?;
-        return Ok((file, Vec::new()));
-    }
-    let refuse = |m: String| -> Error {
-        InputError::new(format!(
-            "--resume: {}: {m}; run without --resume to start over",
-            path.display()
-        ))
-        .into()
-    };
-    let text =
-        crate::files::read::read_text(path, FileKind::UnitLog).map_err(|e| InputError::new(e.to_string()))?;
-    let mut lines = text.split_inclusive('\n');
-    let first = lines.next().unwrap_or_default();
-    match Identity::from_header(first) {
-        Some(found) if found == *identity => {}
-        Some(_) => {
-            return Err(refuse(
-                "was written for another run (another table, seed, build or shard)".into(),
-            ));
-        }
-        None => return Err(refuse("is not a workbench unit log".into())),
-    }
-    let second = lines.next().unwrap_or_default();
-    if second.trim_end() != columns(plan) {
-        return Err(refuse("its column line is not this table's".into()));
-    }
-    let mut kept = (first.len() + second.len()) as u64;
-    let nv = plan.variants.len();
+) -> crate::Result<(unit_log::LogWriter, Vec<String>)> {
     let mut rows = Vec::new();
-    let mut pending = Vec::new();
-    let mut pending_bytes = 0;
-    for line in lines {
-        if !line.ends_with('\n') {
-            break;
-        }
-        let k = rows.len() / nv;
-        let Some(&u) = mine.get(k) else {
-            return Err(refuse("holds more rounds than the shard has".into()));
-        };
-        parse_row(plan, u, pending.len(), line.trim_end())
-            .map_err(|m| refuse(format!("line {}: the row {m}", 3 + rows.len() + pending.len())))?;
-        pending.push(line.trim_end().to_string());
-        pending_bytes += line.len();
-        if pending.len() == nv {
-            rows.append(&mut pending);
-            kept += pending_bytes as u64;
-            pending_bytes = 0;
-        }
-    }
-    let file = std::fs::OpenOptions::new()
-        .append(true)
-        .open(path)
-        .map_err(|e| io("opening", e))?;
-    file.set_len(kept).map_err(|e| io("truncating", e))?;
-    Ok((file, rows))
+    let nv = plan.variants.len();
+    let (log, _) = unit_log::open_lines(
+        path,
+        identity,
+        &columns(plan),
+        mine,
+        nv,
+        resume,
+        &mut |u, lines| {
+            for (v, line) in lines.iter().enumerate() {
+                parse_row(plan, u, v, line).map_err(|m| format!("variant {}: the row {m}", v + 1))?;
+                rows.push(line.to_string());
+            }
+            Ok(())
+        },
+    )?;
+    Ok((log, rows))
 }
 
 /// Saves each cell's first render (through the table's own sink) and appends every new round's
 /// rows to the rounds' log as it finishes.
 struct LogSink<'a, 'b> {
     inner: FileSink<'a>,
-    log: std::fs::File,
-    path: PathBuf,
+    log: unit_log::LogWriter,
     /// The units rendered, in order: the `next`-th round to finish is `kept[next]`.
     kept: &'b [usize],
     next: usize,
@@ -335,15 +382,12 @@ struct LogSink<'a, 'b> {
 
 impl LogSink<'_, '_> {
     fn append(&mut self, csv: &[u8], seconds: impl Iterator<Item = f64>) -> crate::Result<()> {
-        use std::io::Write;
         let u = self.kept[self.next];
         self.next += 1;
         if u < self.first_new {
             return Ok(());
         }
-        self.log
-            .write_all(log_rows(csv, seconds).as_bytes())
-            .map_err(|e| Error::io(format!("appending to {}", self.path.display()), e))
+        self.log.append(&log_rows(csv, seconds))
     }
 }
 
@@ -386,8 +430,8 @@ impl super::adaptive::runner::AdaptiveSink for LogSink<'_, '_> {
     }
 }
 
-/// A shard's renders, read back.
-enum Rows {
+/// A run's renders.
+pub enum Rows {
     Fixed(Vec<Row>),
     Adaptive(Vec<AdaptiveRow>),
 }

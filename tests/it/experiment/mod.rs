@@ -5,6 +5,7 @@ mod fits;
 mod golden;
 mod inputs;
 mod irradiance;
+mod irradiance_shard;
 mod outputs;
 mod plots;
 mod scale;

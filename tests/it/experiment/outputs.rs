@@ -631,7 +631,7 @@ fn half_replaced_result_set_single_render_failing_after_the_exr() {
 }
 
 /// A table that fails after its renders keeps the earlier table whole, and the rows it measured
-/// in rmse.partial.csv beside it.
+/// in rounds.partial.csv beside it.
 #[test]
 fn half_replaced_result_set_table_failing_at_the_end_keeps_its_rows_apart() {
     let dir = tempfile::tempdir().unwrap();
@@ -657,18 +657,22 @@ fn half_replaced_result_set_table_failing_at_the_end_keeps_its_rows_apart() {
     );
     let mut after = snapshot(&d.join("out/t"));
     let partial = after
-        .remove(&d.join("out/t/rmse.partial.csv"))
+        .remove(&d.join("out/t/rounds.partial.csv"))
         .expect("the partial rows");
     assert_eq!(after, before);
     let partial = String::from_utf8(partial).unwrap();
     assert_eq!(
         partial.lines().count(),
-        1 + 2 * 3,
-        "every render's row: {partial}"
+        2 + 2 * 3,
+        "the identity and column lines, every render's row: {partial}"
     );
-    assert!(partial.starts_with(
-        "variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,coverage95_edges\n"
-    ));
+    assert!(partial.starts_with("# workbench unit log: "), "{partial}");
+    assert_eq!(
+        partial.lines().nth(1),
+        Some(
+            "variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,coverage95_edges,seconds"
+        )
+    );
     assert_eq!(listing(&d.join("out")), ["cache", "t"]);
     // The next complete table replaces the folder, partial rows included.
     ok(&workbench(d, &["render", "t.json", "--results-dir", "out", "-q"]));
@@ -676,7 +680,7 @@ fn half_replaced_result_set_table_failing_at_the_end_keeps_its_rows_apart() {
 }
 
 /// A table killed midway (SIGKILL: no clean-up runs) leaves the earlier table whole, with the
-/// rows measured so far in rmse.partial.csv; the next run clears what the killed one left.
+/// rows measured so far in rounds.partial.csv; the next run clears what the killed one left.
 #[test]
 fn half_replaced_result_set_table_killed_midway() {
     let dir = tempfile::tempdir().unwrap();
@@ -698,7 +702,9 @@ fn half_replaced_result_set_table_killed_midway() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    while !t.join("rmse.partial.csv").exists() {
+    // The log exists from the start: wait for its first round (its two header lines and a row).
+    let rounds = t.join("rounds.partial.csv");
+    while std::fs::read_to_string(&rounds).map_or(0, |s| s.lines().count()) < 3 {
         assert!(child.try_wait().unwrap().is_none(), "the long table ended early");
         std::thread::sleep(std::time::Duration::from_millis(2));
     }
@@ -707,7 +713,7 @@ fn half_replaced_result_set_table_killed_midway() {
     assert!(!status.success(), "killed before the end");
 
     let mut after = snapshot(&t);
-    let partial = after.remove(&t.join("rmse.partial.csv")).unwrap();
+    let partial = after.remove(&t.join("rounds.partial.csv")).unwrap();
     assert_eq!(after, before, "the earlier table is whole");
     assert!(String::from_utf8(partial).unwrap().lines().count() >= 3);
     // Its lock file and staging folder are left behind, hidden.

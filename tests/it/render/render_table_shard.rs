@@ -292,3 +292,76 @@ fn fixed_render_table_shards_resume_to_the_bytes_of_one_run() {
 fn adaptive_render_table_shards_resume_to_the_bytes_of_one_run() {
     resume_a_cut_shard(ADAPTIVE);
 }
+
+/// A whole table (no `--shard`) resumes: its rounds' log cut after one round and half a row (as
+/// a killed table leaves it) and a table that failed after its last round
+/// (`WORKBENCH_TEST_FAIL_WRITE`) both end, with `render --resume`, as one uninterrupted run's
+/// files, byte for byte; a log of another table (seed) is refused in one line and left in place.
+fn resume_a_whole_table(spec: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("t.json"), spec).unwrap();
+    ok(&workbench(d, &["render", "t.json", "-q", "--results-dir", "one"]));
+    let render = |results: &str, env: &[(&str, &str)]| {
+        workbench_env(
+            d,
+            &["render", "t.json", "-q", "--results-dir", results, "--resume"],
+            env,
+        )
+    };
+    let compare = |results: &str| {
+        let t = d.join(results).join("t");
+        assert!(!t.join("rounds.partial.csv").exists());
+        let manifest = std::fs::read_to_string(t.join("manifest.json")).unwrap();
+        assert_eq!(
+            manifest.replace(&format!("{results}/cache"), "one/cache"),
+            std::fs::read_to_string(d.join("one/t/manifest.json")).unwrap()
+        );
+        std::fs::copy(d.join("one/t/manifest.json"), t.join("manifest.json")).unwrap();
+        same_files(&d.join("one/t"), &t);
+    };
+    // Failed after every round was logged: all are kept.
+    let o = workbench_env(
+        d,
+        &["render", "t.json", "-q", "--results-dir", "f"],
+        &[("WORKBENCH_TEST_FAIL_WRITE", "table.csv")],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let log = std::fs::read_to_string(d.join("f/t/rounds.partial.csv")).unwrap();
+    let o = render("f", &[]);
+    ok(&o);
+    let rounds = 5 - if spec == FIXED { 0 } else { 2 };
+    assert!(
+        stderr(&o).contains(&format!("resumed: {rounds} of {rounds} rounds")),
+        "{}",
+        stderr(&o)
+    );
+    compare("f");
+    // Cut after one round and half a row.
+    let lines: Vec<&str> = log.lines().collect();
+    let mut cut: String = lines[..2 + 2].iter().map(|l| format!("{l}\n")).collect();
+    cut.push_str(&lines[4][..5]);
+    std::fs::create_dir_all(d.join("c/t")).unwrap();
+    std::fs::write(d.join("c/t/rounds.partial.csv"), &cut).unwrap();
+    std::fs::write(d.join("t.json"), spec.replace("\"seed\": ", "\"seed\": 1")).unwrap();
+    refused(
+        &render("c", &[]),
+        "rounds.partial.csv: was written for another run",
+    );
+    assert!(d.join("c/t/rounds.partial.csv").is_file());
+    std::fs::write(d.join("t.json"), spec).unwrap();
+    let o = render("c", &[]);
+    ok(&o);
+    assert!(stderr(&o).contains("resumed: 1 of"), "{}", stderr(&o));
+    compare("c");
+}
+
+#[test]
+fn fixed_render_tables_resume_without_shards_to_the_bytes_of_one_run() {
+    resume_a_whole_table(FIXED);
+}
+
+#[test]
+fn adaptive_render_tables_resume_without_shards_to_the_bytes_of_one_run() {
+    resume_a_whole_table(ADAPTIVE);
+}

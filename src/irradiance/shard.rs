@@ -1,0 +1,364 @@
+//! The irradiance protocol sharded, merged and resumed (issue 31): the same [`Shard`] split,
+//! [`Identity`], unit log and set checks as an experiment's ([`crate::experiment::merge`]).
+//!
+//! The **units** are the rows of the grid of normals: unit `u` holds the normals
+//! `k = u·W … u·W + W − 1`, and shard `i` of `n` computes the units with `u mod n = i − 1`. A
+//! normal's numbers (its exact irradiance, the error estimate, every (N, estimator)'s estimate:
+//! [`NormalValues`]) depend on the normal alone, and every output is a function of them taken in
+//! grid order ([`Totals`]): the log holds them as shortest round-trip decimals, so they read back
+//! as the same `f64`s and a merge (or a resumed run) writes the same bytes as one run —
+//! `irradiance.csv`, `table.md`, `rms_vs_n.svg` and its caption, `exact.exr`, `manifest.json`
+//! (`timings.json` aside).
+//!
+//! The log: the identity line, the column line, then one line per normal,
+//! `k,exact_r,exact_g,exact_b,error,` and the three channels of every (N, estimator) in
+//! (N, estimator) order. A run writes it as `irradiance.partial.csv` in its folder while it
+//! runs (the one `--resume` continues); a shard's folder keeps it as `units.csv`, beside
+//! `shard.json` (`"kind": "irradiance"`, the identity, the file's path and text).
+
+use super::{IrradiancePlan, NormalValues, Totals};
+use crate::error::{Error, InputError};
+use crate::experiment::merge::{self as shards, SHARD_FILE};
+use crate::experiment::unit_log::{self, Identity, LogSet, SHARD_UNITS, Shard};
+use crate::files::result_folder::ResultFolder;
+use crate::provenance::Build;
+use crate::util::report::Reporter;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// `shard.json`'s `"kind"` for the protocol's shards.
+pub const KIND: &str = "irradiance";
+/// The log of a run under way, in its folder.
+pub const PARTIAL_LOG: &str = "irradiance.partial.csv";
+
+/// Normals computed together (then appended to the log at once): at least this many, in whole
+/// units.
+const BATCH_NORMALS: usize = 2048;
+
+/// FNV-1a (64 bits) of `text`, hex.
+fn fnv(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// What a log and a shard record say they are: the plan ([`super::plan_hash`]) and the map's
+/// content ([`IrradiancePlan::map_key`]) hashed together; `trials` holds the number of units.
+pub fn identity(plan: &IrradiancePlan, shard: Shard) -> Identity {
+    Identity {
+        plan_hash: fnv(&format!("{} {}", super::plan_hash(plan), plan.map_key())),
+        seed: plan.seed,
+        trials: plan.height,
+        build: Build::current(),
+        shard,
+    }
+}
+
+/// Where `run FILE --shard i/n` writes without `--out`: `results/<name>-shard-<i>-of-<n>/`.
+pub fn default_out(results: &Path, plan: &IrradiancePlan, shard: Shard) -> PathBuf {
+    results.join(format!("{}-shard-{}-of-{}", plan.name, shard.index, shard.count))
+}
+
+/// The log's column line.
+fn columns(plan: &IrradiancePlan) -> String {
+    let mut s = String::from("k,exact_r,exact_g,exact_b,error");
+    for n in &plan.n {
+        for e in &plan.estimators {
+            for c in ["r", "g", "b"] {
+                let _ = write!(s, ",{}@{n}_{c}", e.name);
+            }
+        }
+    }
+    s
+}
+
+/// One log line (with its newline).
+fn line(k: usize, v: &NormalValues, out: &mut String) {
+    let _ = write!(
+        out,
+        "{k},{:e},{:e},{:e},{:e}",
+        v.exact[0], v.exact[1], v.exact[2], v.error
+    );
+    for e in &v.estimates {
+        let _ = write!(out, ",{:e},{:e},{:e}", e[0], e[1], e[2]);
+    }
+    out.push('\n');
+}
+
+/// Reads a line written by [`line`] for normal `k`; the error says what is wrong.
+fn parse(plan: &IrradiancePlan, k: usize, text: &str) -> Result<NormalValues, String> {
+    let rules = plan.n.len() * plan.estimators.len();
+    let fields: Vec<&str> = text.split(',').collect();
+    if fields.len() != 5 + 3 * rules {
+        return Err(format!("has {} fields, not {}", fields.len(), 5 + 3 * rules));
+    }
+    if fields[0] != k.to_string() {
+        return Err(format!("is normal {:?} where normal {k} was expected", fields[0]));
+    }
+    let num = |i: usize| -> Result<f64, String> {
+        fields[i]
+            .parse::<f64>()
+            .map_err(|_| format!("has {:?} in field {}, not a number", fields[i], i + 1))
+    };
+    let three = |i: usize| -> Result<[f64; 3], String> { Ok([num(i)?, num(i + 1)?, num(i + 2)?]) };
+    Ok(NormalValues {
+        exact: three(1)?,
+        error: num(4)?,
+        estimates: (0..rules).map(|r| three(5 + 3 * r)).collect::<Result<_, _>>()?,
+    })
+}
+
+/// Computes the units of `identity`'s shard, appending each batch's lines to the log at `path`,
+/// and hands every normal's values to `each` in grid order. With `resume` and a log there
+/// (checked to be this run's, [`unit_log::open_lines`]), the units it holds are read back
+/// instead. Returns how many units were read back.
+pub fn compute(
+    plan: &IrradiancePlan,
+    identity: &Identity,
+    path: &Path,
+    resume: bool,
+    reporter: &dyn Reporter,
+    each: &mut dyn FnMut(&NormalValues),
+) -> crate::Result<usize> {
+    let w = plan.width;
+    let mine: Vec<usize> = identity.shard.units(plan.height).collect();
+    let (mut log, done) = unit_log::open_lines(
+        path,
+        identity,
+        &columns(plan),
+        &mine,
+        w,
+        resume,
+        &mut |u, lines| {
+            for (i, l) in lines.iter().enumerate() {
+                each(&parse(plan, u * w + i, l).map_err(|m| format!("the row {m}"))?);
+            }
+            Ok(())
+        },
+    )?;
+    let rules = plan.rules()?;
+    let tolerance = plan.exact_tolerance();
+    let todo = &mine[done..];
+    reporter.start("normals", (todo.len() * w) as u64);
+    let per_batch = BATCH_NORMALS.div_ceil(w).max(1);
+    let mut text = String::new();
+    for batch in todo.chunks(per_batch) {
+        let normals: Vec<usize> = batch.iter().flat_map(|&u| u * w..(u + 1) * w).collect();
+        let values = plan.values(&normals, &rules, tolerance, reporter);
+        text.clear();
+        for (&k, v) in normals.iter().zip(&values) {
+            line(k, v, &mut text);
+            each(v);
+        }
+        log.append(&text)?;
+    }
+    reporter.finish();
+    Ok(done)
+}
+
+/// What a shard produced.
+pub struct ShardReport {
+    pub out_dir: PathBuf,
+    pub units: usize,
+    pub resumed: usize,
+    pub wall_seconds: f64,
+    pub threads: usize,
+}
+
+/// Runs shard `shard` of the protocol into the shard folder `out` (see the module
+/// documentation); with `resume`, continues from the log an interrupted shard left there.
+pub fn run_shard(
+    plan: &IrradiancePlan,
+    spec_path: &Path,
+    shard: Shard,
+    out: &Path,
+    threads: Option<usize>,
+    resume: bool,
+    reporter: &dyn Reporter,
+) -> crate::Result<ShardReport> {
+    let mut folder = ResultFolder::prepare(
+        out,
+        &format!("--out {}", out.display()),
+        "use another --out",
+        &[("the irradiance file", spec_path)],
+        super::export::legacy_manifest_files,
+    )?;
+    let spec_text = crate::files::spec_json::read_spec(spec_path)?;
+    let pool = crate::util::threads::pool(threads)?;
+    let identity = identity(plan, shard);
+    let start = Instant::now();
+    let log = folder.partial_path(PARTIAL_LOG)?;
+    let resumed = pool.install(|| compute(plan, &identity, &log, resume, reporter, &mut |_| {}))?;
+    folder.write_stream(
+        SHARD_UNITS,
+        "this shard's normals in grid order: k, the exact irradiance, its error estimate, every (N, estimator)'s estimate",
+        &mut |w| {
+            let mut file = unit_log::bounded_open(&log)?;
+            std::io::copy(&mut file, w).map_err(|e| Error::io(format!("copying {}", log.display()), e))?;
+            Ok(())
+        },
+    )?;
+    let mut record = serde_json::json!({
+        "kind": KIND,
+        "shard": shard.to_string(),
+        "plan_hash": identity.plan_hash,
+        "seed": identity.seed,
+        "trials": identity.trials,
+        "job": {
+            "spec": spec_path.display().to_string(),
+            "text": spec_text,
+        },
+    });
+    crate::provenance::manifest_fields(&mut record, &identity.build);
+    let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
+    bytes.push(b'\n');
+    folder.write(
+        SHARD_FILE,
+        "which shard this is, of which irradiance protocol, and the file as run (for workbench merge)",
+        &bytes,
+    )?;
+    let wall_seconds = start.elapsed().as_secs_f64();
+    folder.commit(
+        serde_json::json!({ "kind": KIND, "name": plan.name, "shard": shard.to_string() }),
+        serde_json::json!({ "seconds": wall_seconds, "threads": pool.current_num_threads() }),
+    )?;
+    Ok(ShardReport {
+        out_dir: out.to_path_buf(),
+        units: shard.len(plan.height),
+        resumed,
+        wall_seconds,
+        threads: pool.current_num_threads(),
+    })
+}
+
+/// Merges the shard folders `dirs` of one irradiance protocol into `out`, the files one run
+/// writes, byte for byte (`timings.json` aside). The file is read back from the first shard's
+/// record and resolved again (its map must be readable, and be the one the shards ran under);
+/// every check is made before `out` is touched.
+pub fn merge(
+    out: &Path,
+    dirs: &[PathBuf],
+    reporter: &dyn Reporter,
+) -> crate::Result<(IrradiancePlan, super::Report)> {
+    if dirs.is_empty() {
+        return Err(InputError::new("merge: give the shard folders to merge").into());
+    }
+    shards::check_kinds(dirs)?;
+    let set = dirs
+        .iter()
+        .map(|d| shards::read_shard(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let set = shards::check_set(set)?;
+    shards::check_build(&set)?;
+    let at = set[0].dir.join(SHARD_FILE);
+    let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
+    let text = set[0]
+        .spec
+        .get("text")
+        .and_then(|t| t.as_str())
+        .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
+    let spec: super::IrradianceSpec = crate::files::spec_json::parse(text, "the irradiance file")
+        .map_err(|m| bad(format!("\"job\": {m}")))?;
+    let plan = super::resolve(&spec).map_err(|m| bad(format!("\"job\": {m}")))?;
+    if identity(&plan, Shard::WHOLE).plan_hash != set[0].identity.plan_hash {
+        return Err(bad(format!(
+            "the file resolves to another plan than the one its shards ran (its map, {}, changed?)",
+            plan.env_name
+        ))
+        .into());
+    }
+    let inputs: Vec<(&str, &Path)> = set
+        .iter()
+        .map(|s| ("the shard folder", s.dir.as_path()))
+        .collect();
+    // Every row is read (and checked) before the folder is prepared: nothing is written for a
+    // damaged shard.
+    let logs = LogSet {
+        paths: set.iter().map(|s| s.dir.join(SHARD_UNITS)).collect(),
+    };
+    let start = Instant::now();
+    let w = plan.width;
+    let count = set.len();
+    let mut totals = Totals::new(&plan);
+    reporter.start("normals", plan.normals() as u64);
+    logs.for_each_line(plan.height, w, &mut |u, i, l| {
+        let v = parse(&plan, u * w + i, l).map_err(|m| {
+            InputError::new(format!(
+                "merge: {}: line {}: the row {m}; this shard is damaged, run it again",
+                logs.paths[u % count].display(),
+                3 + (u / count) * w + i
+            ))
+        })?;
+        totals.push(&v);
+        reporter.advance(1);
+        Ok(())
+    })?;
+    reporter.finish();
+    let (exact, rows) = totals.finish(&plan);
+    let mut folder = ResultFolder::prepare(
+        out,
+        &out.display().to_string(),
+        "give another OUT",
+        &inputs,
+        super::export::legacy_manifest_files,
+    )?;
+    super::export::write(&mut folder, &plan, &exact, &rows)?;
+    let wall_seconds = start.elapsed().as_secs_f64();
+    // The merge's own seconds, without the plan hash: `reproduce` does not take them for the
+    // protocol's time.
+    folder.commit(
+        super::export::manifest(&plan, &exact, &rows),
+        serde_json::json!({ "merge_seconds": wall_seconds }),
+    )?;
+    Ok((
+        plan,
+        super::Report {
+            out_dir: out.to_path_buf(),
+            rows,
+            wall_seconds,
+            threads: 1,
+            resumed: 0,
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_lines_read_back_as_the_same_numbers() {
+        let v = NormalValues {
+            exact: [0.1, 1.0 / 3.0, 2.5e-300],
+            error: 7.570786944598702e-10,
+            estimates: vec![
+                [f64::MIN_POSITIVE, -0.0, 1e300],
+                [0.2, 0.30000000000000004, 12345.678],
+            ],
+        };
+        let mut s = String::new();
+        line(7, &v, &mut s);
+        let fields: Vec<&str> = s.trim_end().split(',').collect();
+        assert_eq!(fields.len(), 11);
+        let parsed: Vec<f64> = fields[1..].iter().map(|f| f.parse().unwrap()).collect();
+        let want = [
+            v.exact[0],
+            v.exact[1],
+            v.exact[2],
+            v.error,
+            v.estimates[0][0],
+            v.estimates[0][1],
+            v.estimates[0][2],
+            v.estimates[1][0],
+            v.estimates[1][1],
+            v.estimates[1][2],
+        ];
+        for (a, b) in parsed.iter().zip(want) {
+            assert_eq!(a.to_bits(), b.to_bits(), "{s}");
+        }
+    }
+}
