@@ -16,7 +16,8 @@
 //!
 //! **Truth.** The texel sum of [`crate::render::texel`]: for `lambert` [`texel::irradiance`]
 //! (exact in azimuth, adaptive Gauss–Kronrod in the polar angle), for Phong [`texel::lobe::phong`]
-//! (the same outer rule, adaptive K7/G3 per cell in azimuth); both per channel, combined with the
+//! (the same outer rule, Chebyshev panels of the lobe in azimuth integrated against the map's
+//! cells in closed form); both per channel, combined with the
 //! channel's weights, to the absolute tolerance [`TRUTH_TOLERANCE`] times the map's mean texel
 //! value, with the quadrature's error estimate kept beside the truth (the manifest's
 //! `truth_error_estimate`). A map is read once per process and per lookup (its cell table, the

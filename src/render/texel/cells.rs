@@ -45,6 +45,10 @@ pub struct CellTable {
     prefix: Vec<Moments>,
     /// The `cells + 1` knots with their sines and cosines.
     knots: Vec<Azimuth>,
+    /// Whether every texel is ≥ 0 in every channel (then so is every profile, and `∫L` bounds
+    /// `∫|L|`), and each row's largest `|L|` over its cells and channels (the bound otherwise).
+    nonnegative: bool,
+    row_max: Vec<f64>,
 }
 
 /// How `θ ∈ [0, π]` maps to profile rows.
@@ -110,7 +114,16 @@ impl CellTable {
             a1,
             prefix: Vec::with_capacity(rows * (cells + 1)),
             knots: Vec::new(),
+            nonnegative: true,
+            row_max: Vec::new(),
         };
+        // Both lookups' texels are the a₀ (the bilinear profile runs between two of them).
+        table.nonnegative = table.a0.iter().flatten().all(|&v| v >= 0.0);
+        table.row_max = table
+            .a0
+            .chunks(cells)
+            .map(|row| row.iter().flatten().fold(0.0, |m: f64, v| m.max(v.abs())))
+            .collect();
         table.knots = (0..=cells).map(|i| Azimuth::new(table.knot(i))).collect();
         for row in 0..rows {
             let mut sum: Moments = [[0.0; 3]; 3];
@@ -130,7 +143,7 @@ impl CellTable {
 
     /// The azimuth where cell `i` starts (`i = cells` is the end of the last).
     #[inline]
-    fn knot(&self, i: usize) -> f64 {
+    pub fn knot(&self, i: usize) -> f64 {
         self.start + i as f64 * self.width
     }
 
@@ -176,7 +189,7 @@ impl CellTable {
 
     /// The cell holding `ψ` (clamped to the span).
     #[inline]
-    fn cell_of(&self, psi: f64) -> usize {
+    pub fn cell_of(&self, psi: f64) -> usize {
         (((psi - self.start) / self.width).floor().max(0.0) as usize).min(self.cells - 1)
     }
 
@@ -225,6 +238,38 @@ impl CellTable {
                 [0, 1, 2].map(|c| self.a0[k][c] + a1[c] * t)
             }
             None => self.a0[k],
+        }
+    }
+
+    /// Whether the profiles have slopes (the bilinear lookup): only then does
+    /// [`CellTable::linear`] use its `first` moment.
+    pub fn has_slopes(&self) -> bool {
+        !self.a1.is_empty()
+    }
+
+    /// `∫ L_row(ψ) w(ψ) dψ` over a part of cell `i` from the weight's moments there,
+    /// `zeroth = ∫ w` and `first = ∫ (ψ − ψ_i) w` (`ψ_i` = [`CellTable::knot`]`(i)`): `a₀·zeroth +
+    /// a₁·first`, since `L = a₀ + a₁ (ψ − ψ_i)` on the cell.
+    #[inline]
+    pub fn linear(&self, row: usize, i: usize, zeroth: f64, first: f64) -> [f64; 3] {
+        let k = row * self.cells + i;
+        let a0 = self.a0[k];
+        match self.a1.get(k) {
+            Some(a1) => [0, 1, 2].map(|c| a0[c] * zeroth + a1[c] * first),
+            None => a0.map(|v| v * zeroth),
+        }
+    }
+
+    /// An upper bound of `max_channel ∫_a^b |L_row(ψ)| dψ` (`a ≤ b` in the span): the prefix sums'
+    /// `∫L` when no texel is negative, else the row's largest `|L|` times `b − a`. What an error
+    /// bound `|∫ L (w − w̃)| ≤ max|w − w̃| · ∫|L|` multiplies.
+    pub fn magnitude(&self, row: usize, a: &Azimuth, b: &Azimuth) -> f64 {
+        if self.nonnegative {
+            self.integral(row, a, b)[0]
+                .iter()
+                .fold(0.0, |m: f64, &v| m.max(v))
+        } else {
+            self.row_max[row] * (b.psi - a.psi)
         }
     }
 

@@ -53,12 +53,53 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
     };
     let n = p.frame.n;
     let scale = p.albedo.map(|a| a / PI);
+    let mut intervals = Vec::with_capacity(8);
+    let breaks = arcs.cuts.theta_breaks();
+    let (value, error, limited, evaluations) = polar(&breaks, tol, scale, |theta, sin_t, cos_t| {
+        arcs.at(cos_t, sin_t, &mut intervals);
+        let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
+        let rows = table.rows_at(theta);
+        let mut s = [0.0; 3];
+        for &(lo, hi) in &intervals {
+            let (lo, hi) = (Azimuth::new(lo), Azimuth::new(hi));
+            for (row, weight) in rows {
+                if weight == 0.0 {
+                    continue;
+                }
+                let m = table.integral(row, &lo, &hi);
+                for ch in 0..3 {
+                    s[ch] += weight * (a * m[1][ch] + b * m[0][ch] + cc * m[2][ch]);
+                }
+            }
+        }
+        s
+    });
+    PixelIntegral {
+        value,
+        error,
+        depth_limited: limited,
+        evaluations,
+    }
+}
+
+/// The outer rule both texel sums share: `∫ sin θ · s(θ) dθ · scale` per channel over the pieces
+/// between consecutive `breaks` (sorted polar angles), `s = inner(θ, sin θ, cos θ)` the azimuth
+/// integral at `θ`. Adaptive Gauss–Kronrod K21/G10 ([`adaptive`]) on each piece `[t₀, t₁]`
+/// mapped by `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root end
+/// points of a circle's arcs at a tangency become smooth), to the piece's share
+/// `tol (t₁ − t₀)/π`. Returns the value, the sum of the accepted `|K21 − G10|`, whether a depth
+/// limit was hit and the number of nodes where `inner` ran.
+pub(super) fn polar(
+    breaks: &[f64],
+    tol: f64,
+    scale: [f64; 3],
+    mut inner: impl FnMut(f64, f64, f64) -> [f64; 3],
+) -> ([f64; 3], f64, bool, u64) {
     let mut value = [0.0; 3];
     let mut error = 0.0;
     let mut limited = false;
     let mut evaluations = 0u64;
-    let mut intervals = Vec::with_capacity(8);
-    for w in arcs.cuts.theta_breaks().windows(2) {
+    for w in breaks.windows(2) {
         let (t0, t1) = (w[0], w[1]);
         if t1 <= t0 {
             continue;
@@ -74,22 +115,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
                 return [0.0; 3];
             }
             evaluations += 1;
-            arcs.at(cos_t, sin_t, &mut intervals);
-            let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
-            let rows = table.rows_at(theta);
-            let mut s = [0.0; 3];
-            for &(lo, hi) in &intervals {
-                let (lo, hi) = (Azimuth::new(lo), Azimuth::new(hi));
-                for (row, weight) in rows {
-                    if weight == 0.0 {
-                        continue;
-                    }
-                    let m = table.integral(row, &lo, &hi);
-                    for ch in 0..3 {
-                        s[ch] += weight * (a * m[1][ch] + b * m[0][ch] + cc * m[2][ch]);
-                    }
-                }
-            }
+            let s = inner(theta, sin_t, cos_t);
             let f = sin_t * jac;
             [0, 1, 2].map(|ch| s[ch] * f * scale[ch])
         };
@@ -100,12 +126,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
         }
         error += e;
     }
-    PixelIntegral {
-        value,
-        error,
-        depth_limited: limited,
-        evaluations,
-    }
+    (value, error, limited, evaluations)
 }
 
 /// `E(n) = (1/π) ∫_{H(n)} L(d) max(0, n·d) dω` per channel to the absolute tolerance `tol`: a
