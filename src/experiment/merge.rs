@@ -42,21 +42,33 @@ pub fn write_shard(
             Ok(())
         },
     )?;
-    let mut record = serde_json::json!({
+    let record = serde_json::json!({
         "shard": identity.shard.to_string(),
         "plan_hash": identity.plan_hash,
         "seed": identity.seed,
         "trials": identity.trials,
         "experiment": spec,
     });
-    crate::provenance::manifest_fields(&mut record, &identity.build);
+    write_shard_record(
+        folder,
+        record,
+        &identity.build,
+        "which shard this is, of which run, and the experiment as run (for workbench merge)",
+    )
+}
+
+/// Writes a shard's `shard.json` — `record` (which shard, of which job, the job as run) with the
+/// build that wrote it — as every kind of shard does, so that `workbench merge` reads one form.
+pub fn write_shard_record(
+    folder: &mut ResultFolder,
+    mut record: serde_json::Value,
+    build: &crate::provenance::Build,
+    what: &str,
+) -> crate::Result<()> {
+    crate::provenance::manifest_fields(&mut record, build);
     let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
     bytes.push(b'\n');
-    folder.write(
-        SHARD_FILE,
-        "which shard this is, of which run, and the experiment as run (for workbench merge)",
-        &bytes,
-    )
+    folder.write(SHARD_FILE, what, &bytes)
 }
 
 /// A shard folder's manifest: the plan and the shard (the build is added on commit, as to

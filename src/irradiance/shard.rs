@@ -202,7 +202,7 @@ pub fn run_shard(
             Ok(())
         },
     )?;
-    let mut record = serde_json::json!({
+    let record = serde_json::json!({
         "kind": KIND,
         "shard": shard.to_string(),
         "plan_hash": identity.plan_hash,
@@ -213,13 +213,11 @@ pub fn run_shard(
             "text": spec_text,
         },
     });
-    crate::provenance::manifest_fields(&mut record, &identity.build);
-    let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
-    bytes.push(b'\n');
-    folder.write(
-        SHARD_FILE,
+    crate::experiment::merge::write_shard_record(
+        &mut folder,
+        record,
+        &identity.build,
         "which shard this is, of which irradiance protocol, and the file as run (for workbench merge)",
-        &bytes,
     )?;
     let wall_seconds = start.elapsed().as_secs_f64();
     folder.commit(

@@ -133,7 +133,7 @@ pub fn run_shard(
         "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds",
         format!("{}\n{}\n{rows}", identity.header(), columns(plan)).as_bytes(),
     )?;
-    let mut record = serde_json::json!({
+    let record = serde_json::json!({
         "kind": KIND,
         "shard": shard.to_string(),
         "plan_hash": identity.plan_hash,
@@ -146,13 +146,11 @@ pub fn run_shard(
             "text": spec_text,
         },
     });
-    crate::provenance::manifest_fields(&mut record, &identity.build);
-    let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
-    bytes.push(b'\n');
-    folder.write(
-        SHARD_FILE,
+    crate::experiment::merge::write_shard_record(
+        &mut folder,
+        record,
+        &identity.build,
         "which shard this is, of which render table, and the table file as run (for workbench merge)",
-        &bytes,
     )?;
     let wall_seconds = start.elapsed().as_secs_f64();
     folder.commit(
