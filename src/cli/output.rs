@@ -12,6 +12,29 @@ macro_rules! status {
 }
 pub(crate) use status;
 
+/// The status line after a run's units: `wrote OUT (S s on T threads)`, for a shard with where
+/// it went and how to merge it.
+pub fn wrote(shard: Option<&dyn std::fmt::Display>, out: &std::path::Path, seconds: f64, threads: usize) {
+    let on = format!(
+        "{seconds:.2} s on {threads} thread{}",
+        if threads == 1 { "" } else { "s" }
+    );
+    match shard {
+        Some(shard) => status!(
+            "wrote shard {shard} to {} ({on}); merge the shards with `workbench merge OUT DIR…`",
+            out.display()
+        ),
+        None => status!("wrote {} ({on})", out.display()),
+    }
+}
+
+/// What a resume found, if it found anything.
+pub fn resumed(resumed: usize, units: usize) {
+    if resumed > 0 {
+        status!("resumed: {resumed} of {units} units were done already");
+    }
+}
+
 /// Writes `s` to standard output. A reader that has gone away (`| head`) gives an
 /// `io::ErrorKind::BrokenPipe` error, which `main` turns into a quiet exit; any other failure
 /// (a full disk behind a redirection) says "stdout".

@@ -1,6 +1,6 @@
 //! `workbench run` and `workbench validate`.
 
-use super::output::{status, stdout};
+use super::output::{resumed, status, stdout, wrote};
 use super::progress::Bar;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -78,13 +78,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let report = ex::run_plan(&plan, &overrides, &Bar::new(args.quiet))?;
     print_run_warnings(&report);
     if shard.is_some() {
-        status!(
-            "wrote shard {} to {} ({:.2} s on {} thread{}); merge the shards with `workbench merge OUT DIR…`",
-            report.shard,
-            report.out_dir.display(),
+        wrote(
+            Some(&report.shard),
+            &report.out_dir,
             report.wall_seconds,
             report.threads,
-            if report.threads == 1 { "" } else { "s" }
         );
         return Ok(ExitCode::SUCCESS);
     }
@@ -94,13 +92,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         &report.stopping,
         &report.tolerance_checks,
     ))?;
-    status!(
-        "wrote {} ({:.2} s on {} thread{})",
-        report.out_dir.display(),
-        report.wall_seconds,
-        report.threads,
-        if report.threads == 1 { "" } else { "s" }
-    );
+    wrote(None, &report.out_dir, report.wall_seconds, report.threads);
     let failed = report.checks.iter().any(|c| !c.passed())
         || report.calibration.iter().any(|c| !c.passed())
         || report.tolerance_checks.iter().any(|c| !c.passed());
@@ -162,20 +154,8 @@ fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
             args.resume,
             &Bar::new(args.quiet),
         )?;
-        if report.resumed > 0 {
-            status!(
-                "resumed: {} of {} units were done already",
-                report.resumed,
-                report.units
-            );
-        }
-        status!(
-            "wrote shard {shard} to {} ({:.2} s on {} thread{}); merge the shards with `workbench merge OUT DIR…`",
-            report.out_dir.display(),
-            report.wall_seconds,
-            report.threads,
-            if report.threads == 1 { "" } else { "s" }
-        );
+        resumed(report.resumed, report.units);
+        wrote(Some(&shard), &report.out_dir, report.wall_seconds, report.threads);
         return Ok(ExitCode::SUCCESS);
     }
     let out = args
@@ -190,34 +170,16 @@ fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
         args.resume,
         &Bar::new(args.quiet),
     )?;
-    if report.resumed > 0 {
-        status!(
-            "resumed: {} of {} units were done already",
-            report.resumed,
-            plan.height
-        );
-    }
+    resumed(report.resumed, plan.height);
     stdout(&workbench::irradiance::export::summary(&plan, &report.rows))?;
-    status!(
-        "wrote {} ({:.2} s on {} thread{})",
-        report.out_dir.display(),
-        report.wall_seconds,
-        report.threads,
-        if report.threads == 1 { "" } else { "s" }
-    );
+    wrote(None, &report.out_dir, report.wall_seconds, report.threads);
     Ok(ExitCode::SUCCESS)
 }
 
 /// The status lines every run prints after its units: what a resume found, and the weight
 /// sets' numerical warnings.
 pub fn print_run_warnings(report: &ex::RunReport) {
-    if report.resumed > 0 {
-        status!(
-            "resumed: {} of {} units were done already",
-            report.resumed,
-            report.units
-        );
-    }
+    resumed(report.resumed, report.units);
     if report.resumed_row_warnings > 0 {
         status!(
             "warning: the resumed units' trial rows hold {} warning(s) from before the interruption \
