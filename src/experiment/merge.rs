@@ -42,30 +42,33 @@ pub fn write_shard(
             Ok(())
         },
     )?;
-    let record = serde_json::json!({
-        "shard": identity.shard.to_string(),
-        "plan_hash": identity.plan_hash,
-        "seed": identity.seed,
-        "trials": identity.trials,
-        "experiment": spec,
-    });
     write_shard_record(
         folder,
-        record,
-        &identity.build,
+        identity,
+        serde_json::json!({ "experiment": spec }),
         "which shard this is, of which run, and the experiment as run (for workbench merge)",
     )
 }
 
-/// Writes a shard's `shard.json` — `record` (which shard, of which job, the job as run) with the
-/// build that wrote it — as every kind of shard does, so that `workbench merge` reads one form.
+/// Writes a shard's `shard.json` as every kind of shard does, so that `workbench merge` reads one
+/// form: the shard's [`Identity`] (which shard, of which plan, seed and trials, and the build
+/// that wrote it) with `job`'s fields (what kind of job, the job as run).
 pub fn write_shard_record(
     folder: &mut ResultFolder,
-    mut record: serde_json::Value,
-    build: &crate::provenance::Build,
+    identity: &Identity,
+    job: serde_json::Value,
     what: &str,
 ) -> crate::Result<()> {
-    crate::provenance::manifest_fields(&mut record, build);
+    let mut record = serde_json::json!({
+        "shard": identity.shard.to_string(),
+        "plan_hash": identity.plan_hash,
+        "seed": identity.seed,
+        "trials": identity.trials,
+    });
+    if let (Some(fields), serde_json::Value::Object(job)) = (record.as_object_mut(), job) {
+        fields.extend(job);
+    }
+    crate::provenance::manifest_fields(&mut record, &identity.build);
     let mut bytes = serde_json::to_vec_pretty(&record).expect("the record serializes");
     bytes.push(b'\n');
     folder.write(SHARD_FILE, what, &bytes)

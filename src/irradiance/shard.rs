@@ -202,12 +202,8 @@ pub fn run_shard(
             Ok(())
         },
     )?;
-    let record = serde_json::json!({
+    let job = serde_json::json!({
         "kind": KIND,
-        "shard": shard.to_string(),
-        "plan_hash": identity.plan_hash,
-        "seed": identity.seed,
-        "trials": identity.trials,
         "job": {
             "spec": spec_path.display().to_string(),
             "text": spec_text,
@@ -215,8 +211,8 @@ pub fn run_shard(
     });
     crate::experiment::merge::write_shard_record(
         &mut folder,
-        record,
-        &identity.build,
+        &identity,
+        job,
         "which shard this is, of which irradiance protocol, and the file as run (for workbench merge)",
     )?;
     let wall_seconds = start.elapsed().as_secs_f64();

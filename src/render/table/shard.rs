@@ -133,12 +133,8 @@ pub fn run_shard(
         "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds",
         format!("{}\n{}\n{rows}", identity.header(), columns(plan)).as_bytes(),
     )?;
-    let record = serde_json::json!({
+    let job = serde_json::json!({
         "kind": KIND,
-        "shard": shard.to_string(),
-        "plan_hash": identity.plan_hash,
-        "seed": identity.seed,
-        "trials": identity.trials,
         "job": {
             "spec": plan.file.display().to_string(),
             "scene": plan.scene.name(),
@@ -148,8 +144,8 @@ pub fn run_shard(
     });
     crate::experiment::merge::write_shard_record(
         &mut folder,
-        record,
-        &identity.build,
+        &identity,
+        job,
         "which shard this is, of which render table, and the table file as run (for workbench merge)",
     )?;
     let wall_seconds = start.elapsed().as_secs_f64();
