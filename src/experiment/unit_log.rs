@@ -191,100 +191,37 @@ pub fn open(
     resume: bool,
     each: &mut dyn FnMut(usize, usize, usize, usize, &RowValues),
 ) -> Result<(LogWriter, usize)> {
-    let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
-    if !(resume && path.exists()) {
-        let mut file = File::create(path).map_err(|e| io("creating", e))?;
-        writeln!(file, "{}\n{}", identity.header(), columns()).map_err(|e| io("writing", e))?;
-        return Ok((
-            LogWriter {
-                file,
-                path: path.to_path_buf(),
-            },
-            0,
-        ));
-    }
-    let refuse = |problem: String| -> Error {
-        InputError::new(format!(
-            "--resume: {}: {problem}; run without --resume to start over",
-            path.display()
-        ))
-        .into()
-    };
-    let mut reader = BufReader::new(bounded_open(path)?);
-    let mut line = String::new();
-    reader.read_line(&mut line).map_err(|e| io("reading", e))?;
-    let found = Identity::from_header(&line).ok_or_else(|| refuse("is not a workbench unit log".into()))?;
-    if found != *identity {
-        return Err(refuse(format!(
-            "was written for another run ({}; this run is {})",
-            describe(&found),
-            describe(identity)
-        )));
-    }
-    let mut kept = line.len() as u64;
-    line.clear();
-    reader.read_line(&mut line).map_err(|e| io("reading", e))?;
-    if line.trim_end() != columns() {
-        return Err(refuse("its column line is not this version's".into()));
-    }
-    kept += line.len() as u64;
-    let per_unit = rows_per_unit(plan);
-    let mut done = 0;
-    let mut pending: Vec<(usize, usize, usize, RowValues)> = Vec::with_capacity(per_unit);
-    let mut pending_bytes = 0u64;
-    let mut units = identity.shard.units(plan.samples.len() * plan.trials);
-    let mut unit = units.next();
-    let mut line_no = 2;
-    loop {
-        line.clear();
-        let read = reader.read_line(&mut line).map_err(|e| io("reading", e))?;
-        if read == 0 || !line.ends_with('\n') {
-            break; // the end, or a half-written last row
-        }
-        line_no += 1;
-        let Some(u) = unit else {
-            return Err(refuse(format!(
-                "line {line_no}: more rows than the run has units"
-            )));
-        };
-        let k = pending.len();
-        let (ni, t) = (u / plan.trials, u % plan.trials);
-        let ne = plan.estimators.len();
-        let (n, trial, values) = super::rows::check_row(plan, k / ne, k % ne, line.trim_end())
-            .map_err(|m| refuse(format!("line {line_no} {m}")))?;
-        if (n, trial) != (plan.samples[ni], t) {
-            return Err(refuse(format!(
-                "line {line_no} is N = {n}, trial {trial}, where N = {}, trial {t} was expected",
-                plan.samples[ni]
-            )));
-        }
-        pending.push((k / plan.estimators.len(), k % plan.estimators.len(), ni, values));
-        pending_bytes += read as u64;
-        if pending.len() == per_unit {
-            for (fi, ei, ni, v) in pending.drain(..) {
-                each(u, fi, ei, ni, &v);
+    let units: Vec<usize> = identity.shard.units(plan.samples.len() * plan.trials).collect();
+    let ne = plan.estimators.len();
+    let mut rows: Vec<(usize, usize, RowValues)> = Vec::with_capacity(rows_per_unit(plan));
+    open_lines(
+        path,
+        identity,
+        &columns(),
+        &units,
+        rows_per_unit(plan),
+        resume,
+        &mut |u, lines| {
+            let (ni, t) = (u / plan.trials, u % plan.trials);
+            rows.clear();
+            for (k, line) in lines.iter().enumerate() {
+                let (n, trial, values) = super::rows::check_row(plan, k / ne, k % ne, line)
+                    .map_err(|m| format!("row {} {m}", k + 1))?;
+                if (n, trial) != (plan.samples[ni], t) {
+                    return Err(format!(
+                        "row {} is N = {n}, trial {trial}, where N = {}, trial {t} was expected",
+                        k + 1,
+                        plan.samples[ni]
+                    ));
+                }
+                rows.push((k / ne, k % ne, values));
             }
-            kept += pending_bytes;
-            pending_bytes = 0;
-            done += 1;
-            unit = units.next();
-        }
-    }
-    drop(reader);
-    let mut file = OpenOptions::new()
-        .write(true)
-        .open(path)
-        .map_err(|e| io("opening", e))?;
-    file.set_len(kept).map_err(|e| io("truncating", e))?;
-    file.seek(std::io::SeekFrom::End(0))
-        .map_err(|e| io("seeking in", e))?;
-    Ok((
-        LogWriter {
-            file,
-            path: path.to_path_buf(),
+            for (fi, ei, v) in &rows {
+                each(u, *fi, *ei, ni, v);
+            }
+            Ok(())
         },
-        done,
-    ))
+    )
 }
 
 /// What [`open_lines`] hands each complete unit's lines to: `(unit, lines)`, an error naming
