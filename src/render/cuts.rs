@@ -204,6 +204,24 @@ pub fn adaptive<const K: usize>(
     checked: usize,
     f: &mut impl FnMut(f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
+    adaptive_above_rounding(rule, a, b, tol, checked, None, f)
+}
+
+/// [`adaptive`], where component `rounding` (if any, past the `checked` ones) of the integrand
+/// is a bound `r ≥ 0` on the rounding error of the checked components' values: an interval is
+/// also accepted when its difference is within `4 R`, `R` the Kronrod integral of `r` over it
+/// (the Kronrod and Gauss weights differ by at most 4 in sum, so that is the difference values
+/// off by `r` can make by themselves). Differences the integrand's own values cannot resolve
+/// are not chased into the depth limit; they are still counted in the error estimate.
+pub fn adaptive_above_rounding<const K: usize>(
+    rule: &Kronrod,
+    a: f64,
+    b: f64,
+    tol: f64,
+    checked: usize,
+    rounding: Option<usize>,
+    f: &mut impl FnMut(f64) -> [f64; K],
+) -> ([f64; K], f64, bool) {
     let (x, wk, wg) = (rule.nodes, rule.kronrod, rule.gauss);
     let m = x.len() - 1;
     let mut apply = |a: f64, b: f64| -> ([f64; K], f64) {
@@ -241,8 +259,9 @@ pub fn adaptive<const K: usize>(
         let (value, diff) = apply(a, b);
         let m = 0.5 * (a + b);
         let stuck = depth >= MAX_DEPTH || m <= a || m >= b;
-        if diff <= tol || stuck {
-            limited |= stuck && diff > tol;
+        let within = diff <= tol || rounding.is_some_and(|r| diff <= 4.0 * value[r].abs());
+        if within || stuck {
+            limited |= !within;
             for k in 0..K {
                 total[k] += value[k];
             }

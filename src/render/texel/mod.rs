@@ -25,7 +25,7 @@
 pub mod cells;
 pub mod lobe;
 
-use super::cuts::{Cuts, PixelIntegral, adaptive};
+use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding};
 use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
@@ -72,7 +72,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
                 }
             }
         }
-        s
+        AzimuthIntegral::exact(s)
     });
     PixelIntegral {
         value,
@@ -82,19 +82,42 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
     }
 }
 
+/// What the outer rule needs at a node `θ`: the azimuth integral `s(θ)` per channel, an estimate
+/// of its error and a bound `r ≥ 0` on its rounding error (both 0 for the Lambertian sum, whose
+/// inner integral is exact).
+pub(super) struct AzimuthIntegral {
+    pub value: [f64; 3],
+    pub error: f64,
+    pub rounding: f64,
+}
+
+impl AzimuthIntegral {
+    /// An exact inner integral.
+    fn exact(value: [f64; 3]) -> Self {
+        AzimuthIntegral {
+            value,
+            error: 0.0,
+            rounding: 0.0,
+        }
+    }
+}
+
 /// The outer rule both texel sums share: `∫ sin θ · s(θ) dθ · scale` per channel over the pieces
-/// between consecutive `breaks` (sorted polar angles), `s = inner(θ, sin θ, cos θ)` the azimuth
-/// integral at `θ`. Adaptive Gauss–Kronrod K21/G10 ([`adaptive`]) on each piece `[t₀, t₁]`
-/// mapped by `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root end
-/// points of a circle's arcs at a tangency become smooth), to the piece's share
-/// `tol (t₁ − t₀)/π`. Returns the value, the sum of the accepted `|K21 − G10|`, whether a depth
-/// limit was hit and the number of nodes where `inner` ran.
+/// between consecutive `breaks` (sorted polar angles), `s` the azimuth integral `inner(θ, sin θ,
+/// cos θ)`. Adaptive Gauss–Kronrod K21/G10 ([`adaptive_above_rounding`]) on each piece
+/// `[t₀, t₁]` mapped by `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root
+/// end points of a circle's arcs at a tangency become smooth), to the piece's share
+/// `tol (t₁ − t₀)/π`; an interval is also accepted when `|K21 − G10|` is within what the nodes'
+/// rounding `r` can make. Returns the value, the error estimate (the sum of the accepted
+/// `|K21 − G10|` plus the same rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e`
+/// and rounding `r`), whether a depth limit was hit and the number of nodes where `inner` ran.
 pub(super) fn polar(
     breaks: &[f64],
     tol: f64,
     scale: [f64; 3],
-    mut inner: impl FnMut(f64, f64, f64) -> [f64; 3],
+    mut inner: impl FnMut(f64, f64, f64) -> AzimuthIntegral,
 ) -> ([f64; 3], f64, bool, u64) {
+    let largest_scale = scale.iter().fold(0.0f64, |m, s| m.max(s.abs()));
     let mut value = [0.0; 3];
     let mut error = 0.0;
     let mut limited = false;
@@ -106,25 +129,32 @@ pub(super) fn polar(
         }
         let (c, h) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
         let piece_tol = tol * (t1 - t0) / PI;
-        let mut outer = |v: f64| -> [f64; 3] {
+        let mut outer = |v: f64| -> [f64; 5] {
             let (sv, cv) = (FRAC_PI_2 * v).sin_cos();
             let theta = c + h * sv;
             let jac = h * FRAC_PI_2 * cv;
             let (sin_t, cos_t) = theta.sin_cos();
             if jac <= 0.0 || sin_t <= 0.0 {
-                return [0.0; 3];
+                return [0.0; 5];
             }
             evaluations += 1;
-            let s = inner(theta, sin_t, cos_t);
-            let f = sin_t * jac;
-            [0, 1, 2].map(|ch| s[ch] * f * scale[ch])
+            let node = inner(theta, sin_t, cos_t);
+            let (s, f) = (node.value, sin_t * jac);
+            [
+                s[0] * f * scale[0],
+                s[1] * f * scale[1],
+                s[2] * f * scale[2],
+                node.rounding * f * largest_scale,
+                node.error * f * largest_scale,
+            ]
         };
-        let (r, e, l) = adaptive(&GK21, -1.0, 1.0, piece_tol, 3, &mut outer);
+        let (r, e, l) = adaptive_above_rounding(&GK21, -1.0, 1.0, piece_tol, 3, Some(3), &mut outer);
         limited |= l;
         for k in 0..3 {
             value[k] += r[k];
         }
-        error += e;
+        // (`+ 0.0 + 0.0` for an exact inner integral: the Lambertian sums' errors are unchanged.)
+        error += e + r[3] + r[4];
     }
     (value, error, limited, evaluations)
 }
