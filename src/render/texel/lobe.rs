@@ -40,6 +40,16 @@
 //! (`depth_limited`, if `e(θ) > ε` at the panel cap or the depth limit) when the panels left to
 //! bisect carry under `ε/8` or there are 2¹⁴ panels.
 //!
+//! **Edges.** For `e < 1` the weight meets the lobe's edge `a·d = 0` (an arc's end) like
+//! `(ψ − p)^e`, whose Chebyshev interpolants converge slowly: bisection chased such an end to
+//! 2⁻²⁴ of an arc. A panel with `a·d ≤ 10⁻⁹` at one end (and not at the other) is graded towards
+//! it: `ψ = p + h s^k` (or `q − h s^k`), `k = ⌈5/(1 + e)⌉`, and the points interpolate
+//! `G = w dψ/ds ~ s^(k(1 + e) − 1)` (at least four continuous derivatives) in `x = 2s − 1`; the
+//! cells' moments come from `∫G̃` and `∫s^k G̃` at each knot's `x`, and `τ` multiplies the
+//! largest `|L|` on the panel ([`CellTable::peak`]) instead of `Λ`. Under Pisa that cut the weight
+//! evaluations at `e = 0.3` threefold and the time per normal by a third to a half; what is left
+//! there is the outer rule's, near the circles tangent to the edge.
+//!
 //! **Rounding.** `τ` is at rounding level when it is at most `10⁻¹⁴ Σ|c_k|` or `NOISE (e + 1)`
 //! times the largest sampled weight: `(a·d)^e` turns the few ulps of `a·d` into a relative error
 //! about `e` times larger, so past `e ≈ 10⁴` the weights themselves are only known to a relative
@@ -246,6 +256,9 @@ struct Panel {
     q: f64,
     depth: u32,
     coefficients: Option<[f64; N + 1]>,
+    /// `None`: the points are spread evenly in `ψ` and `coefficients` interpolate `w`; else the
+    /// panel is graded towards that end ([`Graded`]) and they interpolate `G = w · dψ/ds`.
+    graded: Option<End>,
     error: f64,
     /// The largest sampled weight times `Λ`: about `∫_panel |L| w dψ`, the scale of its rounding.
     scale: f64,
@@ -255,6 +268,58 @@ struct Panel {
     /// Replaced by its halves.
     split: bool,
 }
+
+/// An end of a panel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum End {
+    Start,
+    Finish,
+}
+
+/// The change of variables of a panel graded towards an end where `a·d = 0` (exponents
+/// `e < 1`, module docs "Edges"): `ψ = p + h s^k` (towards `p`) or `ψ = q − h s^k` (towards
+/// `q`), `s ∈ [0, 1]`, `h = q − p`, `x = 2s − 1` the Chebyshev variable.
+#[derive(Clone, Copy, Debug)]
+struct Graded {
+    end: End,
+    p: f64,
+    q: f64,
+    k: i32,
+}
+
+impl Graded {
+    fn h(&self) -> f64 {
+        self.q - self.p
+    }
+
+    /// `ψ` and `dψ/ds` at `s`.
+    fn psi(&self, s: f64) -> (f64, f64) {
+        let (h, k) = (self.h(), self.k);
+        let t = h * s.powi(k);
+        let slope = k as f64 * h * s.powi(k - 1);
+        match self.end {
+            End::Start => (self.p + t, slope),
+            End::Finish => (self.q - t, slope),
+        }
+    }
+
+    /// The Chebyshev variable `x = 2s − 1` of `ψ` in `[p, q]`.
+    fn x(&self, psi: f64) -> f64 {
+        let t = match self.end {
+            End::Start => psi - self.p,
+            End::Finish => self.q - psi,
+        };
+        let s = (t / self.h()).clamp(0.0, 1.0).powf(1.0 / self.k as f64);
+        2.0 * s - 1.0
+    }
+}
+
+/// Largest grading power: `k = ⌈5/(1 + e)⌉ ≤ 5` for `e > 0`.
+const MAX_GRADE: usize = 5;
+
+/// `a·d` at or below this at one end of a panel (and above it at the other) makes the panel
+/// graded towards that end when `e < 1`.
+const EDGE: f64 = 1e-9;
 
 /// What the panels of one circle share: the two sinusoids, the profile rows and the skip level.
 struct Circle {
@@ -293,6 +358,8 @@ struct Azimuthal<'a> {
     a: Vec3,
     exponent: f64,
     norm: f64,
+    /// The grading power `k` for panels at an edge of the lobe (0: no grading, `e ≥ 1`).
+    grade: i32,
     /// `ε`, the inner tolerance per node.
     tol: f64,
     limited: bool,
@@ -313,6 +380,12 @@ impl<'a> Azimuthal<'a> {
             a,
             exponent,
             norm: (exponent + 1.0) / TAU,
+            // G ~ s^(k(1 + e) − 1): at least the fourth derivative continuous.
+            grade: if exponent < 1.0 {
+                (5.0 / (1.0 + exponent)).ceil() as i32
+            } else {
+                0
+            },
             tol,
             limited: false,
             evaluations: 0,
@@ -386,14 +459,24 @@ impl<'a> Azimuthal<'a> {
         for panel in self.panels.iter().filter(|p| !p.split) {
             error += panel.error;
             scale += panel.scale;
-            if let Some(c) = &panel.coefficients {
-                self.add(c, panel.p, panel.q, &circle.rows, &mut s);
+            match (&panel.coefficients, panel.graded) {
+                (Some(c), None) => self.add(c, panel.p, panel.q, &circle.rows, &mut s),
+                (Some(c), Some(end)) => {
+                    let graded = Graded {
+                        end,
+                        p: panel.p,
+                        q: panel.q,
+                        k: self.grade,
+                    };
+                    self.add_graded(c, &graded, &circle.rows, &mut s)
+                }
+                (None, _) => {}
             }
         }
         // Over ε because the panels left are at rounding level is what the weights allow (and
         // stated); over it at the panel cap or the depth limit is a limit.
-        self.limited |=
-            error > self.tol && (self.panels.len() >= MAX_PANELS || self.panels.iter().any(|p| !p.split && p.stuck));
+        self.limited |= error > self.tol
+            && (self.panels.len() >= MAX_PANELS || self.panels.iter().any(|p| !p.split && p.stuck));
         AzimuthIntegral {
             value: s,
             error,
@@ -429,6 +512,7 @@ impl<'a> Azimuthal<'a> {
             q,
             depth,
             coefficients: None,
+            graded: None,
             error: bound * magnitude,
             scale: 0.0,
             final_: true,
@@ -440,17 +524,39 @@ impl<'a> Azimuthal<'a> {
         }
         let lobatto = &*LOBATTO;
         let (mid, h) = (0.5 * (p + q), 0.5 * (q - p));
-        let mut values = [0.0; N + 1];
-        let mut largest = 0.0f64;
-        for (v, &x) in values.iter_mut().zip(&lobatto.x) {
-            let d = Azimuth::new(mid + h * x);
+        let weight = |psi: f64| -> f64 {
+            let d = Azimuth::new(psi);
             let (ca, cn) = (wa.at(&d), wn.at(&d));
-            *v = if ca <= 0.0 || cn <= 0.0 {
+            if ca <= 0.0 || cn <= 0.0 {
                 0.0
             } else {
                 self.norm * ca.powf(self.exponent) * cn
+            }
+        };
+        let graded = self.edge(wa, &pa, &qa).map(|end| Graded {
+            end,
+            p,
+            q,
+            k: self.grade,
+        });
+        let mut values = [0.0; N + 1];
+        // The largest sampled weight, and the largest interpolated value (w or G).
+        let (mut largest, mut largest_value) = (0.0f64, 0.0f64);
+        for (v, &x) in values.iter_mut().zip(&lobatto.x) {
+            let w = match &graded {
+                None => weight(mid + h * x),
+                Some(g) => {
+                    let (psi, slope) = g.psi(0.5 * (1.0 + x));
+                    let w = weight(psi);
+                    *v = w * slope;
+                    w
+                }
             };
-            largest = largest.max(*v);
+            if graded.is_none() {
+                *v = w;
+            }
+            largest = largest.max(w);
+            largest_value = largest_value.max(*v);
         }
         self.evaluations += (N + 1) as u64;
         let c: [f64; N + 1] =
@@ -459,13 +565,117 @@ impl<'a> Azimuthal<'a> {
         let size: f64 = c.iter().map(|v| v.abs()).sum();
         let resolved = SPREAD * largest >= bound;
         panel.stuck = depth >= MAX_DEPTH || mid <= p || mid >= q;
-        // An unresolved panel's integral is only known to within max w + max|p̃| per unit of ∫|L|.
-        panel.error = if resolved { tail } else { bound + size } * magnitude;
-        let rounding = (ROUNDING * size).max(NOISE * (self.exponent + 1.0) * largest);
+        // What a bound on |w − p̃| (on |G − G̃| over s ∈ [0, 1]) multiplies: ∫|L| dψ (max |L|).
+        let per_unit = match graded {
+            None => magnitude,
+            Some(_) => circle
+                .rows
+                .iter()
+                .filter(|(_, w)| *w != 0.0)
+                .map(|&(row, w)| w * table.peak(row, p, q))
+                .sum(),
+        };
+        // An unresolved panel's integral is only known to within ∫|L| w plus what p̃ integrates to.
+        panel.error = match (resolved, graded) {
+            (true, _) => tail * per_unit,
+            (false, None) => (bound + size) * magnitude,
+            (false, Some(_)) => bound * magnitude + size * per_unit,
+        };
+        let rounding = (ROUNDING * size).max(NOISE * (self.exponent + 1.0) * largest_value);
         panel.final_ = panel.stuck || (resolved && tail <= rounding);
         panel.coefficients = Some(c);
+        panel.graded = graded.map(|g| g.end);
         panel.scale = largest * magnitude;
         panel
+    }
+
+    /// The end of `[p, q]` on the lobe's edge (`a·d ≤ EDGE` there and not at the other end),
+    /// when panels are graded (`e < 1`).
+    fn edge(&self, wa: &Sinusoid, p: &Azimuth, q: &Azimuth) -> Option<End> {
+        if self.grade == 0 {
+            return None;
+        }
+        match (wa.at(p) <= EDGE, wa.at(q) <= EDGE) {
+            (true, false) => Some(End::Start),
+            (false, true) => Some(End::Finish),
+            _ => None,
+        }
+    }
+
+    /// Adds `∫_p^q L(ψ) w(ψ) dψ` to `s` for a graded panel, `G̃ = Σ_k c_k T_k(x)` interpolating
+    /// `G = w dψ/ds`, `s = (1 + x)/2`, cell by cell: with `Ĝ' = G̃` and `Ŝ' = s^k G̃` in `x`, a part
+    /// `[u, v]` of cell `i` has `∫w dψ = ±½ ΔĜ` and `∫(ψ − ψ_i) w dψ = (ψ_e − ψ_i) ∫w dψ ± (h/2) ΔŜ`
+    /// (`ψ_e` the graded end; `+` towards `p`, where `x` grows with `ψ`, `−` towards `q`).
+    fn add_graded(&self, c: &[f64; N + 1], g: &Graded, rows: &[(usize, f64); 2], s: &mut [f64; 3]) {
+        const M: usize = N + 1 + MAX_GRADE;
+        let table = self.table;
+        let (p, q, h) = (g.p, g.q, g.h());
+        let gi: [f64; N + 2] = antiderivative(c);
+        let slopes = table.has_slopes();
+        let si: [f64; M + 1] = if slopes {
+            // s^k G̃, one factor (1 + x)/2 at a time: x T_0 = T_1, x T_j = (T_{j+1} + T_{j−1})/2.
+            let mut y = [0.0; M];
+            y[..=N].copy_from_slice(c);
+            for _ in 0..g.k {
+                let mut xy = [0.0; M];
+                for j in 0..M {
+                    if y[j] == 0.0 {
+                        continue;
+                    }
+                    if j == 0 {
+                        xy[1] += y[0];
+                    } else {
+                        xy[j - 1] += 0.5 * y[j];
+                        if j + 1 < M {
+                            xy[j + 1] += 0.5 * y[j];
+                        }
+                    }
+                }
+                for j in 0..M {
+                    y[j] = 0.5 * (y[j] + xy[j]);
+                }
+            }
+            antiderivative(&y)
+        } else {
+            [0.0; M + 1]
+        };
+        let (sign, anchor) = match g.end {
+            End::Start => (1.0, p),
+            End::Finish => (-1.0, q),
+        };
+        let at = |psi: f64| -> (f64, f64) {
+            let x = g.x(psi);
+            (
+                chebyshev_eval(&gi, x),
+                if slopes { chebyshev_eval(&si, x) } else { 0.0 },
+            )
+        };
+        let cells = table.knots().len() - 1;
+        let mut i = table.cell_of(p);
+        while i + 1 < cells && table.knot(i + 1) <= p {
+            i += 1;
+        }
+        let (mut gu, mut su) = at(p);
+        loop {
+            let next = table.knot(i + 1);
+            let last = i + 1 >= cells || next >= q;
+            let (gv, sv) = at(if last { q } else { next });
+            let zeroth = sign * 0.5 * (gv - gu);
+            let first = (anchor - table.knot(i)) * zeroth + 0.5 * h * (sv - su);
+            for &(row, w) in rows {
+                if w != 0.0 {
+                    let l = table.linear(row, i, zeroth, first);
+                    for ch in 0..3 {
+                        s[ch] += w * l[ch];
+                    }
+                }
+            }
+            if last {
+                break;
+            }
+            (gu, su) = (gv, sv);
+            i += 1;
+        }
     }
 
     /// Adds `∫_p^q L(ψ) p̃(ψ) dψ` to `s`, `p̃ = Σ_k c_k T_k(x)`, `ψ = m + h x`, cell by cell: with
@@ -642,6 +852,7 @@ mod tests {
             for (n, a, e) in [
                 (unit(0.0, 1.0, 0.0), unit(0.0, 1.0, 0.0), 1.0),
                 (unit(0.3, 0.2, -0.9), unit(0.1, 0.6, -0.7), 0.5),
+                (unit(1.0, 0.0, 0.0), unit(-0.6, 0.3, 0.74), 0.3),
                 (unit(0.3, 0.2, -0.9), unit(0.1, 0.6, -0.7), 2.5),
                 (unit(0.3, 0.2, -0.9), unit(0.5, 0.4, -0.3), 10.0),
                 (unit(-0.7, -0.2, 0.4), unit(-0.6, 0.1, 0.6), 100.0),
@@ -700,12 +911,16 @@ mod tests {
             }
             out
         };
-        let rows = (0..m.height).map(|k| k as f64 * PI / (m.height - 1) as f64).collect();
+        let rows = (0..m.height)
+            .map(|k| k as f64 * PI / (m.height - 1) as f64)
+            .collect();
         let columns: Vec<f64> = match m.lookup_kind() {
-            Lookup::Thesis => {
-                (0..m.width).map(|k| (2.0 * k as f64 / (m.width - 1) as f64 - 1.0) * PI).collect()
-            }
-            Lookup::Mitsuba => (0..m.width).map(|k| TAU * (k as f64 + 0.5) / m.width as f64).collect(),
+            Lookup::Thesis => (0..m.width)
+                .map(|k| (2.0 * k as f64 / (m.width - 1) as f64 - 1.0) * PI)
+                .collect(),
+            Lookup::Mitsuba => (0..m.width)
+                .map(|k| TAU * (k as f64 + 0.5) / m.width as f64)
+                .collect(),
         };
         // Each column kink once more a turn down and up, for windows across ψ = ±π.
         let columns = columns.iter().flat_map(|c| [c - TAU, *c, c + TAU]).collect();
@@ -757,7 +972,11 @@ mod tests {
                 Lookup::Thesis => (2.0 * 5.0 / 15.0 - 1.0) * PI,
                 Lookup::Mitsuba => TAU * 5.5 / 16.0,
             };
-            let a = Vec3::new(theta_a.sin() * psi_a.sin(), theta_a.cos(), -theta_a.sin() * psi_a.cos());
+            let a = Vec3::new(
+                theta_a.sin() * psi_a.sin(),
+                theta_a.cos(),
+                -theta_a.sin() * psi_a.cos(),
+            );
             // A unit vector perpendicular to a, to tilt the normal away from it.
             let side = a.cross(&Vec3::new(0.0, 1.0, 0.0)).normalize();
             for tilt in [40f64, 80.0] {
@@ -775,12 +994,10 @@ mod tests {
                         got.error,
                         tol + floor
                     );
-                    for ch in 0..3 {
+                    for (ch, (got_ch, want_ch)) in got.value.iter().zip(&want).enumerate() {
                         assert!(
-                            (got.value[ch] - want[ch]).abs() <= got.error,
-                            "{lookup:?} tilt {tilt} e {e} channel {ch}: {} vs {} (error estimate {:.1e})",
-                            got.value[ch],
-                            want[ch],
+                            (got_ch - want_ch).abs() <= got.error,
+                            "{lookup:?} tilt {tilt} e {e} channel {ch}: {got_ch} vs {want_ch} (error estimate {:.1e})",
                             got.error
                         );
                     }
@@ -819,6 +1036,8 @@ mod tests {
             (unit(0.3, 0.5, -0.2), unit(0.3, 0.5, -0.2), 20.0),
             (unit(0.3, 0.5, -0.2), unit(-0.4, 0.8, 0.1), 8.0),
             (unit(1.0, -0.2, 0.4), unit(0.2, -0.9, 0.3), 2.5),
+            (unit(1.0, -0.2, 0.4), unit(0.2, -0.9, 0.3), 0.3),
+            (unit(0.3, 0.5, -0.2), unit(-0.4, 0.8, 0.1), 0.05),
         ] {
             let tilt = n.dot(&a).clamp(-1.0, 1.0).acos();
             let lobe = AxisIntegrand::new(Profile::Lobe { exponent: e }, [tilt.sin(), 0.0, tilt.cos()], true)
