@@ -650,32 +650,17 @@ impl<'a> Azimuthal<'a> {
                 if slopes { chebyshev_eval(&si, x) } else { 0.0 },
             )
         };
-        let cells = table.knots().len() - 1;
-        let mut i = table.cell_of(p);
-        while i + 1 < cells && table.knot(i + 1) <= p {
-            i += 1;
-        }
-        let (mut gu, mut su) = at(p);
-        loop {
-            let next = table.knot(i + 1);
-            let last = i + 1 >= cells || next >= q;
-            let (gv, sv) = at(if last { q } else { next });
+        let at = |edge: Edge| {
+            at(match edge {
+                Edge::Start => p,
+                Edge::Knot(k) => k,
+                Edge::End => q,
+            })
+        };
+        self.add_by_cells(p, q, rows, s, at, |i, (gu, su), (gv, sv)| {
             let zeroth = sign * 0.5 * (gv - gu);
-            let first = (anchor - table.knot(i)) * zeroth + 0.5 * h * (sv - su);
-            for &(row, w) in rows {
-                if w != 0.0 {
-                    let l = table.linear(row, i, zeroth, first);
-                    for ch in 0..3 {
-                        s[ch] += w * l[ch];
-                    }
-                }
-            }
-            if last {
-                break;
-            }
-            (gu, su) = (gv, sv);
-            i += 1;
-        }
+            (zeroth, (anchor - table.knot(i)) * zeroth + 0.5 * h * (sv - su))
+        });
     }
 
     /// Adds `∫_p^q L(ψ) p̃(ψ) dψ` to `s`, `p̃ = Σ_k c_k T_k(x)`, `ψ = m + h x`, cell by cell: with
@@ -709,18 +694,42 @@ impl<'a> Azimuthal<'a> {
                 },
             )
         };
+        let at = |edge: Edge| match edge {
+            Edge::Start => at(-1.0),
+            Edge::Knot(k) => at((k - m) / h),
+            Edge::End => at(1.0),
+        };
+        self.add_by_cells(p, q, rows, s, at, |i, (gu, hu), (gv, hv)| {
+            let zeroth = h * (gv - gu);
+            (zeroth, h * h * (hv - hu) + (m - table.knot(i)) * zeroth)
+        });
+    }
+
+    /// Adds `∫_p^q L w dψ` to `s` cell by cell, `L = a₀ + a₁ (ψ − ψ_i)` on cell `i`: `at(edge)`
+    /// gives a panel's two antiderivatives at its ends and at the knots inside it, and
+    /// `moments(i, at(u), at(v))` turns them into `(∫w, ∫(ψ − ψ_i) w)` over the part `[u, v]` of
+    /// cell `i`.
+    fn add_by_cells(
+        &self,
+        p: f64,
+        q: f64,
+        rows: &[(usize, f64); 2],
+        s: &mut [f64; 3],
+        at: impl Fn(Edge) -> (f64, f64),
+        moments: impl Fn(usize, (f64, f64), (f64, f64)) -> (f64, f64),
+    ) {
+        let table = self.table;
         let cells = table.knots().len() - 1;
         let mut i = table.cell_of(p);
         while i + 1 < cells && table.knot(i + 1) <= p {
             i += 1;
         }
-        let (mut gu, mut hu) = at(-1.0);
+        let mut u = at(Edge::Start);
         loop {
             let next = table.knot(i + 1);
             let last = i + 1 >= cells || next >= q;
-            let (gv, hv) = if last { at(1.0) } else { at((next - m) / h) };
-            let zeroth = h * (gv - gu);
-            let first = h * h * (hv - hu) + (m - table.knot(i)) * zeroth;
+            let v = at(if last { Edge::End } else { Edge::Knot(next) });
+            let (zeroth, first) = moments(i, u, v);
             for &(row, w) in rows {
                 if w != 0.0 {
                     let l = table.linear(row, i, zeroth, first);
@@ -732,10 +741,18 @@ impl<'a> Azimuthal<'a> {
             if last {
                 break;
             }
-            (gu, hu) = (gv, hv);
+            u = v;
             i += 1;
         }
     }
+}
+
+/// Where [`Azimuthal::add_by_cells`] needs a panel's antiderivatives: its ends, or a knot inside.
+#[derive(Clone, Copy, Debug)]
+enum Edge {
+    Start,
+    Knot(f64),
+    End,
 }
 
 /// The Chebyshev coefficients of an antiderivative of `Σ_{k<K} c_k T_k` (constant term 0):
