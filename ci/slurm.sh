@@ -142,8 +142,11 @@ done
 
 # slurm.conf: this host as the one node (its name, CPUs and memory as slurmd sees them), the
 # plugins that need neither systemd nor cgroups, every state file under $tmp.
-node=$(slurmd -C 2> "$tmp/log/slurmd-C.log" | head -n 1 | sed 's/ UpTime=.*//') ||
+# (Its whole output first: `| head -n 1` could close the pipe before slurmd writes its second
+# line, and under pipefail the SIGPIPE would read as slurmd failing.)
+described=$(slurmd -C 2> "$tmp/log/slurmd-C.log") ||
   fail "slurmd: \`slurmd -C\` failed: $(tail -n 1 "$tmp/log/slurmd-C.log")"
+node=$(printf '%s\n' "$described" | sed -n '1{s/ UpTime=.*//;p}')
 [[ $node == NodeName=* ]] || fail "slurmd: \`slurmd -C\` did not describe this host: ${node:-no output}"
 host=$(echo "$node" | sed 's/^NodeName=\([^ ]*\).*/\1/')
 export SLURM_CONF="$tmp/slurm.conf"
