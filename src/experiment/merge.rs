@@ -318,15 +318,9 @@ pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Re
     // rows it holds (its summary, fits and plots are computed again here).
     check_build(&shards)?;
     let plan = rebuild_plan(&shards[0])?;
-    let inputs: Vec<(&str, &Path)> = shards
-        .iter()
-        .map(|s| ("the shard folder", s.dir.as_path()))
-        .collect();
-    let mut folder = ResultFolder::prepare(
+    let mut folder = ResultFolder::prepare_merge(
         out,
-        &out.display().to_string(),
-        "give another OUT",
-        &inputs,
+        shards.iter().map(|s| s.dir.as_path()),
         super::export::legacy_manifest_files,
     )?;
     let start = Instant::now();

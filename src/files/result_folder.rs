@@ -83,6 +83,23 @@ impl ResultFolder {
     /// user can do (`use another --out`), and `inputs` are the command's input files
     /// (`(description, path)`). `legacy` reads the manifests of this kind written before
     /// manifests listed their files, so that their files count as ours.
+    /// [`ResultFolder::prepare`] for a merge writing `out` from the shard folders `shards`
+    /// (the inputs that must not lie inside it).
+    pub fn prepare_merge<'a>(
+        out: &Path,
+        shards: impl IntoIterator<Item = &'a Path>,
+        legacy: LegacyManifest,
+    ) -> Result<ResultFolder> {
+        let inputs: Vec<(&str, &Path)> = shards.into_iter().map(|dir| ("the shard folder", dir)).collect();
+        Self::prepare(
+            out,
+            &out.display().to_string(),
+            "give another OUT",
+            &inputs,
+            legacy,
+        )
+    }
+
     pub fn prepare(
         out: &Path,
         what: &str,

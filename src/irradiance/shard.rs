@@ -265,10 +265,6 @@ pub fn merge(
         ))
         .into());
     }
-    let inputs: Vec<(&str, &Path)> = set
-        .iter()
-        .map(|s| ("the shard folder", s.dir.as_path()))
-        .collect();
     // Every row is read (and checked) before the folder is prepared: nothing is written for a
     // damaged shard.
     let logs = LogSet {
@@ -293,11 +289,9 @@ pub fn merge(
     })?;
     reporter.finish();
     let (exact, rows) = totals.finish(&plan);
-    let mut folder = ResultFolder::prepare(
+    let mut folder = ResultFolder::prepare_merge(
         out,
-        &out.display().to_string(),
-        "give another OUT",
-        &inputs,
+        set.iter().map(|s| s.dir.as_path()),
         super::export::legacy_manifest_files,
     )?;
     super::export::write(&mut folder, &plan, &exact, &rows)?;

@@ -716,15 +716,9 @@ pub fn merge(out: &Path, dirs: &[PathBuf]) -> crate::Result<TableReport> {
         }
     }
     let results = out.parent().map(Path::to_path_buf).unwrap_or_default();
-    let inputs: Vec<(&str, &Path)> = set
-        .iter()
-        .map(|s| ("the shard folder", s.dir.as_path()))
-        .collect();
-    let mut folder = ResultFolder::prepare(
+    let mut folder = ResultFolder::prepare_merge(
         out,
-        &out.display().to_string(),
-        "give another OUT",
-        &inputs,
+        set.iter().map(|s| s.dir.as_path()),
         export::legacy_manifest_files,
     )?;
     folder.write(
