@@ -57,12 +57,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if workbench::files::spec_json::spec_kind(&text) == Some(SpecKind::Irradiance) {
         return run_irradiance(args);
     }
-    let shard = args
-        .shard
-        .as_deref()
-        .map(ex::unit_log::Shard::parse)
-        .transpose()
-        .map_err(|m| workbench::InputError::new(format!("--shard: {m}")))?;
+    let shard = shard_option(args.shard.as_deref())?;
     let overrides = ex::Overrides {
         out: args.out,
         trials: args.trials,
@@ -134,12 +129,7 @@ fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
         ))
         .into());
     }
-    let shard = args
-        .shard
-        .as_deref()
-        .map(ex::unit_log::Shard::parse)
-        .transpose()
-        .map_err(|m| workbench::InputError::new(format!("--shard: {m}")))?;
+    let shard = shard_option(args.shard.as_deref())?;
     let plan = workbench::irradiance::load(&args.file)?;
     if let Some(shard) = shard {
         let out = args.out.clone().unwrap_or_else(|| {
@@ -190,4 +180,11 @@ pub fn print_run_warnings(report: &ex::RunReport) {
     for (message, count) in &report.warnings {
         status!("warning: {count} weight set(s): {message}");
     }
+}
+
+/// `--shard i/n`, parsed (`None` when not given).
+fn shard_option(arg: Option<&str>) -> Result<Option<ex::unit_log::Shard>, workbench::InputError> {
+    arg.map(ex::unit_log::Shard::parse)
+        .transpose()
+        .map_err(|m| workbench::InputError::new(format!("--shard: {m}")))
 }

@@ -302,17 +302,20 @@ pub struct MergeReport {
     pub wall_seconds: f64,
 }
 
+/// The shard folders `dirs` of one merge, read: refused if there are none or they are shards of
+/// different kinds of job ([`check_kinds`]), before any is read ([`read_shard`]).
+pub fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardFolder>, InputError> {
+    if dirs.is_empty() {
+        return Err(InputError::new("merge: give the shard folders to merge"));
+    }
+    check_kinds(dirs)?;
+    dirs.iter().map(|d| read_shard(d)).collect()
+}
+
 /// Merges shard folders into `out`: see the module documentation. Every check is made before
 /// `out` is touched.
 pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Result<(Plan, MergeReport)> {
-    if dirs.is_empty() {
-        return Err(InputError::new("merge: give the shard folders to merge").into());
-    }
-    check_kinds(dirs)?;
-    let shards = dirs
-        .iter()
-        .map(|d| read_shard(d))
-        .collect::<Result<Vec<_>, _>>()?;
+    let shards = read_shards(dirs)?;
     let shards = check_set(shards)?;
     // The merged manifest records one build, the one writing it: that must be the build whose
     // rows it holds (its summary, fits and plots are computed again here).

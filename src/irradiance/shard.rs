@@ -238,14 +238,7 @@ pub fn merge(
     dirs: &[PathBuf],
     reporter: &dyn Reporter,
 ) -> crate::Result<(IrradiancePlan, super::Report)> {
-    if dirs.is_empty() {
-        return Err(InputError::new("merge: give the shard folders to merge").into());
-    }
-    shards::check_kinds(dirs)?;
-    let set = dirs
-        .iter()
-        .map(|d| shards::read_shard(d))
-        .collect::<Result<Vec<_>, _>>()?;
+    let set = shards::read_shards(dirs)?;
     let set = shards::check_set(set)?;
     shards::check_build(&set)?;
     let at = set[0].dir.join(SHARD_FILE);

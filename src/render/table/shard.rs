@@ -573,14 +573,7 @@ fn read_log(plan: &TablePlan, s: &ShardFolder) -> Result<Vec<String>, InputError
 /// is the results folder whose `cache/` the manifest names, as `--results-dir` is for one run).
 /// Every check is made before `out` is touched.
 pub fn merge(out: &Path, dirs: &[PathBuf]) -> crate::Result<TableReport> {
-    if dirs.is_empty() {
-        return Err(InputError::new("merge: give the shard folders to merge").into());
-    }
-    shards::check_kinds(dirs)?;
-    let set = dirs
-        .iter()
-        .map(|d| shards::read_shard(d))
-        .collect::<Result<Vec<_>, _>>()?;
+    let set = shards::read_shards(dirs)?;
     // Another map or scene is another plan too; say which, before the plan hashes.
     for field in ["scene", "env"] {
         let of = |s: &ShardFolder| {
