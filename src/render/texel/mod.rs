@@ -25,7 +25,7 @@
 pub mod cells;
 pub mod lobe;
 
-use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding};
+use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding, adaptive_worst_first};
 use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
@@ -55,25 +55,26 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
     let scale = p.albedo.map(|a| a / PI);
     let mut intervals = Vec::with_capacity(8);
     let breaks = arcs.cuts.theta_breaks();
-    let (value, error, limited, evaluations) = polar(&breaks, tol, scale, |theta, sin_t, cos_t| {
-        arcs.at(cos_t, sin_t, &mut intervals);
-        let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
-        let rows = table.rows_at(theta);
-        let mut s = [0.0; 3];
-        for &(lo, hi) in &intervals {
-            let (lo, hi) = (Azimuth::new(lo), Azimuth::new(hi));
-            for (row, weight) in rows {
-                if weight == 0.0 {
-                    continue;
-                }
-                let m = table.integral(row, &lo, &hi);
-                for ch in 0..3 {
-                    s[ch] += weight * (a * m[1][ch] + b * m[0][ch] + cc * m[2][ch]);
+    let (value, error, limited, evaluations) =
+        polar(&breaks, tol, scale, Strategy::Local, |theta, sin_t, cos_t| {
+            arcs.at(cos_t, sin_t, &mut intervals);
+            let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
+            let rows = table.rows_at(theta);
+            let mut s = [0.0; 3];
+            for &(lo, hi) in &intervals {
+                let (lo, hi) = (Azimuth::new(lo), Azimuth::new(hi));
+                for (row, weight) in rows {
+                    if weight == 0.0 {
+                        continue;
+                    }
+                    let m = table.integral(row, &lo, &hi);
+                    for ch in 0..3 {
+                        s[ch] += weight * (a * m[1][ch] + b * m[0][ch] + cc * m[2][ch]);
+                    }
                 }
             }
-        }
-        AzimuthIntegral::exact(s)
-    });
+            AzimuthIntegral::exact(s)
+        });
     PixelIntegral {
         value,
         error,
@@ -102,59 +103,91 @@ impl AzimuthIntegral {
     }
 }
 
+/// How [`polar`] shares its tolerance between its intervals.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Strategy {
+    /// Each piece to its share `tol (t₁ − t₀)/π`, halved at each bisection
+    /// ([`adaptive_above_rounding`]): the Lambertian sums, whose integrands kink only where a
+    /// circle's arc ends cross cell boundaries.
+    Local,
+    /// One tolerance for all pieces, the worst interval bisected first
+    /// ([`adaptive_worst_first`]): a Phong lobe, whose edge crosses every cell boundary it
+    /// sweeps over (module docs of [`lobe`]).
+    WorstFirst,
+}
+
 /// The outer rule both texel sums share: `∫ sin θ · s(θ) dθ · scale` per channel over the pieces
 /// between consecutive `breaks` (sorted polar angles), `s` the azimuth integral `inner(θ, sin θ,
-/// cos θ)`. Adaptive Gauss–Kronrod K21/G10 ([`adaptive_above_rounding`]) on each piece
-/// `[t₀, t₁]` mapped by `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root
-/// end points of a circle's arcs at a tangency become smooth), to the piece's share
-/// `tol (t₁ − t₀)/π`; an interval is also accepted when `|K21 − G10|` is within what the nodes'
-/// rounding `r` can make. Returns the value, the error estimate (the sum of the accepted
-/// `|K21 − G10|` plus the same rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e`
-/// and rounding `r`), whether a depth limit was hit and the number of nodes where `inner` ran.
+/// cos θ)`. Adaptive Gauss–Kronrod K21/G10 on each piece `[t₀, t₁]` mapped by
+/// `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root end points of a
+/// circle's arcs at a tangency become smooth), to the tolerance `tol` shared by `strategy`; an
+/// interval is also accepted when `|K21 − G10|` is within what the nodes' rounding `r` can make.
+/// Returns the value, the error estimate (the sum of the accepted `|K21 − G10|` plus the same
+/// rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e` and rounding `r`), whether
+/// a depth limit was hit and the number of nodes where `inner` ran.
 pub(super) fn polar(
     breaks: &[f64],
     tol: f64,
     scale: [f64; 3],
+    strategy: Strategy,
     mut inner: impl FnMut(f64, f64, f64) -> AzimuthIntegral,
 ) -> ([f64; 3], f64, bool, u64) {
     let largest_scale = scale.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+    let pieces: Vec<(f64, f64)> = breaks.windows(2).map(|w| (w[0], w[1])).collect();
+    let mut evaluations = 0u64;
+    // The integrand in v ∈ [−1, 1] on piece `i`: the three channels, then r and e.
+    let mut outer = |i: usize, v: f64| -> [f64; 5] {
+        let (t0, t1) = pieces[i];
+        let (c, h) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+        let (sv, cv) = (FRAC_PI_2 * v).sin_cos();
+        let theta = c + h * sv;
+        let jac = h * FRAC_PI_2 * cv;
+        let (sin_t, cos_t) = theta.sin_cos();
+        if jac <= 0.0 || sin_t <= 0.0 {
+            return [0.0; 5];
+        }
+        evaluations += 1;
+        let node = inner(theta, sin_t, cos_t);
+        let (s, f) = (node.value, sin_t * jac);
+        [
+            s[0] * f * scale[0],
+            s[1] * f * scale[1],
+            s[2] * f * scale[2],
+            node.rounding * f * largest_scale,
+            node.error * f * largest_scale,
+        ]
+    };
     let mut value = [0.0; 3];
     let mut error = 0.0;
     let mut limited = false;
-    let mut evaluations = 0u64;
-    for w in breaks.windows(2) {
-        let (t0, t1) = (w[0], w[1]);
-        if t1 <= t0 {
-            continue;
-        }
-        let (c, h) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
-        let piece_tol = tol * (t1 - t0) / PI;
-        let mut outer = |v: f64| -> [f64; 5] {
-            let (sv, cv) = (FRAC_PI_2 * v).sin_cos();
-            let theta = c + h * sv;
-            let jac = h * FRAC_PI_2 * cv;
-            let (sin_t, cos_t) = theta.sin_cos();
-            if jac <= 0.0 || sin_t <= 0.0 {
-                return [0.0; 5];
+    match strategy {
+        Strategy::Local => {
+            for (i, &(t0, t1)) in pieces.iter().enumerate() {
+                if t1 <= t0 {
+                    continue;
+                }
+                let piece_tol = tol * (t1 - t0) / PI;
+                let (r, e, l) =
+                    adaptive_above_rounding(&GK21, -1.0, 1.0, piece_tol, 3, Some(3), &mut |v| outer(i, v));
+                limited |= l;
+                for k in 0..3 {
+                    value[k] += r[k];
+                }
+                // (`+ 0.0 + 0.0` for an exact inner integral: the Lambertian sums' errors are
+                // unchanged.)
+                error += e + r[3] + r[4];
             }
-            evaluations += 1;
-            let node = inner(theta, sin_t, cos_t);
-            let (s, f) = (node.value, sin_t * jac);
-            [
-                s[0] * f * scale[0],
-                s[1] * f * scale[1],
-                s[2] * f * scale[2],
-                node.rounding * f * largest_scale,
-                node.error * f * largest_scale,
-            ]
-        };
-        let (r, e, l) = adaptive_above_rounding(&GK21, -1.0, 1.0, piece_tol, 3, Some(3), &mut outer);
-        limited |= l;
-        for k in 0..3 {
-            value[k] += r[k];
         }
-        // (`+ 0.0 + 0.0` for an exact inner integral: the Lambertian sums' errors are unchanged.)
-        error += e + r[3] + r[4];
+        Strategy::WorstFirst => {
+            let spans: Vec<(f64, f64)> = pieces
+                .iter()
+                .map(|&(t0, t1)| if t1 > t0 { (-1.0, 1.0) } else { (0.0, 0.0) })
+                .collect();
+            let (r, e, l) = adaptive_worst_first(&GK21, &spans, tol, 3, 3, &mut outer);
+            value = [r[0], r[1], r[2]];
+            error = e + r[3] + r[4];
+            limited = l;
+        }
     }
     (value, error, limited, evaluations)
 }
