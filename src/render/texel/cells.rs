@@ -273,27 +273,6 @@ impl CellTable {
         }
     }
 
-    /// An upper bound of `max_channel max_{ψ ∈ [a, b]} |L_row(ψ)|`: the largest `|L|` at the ends
-    /// of the cells `[a, b]` meets (`L` is linear on each), or the row's largest past 16 cells.
-    pub fn peak(&self, row: usize, a: f64, b: f64) -> f64 {
-        let (ia, ib) = (self.cell_of(a), self.cell_of(b));
-        if ib - ia > 16 {
-            return self.row_max[row];
-        }
-        let mut peak = 0.0f64;
-        for i in ia..=ib {
-            let k = row * self.cells + i;
-            let a0 = self.a0[k];
-            for c in 0..3 {
-                peak = peak.max(a0[c].abs());
-                if let Some(a1) = self.a1.get(k) {
-                    peak = peak.max((a0[c] + a1[c] * self.width).abs());
-                }
-            }
-        }
-        peak
-    }
-
     /// `∫_a^b L_row(ψ)·{1, sin ψ, cos ψ} dψ` per channel, for `start ≤ a ≤ b ≤ start + 2π`.
     pub fn integral(&self, row: usize, a: &Azimuth, b: &Azimuth) -> Moments {
         let (ia, ib) = (self.cell_of(a.psi), self.cell_of(b.psi));

@@ -46,15 +46,23 @@
 //! (`depth_limited`, if `e(θ) > ε` at the panel cap or the depth limit) when the panels left to
 //! bisect carry under `ε/8` or there are 2¹⁴ panels.
 //!
-//! **Edges.** For `e < 1` the weight meets the lobe's edge `a·d = 0` (an arc's end) like
+//! **Edges.** For `e < 1` the weight meets the lobe's edge `a·d = 0` (an arc's end `p`) like
 //! `(ψ − p)^e`, whose Chebyshev interpolants converge slowly: bisection chased such an end to
-//! 2⁻²⁴ of an arc. A panel with `a·d ≤ 10⁻⁹` at one end (and not at the other) is graded towards
-//! it: `ψ = p + h s^k` (or `q − h s^k`), `k = ⌈5/(1 + e)⌉`, and the points interpolate
-//! `G = w dψ/ds ~ s^(k(1 + e) − 1)` (at least four continuous derivatives) in `x = 2s − 1`; the
-//! cells' moments come from `∫G̃` and `∫s^k G̃` at each knot's `x`, and `τ` multiplies the
-//! largest `|L|` on the panel ([`CellTable::peak`]) instead of `Λ`. Under Pisa that cut the weight
-//! evaluations at `e = 0.3` threefold and the time per normal by a third to a half; what is left
-//! there is the outer rule's, near the circles tangent to the edge.
+//! 2⁻²⁴ of an arc. A panel with `a·d ≤ 10⁻⁹` at one end (and not at the other) is an edge panel:
+//! with `t = (ψ − p)/h` the distance from the edge over the panel's length (`(q − ψ)/h` for an
+//! edge at `q`), `w = t^e φ(t)` and `φ = norm (a·d / t)^e n·d` is analytic (`a·d / t` tends to
+//! `h |d(a·d)/dψ|` at the edge), so the points interpolate `φ` and the singular factor is
+//! integrated exactly: `∫₀^τ t^e φ̃ dt = τ^(1+e) P(τ)` and `∫₀^τ t^(1+e) φ̃ dt = τ^(2+e) Q(τ)`
+//! with `P`, `Q` polynomials of `φ̃`'s degree whose coefficients are fixed linear maps of `φ̃`'s
+//! ([`EdgeRule`], from the Gauss–Jacobi rule of `u^e`); the cells' moments come from `P` and `Q`
+//! at each knot, and `τ` bounds `|w − t^e φ̃| ≤ |φ − φ̃|` times `Λ` as on any panel. Under Pisa
+//! at `e = 0.1` that cut the weight evaluations fivefold against panels graded towards the edge
+//! (`ψ = p + h s^k`, which still bisected an edge ten times, the stretched far end being hard
+//! to interpolate).
+//!
+//! **All knots at once.** A node's cost is then mostly the antiderivatives at every knot inside
+//! a panel (hundreds per circle on a 1024-wide map); [`Azimuthal::add_by_cells`] evaluates them
+//! four at a time ([`chebyshev_eval_into`], the same values bit for bit).
 //!
 //! **Rounding.** `τ` is at rounding level when it is at most `10⁻¹⁴ Σ|c_k|` or `NOISE (e + 1)`
 //! times the largest sampled weight: `(a·d)^e` turns the few ulps of `a·d` into a relative error
@@ -83,7 +91,7 @@ use super::super::env::EnvMap;
 use super::cells::{Azimuth, CellTable};
 use super::{AzimuthIntegral, Strategy, polar};
 use crate::util::geometry::Vec3;
-use crate::util::quadrature::chebyshev_eval;
+use crate::util::quadrature::{chebyshev_eval_into, gauss_jacobi_unit};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::LazyLock;
 
@@ -266,9 +274,9 @@ struct Panel {
     q: f64,
     depth: u32,
     coefficients: Option<[f64; N + 1]>,
-    /// `None`: the points are spread evenly in `ψ` and `coefficients` interpolate `w`; else the
-    /// panel is graded towards that end ([`Graded`]) and they interpolate `G = w · dψ/ds`.
-    graded: Option<End>,
+    /// `None`: `coefficients` interpolate `w`; else that end is on the lobe's edge and they
+    /// interpolate `φ = w / t^e` ([`EdgeRule`]).
+    edge: Option<End>,
     error: f64,
     /// The largest sampled weight times `Λ`: about `∫_panel |L| w dψ`, the scale of its rounding.
     scale: f64,
@@ -286,49 +294,61 @@ enum End {
     Finish,
 }
 
-/// The change of variables of a panel graded towards an end where `a·d = 0` (exponents
-/// `e < 1`, module docs "Edges"): `ψ = p + h s^k` (towards `p`) or `ψ = q − h s^k` (towards
-/// `q`), `s ∈ [0, 1]`, `h = q − p`, `x = 2s − 1` the Chebyshev variable.
-#[derive(Clone, Copy, Debug)]
-struct Graded {
-    end: End,
-    p: f64,
-    q: f64,
-    k: i32,
+/// What an edge panel (module docs, "Edges") integrates with: for the lobe's exponent `e`, the
+/// linear maps from the Chebyshev coefficients of `φ` (in `x = 2t − 1`, `t ∈ [0, 1]`) to those
+/// of `P(τ) = ∫₀¹ u^e φ(τu) du` and `Q(τ) = ∫₀¹ u^(1+e) φ(τu) du`, polynomials of `φ`'s degree
+/// with `∫₀^τ t^e φ dt = τ^(1+e) P(τ)` and `∫₀^τ t^(1+e) φ dt = τ^(2+e) Q(τ)`. Their values at
+/// the Lobatto points come from the 9-point Gauss–Jacobi rule of `u^e` (exact for `u φ(τu)`,
+/// degree 17), their coefficients from the DCT.
+struct EdgeRule {
+    exponent: f64,
+    zeroth: [[f64; N + 1]; N + 1],
+    first: [[f64; N + 1]; N + 1],
 }
 
-impl Graded {
-    fn h(&self) -> f64 {
-        self.q - self.p
-    }
-
-    /// `ψ` and `dψ/ds` at `s`.
-    fn psi(&self, s: f64) -> (f64, f64) {
-        let (h, k) = (self.h(), self.k);
-        let t = h * s.powi(k);
-        let slope = k as f64 * h * s.powi(k - 1);
-        match self.end {
-            End::Start => (self.p + t, slope),
-            End::Finish => (self.q - t, slope),
+impl EdgeRule {
+    fn new(exponent: f64) -> Self {
+        let (u, weights) = gauss_jacobi_unit(N / 2 + 1, exponent);
+        let lobatto = &*LOBATTO;
+        // values[j][k]: P (or Q) at τ_j = (1 + x_j)/2 for φ = T_k.
+        let mut p_values = [[0.0; N + 1]; N + 1];
+        let mut q_values = [[0.0; N + 1]; N + 1];
+        for (j, &x) in lobatto.x.iter().enumerate() {
+            let tau = 0.5 * (1.0 + x);
+            for (&um, &wm) in u.iter().zip(&weights) {
+                // T_k(y) at the node's y = 2τu − 1, by the three-term recurrence.
+                let y = 2.0 * tau * um - 1.0;
+                let mut t = [1.0; N + 1];
+                t[1] = y;
+                for k in 2..=N {
+                    t[k] = 2.0 * y * t[k - 1] - t[k - 2];
+                }
+                for k in 0..=N {
+                    p_values[j][k] += wm * t[k];
+                    q_values[j][k] += wm * um * t[k];
+                }
+            }
+        }
+        let coefficients = |values: &[[f64; N + 1]; N + 1]| -> [[f64; N + 1]; N + 1] {
+            std::array::from_fn(|i| {
+                std::array::from_fn(|k| (0..=N).map(|j| lobatto.dct[i][j] * values[j][k]).sum())
+            })
+        };
+        EdgeRule {
+            exponent,
+            zeroth: coefficients(&p_values),
+            first: coefficients(&q_values),
         }
     }
 
-    /// The Chebyshev variable `x = 2s − 1` of `ψ` in `[p, q]`.
-    fn x(&self, psi: f64) -> f64 {
-        let t = match self.end {
-            End::Start => psi - self.p,
-            End::Finish => self.q - psi,
-        };
-        let s = (t / self.h()).clamp(0.0, 1.0).powf(1.0 / self.k as f64);
-        2.0 * s - 1.0
+    /// `M c`.
+    fn apply(m: &[[f64; N + 1]; N + 1], c: &[f64; N + 1]) -> [f64; N + 1] {
+        std::array::from_fn(|i| m[i].iter().zip(c).map(|(a, b)| a * b).sum())
     }
 }
 
-/// Largest grading power: `k = ⌈5/(1 + e)⌉ ≤ 5` for `e > 0`.
-const MAX_GRADE: usize = 5;
-
-/// `a·d` at or below this at one end of a panel (and above it at the other) makes the panel
-/// graded towards that end when `e < 1`.
+/// `a·d` at or below this at one end of a panel (and above it at the other) makes it an edge
+/// panel when `e < 1`.
 const EDGE: f64 = 1e-9;
 
 /// What the panels of one circle share: the two sinusoids, the profile rows and the skip level.
@@ -368,8 +388,9 @@ struct Azimuthal<'a> {
     a: Vec3,
     exponent: f64,
     norm: f64,
-    /// The grading power `k` for panels at an edge of the lobe (0: no grading, `e ≥ 1`).
-    grade: i32,
+    /// The edge panels' rule (`None` for `e ≥ 1`, where the weight meets the edge at least
+    /// linearly and plain panels converge).
+    edge_rule: Option<EdgeRule>,
     /// `ε`, the inner tolerance per node.
     tol: f64,
     limited: bool,
@@ -390,12 +411,7 @@ impl<'a> Azimuthal<'a> {
             a,
             exponent,
             norm: (exponent + 1.0) / TAU,
-            // G ~ s^(k(1 + e) − 1): at least the fourth derivative continuous.
-            grade: if exponent < 1.0 {
-                (5.0 / (1.0 + exponent)).ceil() as i32
-            } else {
-                0
-            },
+            edge_rule: (exponent < 1.0).then(|| EdgeRule::new(exponent)),
             tol,
             limited: false,
             evaluations: 0,
@@ -469,17 +485,9 @@ impl<'a> Azimuthal<'a> {
         for panel in self.panels.iter().filter(|p| !p.split) {
             error += panel.error;
             scale += panel.scale;
-            match (&panel.coefficients, panel.graded) {
+            match (&panel.coefficients, panel.edge) {
                 (Some(c), None) => self.add(c, panel.p, panel.q, &circle.rows, &mut s),
-                (Some(c), Some(end)) => {
-                    let graded = Graded {
-                        end,
-                        p: panel.p,
-                        q: panel.q,
-                        k: self.grade,
-                    };
-                    self.add_graded(c, &graded, &circle.rows, &mut s)
-                }
+                (Some(c), Some(end)) => self.add_edge(c, panel.p, panel.q, end, &circle.rows, &mut s),
                 (None, _) => {}
             }
         }
@@ -522,7 +530,7 @@ impl<'a> Azimuthal<'a> {
             q,
             depth,
             coefficients: None,
-            graded: None,
+            edge: None,
             error: bound * magnitude,
             scale: 0.0,
             final_: true,
@@ -532,39 +540,56 @@ impl<'a> Azimuthal<'a> {
         if bound * magnitude <= circle.negligible * (q - p) {
             return panel;
         }
+        let edge = self.edge(wa, &pa, &qa);
         let lobatto = &*LOBATTO;
         let (mid, h) = (0.5 * (p + q), 0.5 * (q - p));
+        let exponent = self.exponent;
         let weight = |psi: f64| -> f64 {
             let d = Azimuth::new(psi);
             let (ca, cn) = (wa.at(&d), wn.at(&d));
             if ca <= 0.0 || cn <= 0.0 {
                 0.0
             } else {
-                self.norm * ca.powf(self.exponent) * cn
+                self.norm * ca.powf(exponent) * cn
             }
         };
-        let graded = self.edge(wa, &pa, &qa).map(|end| Graded {
-            end,
-            p,
-            q,
-            k: self.grade,
-        });
+        // On an edge panel, `w = t^e φ` and `φ = norm (a·d / t)^e n·d` with `t` the distance
+        // from the edge over the panel's length; at the edge itself `a·d / t` is that length
+        // times `|d(a·d)/dψ|`.
+        let length = q - p;
+        let on_edge = |t: f64, end: End| -> (f64, f64) {
+            let psi = match end {
+                End::Start => p + length * t,
+                End::Finish => q - length * t,
+            };
+            let d = Azimuth::new(psi);
+            let (ca, cn) = (wa.at(&d), wn.at(&d));
+            if cn <= 0.0 {
+                return (0.0, 0.0);
+            }
+            let ratio = if t > 0.0 {
+                ca.max(0.0) / t
+            } else {
+                length * (wa.a * d.cos - wa.c * d.sin).abs()
+            };
+            let phi = self.norm * ratio.powf(exponent) * cn;
+            (phi, t.powf(exponent) * phi)
+        };
         let mut values = [0.0; N + 1];
-        // The largest sampled weight, and the largest interpolated value (w or G).
+        // The largest sampled weight, and the largest interpolated value (w or φ).
         let (mut largest, mut largest_value) = (0.0f64, 0.0f64);
         for (v, &x) in values.iter_mut().zip(&lobatto.x) {
-            let w = match &graded {
-                None => weight(mid + h * x),
-                Some(g) => {
-                    let (psi, slope) = g.psi(0.5 * (1.0 + x));
-                    let w = weight(psi);
-                    *v = w * slope;
+            let w = match edge {
+                None => {
+                    *v = weight(mid + h * x);
+                    *v
+                }
+                Some(end) => {
+                    let (phi, w) = on_edge(0.5 * (1.0 + x), end);
+                    *v = phi;
                     w
                 }
             };
-            if graded.is_none() {
-                *v = w;
-            }
             largest = largest.max(w);
             largest_value = largest_value.max(*v);
         }
@@ -575,36 +600,25 @@ impl<'a> Azimuthal<'a> {
         let size: f64 = c.iter().map(|v| v.abs()).sum();
         let resolved = SPREAD * largest >= bound;
         panel.stuck = depth >= MAX_DEPTH || mid <= p || mid >= q;
-        // What a bound on |w − p̃| (on |G − G̃| over s ∈ [0, 1]) multiplies: ∫|L| dψ (max |L|).
-        let per_unit = match graded {
-            None => magnitude,
-            Some(_) => circle
-                .rows
-                .iter()
-                .filter(|(_, w)| *w != 0.0)
-                .map(|&(row, w)| w * table.peak(row, p, q))
-                .sum(),
+        // A bound on |w − p̃| (on an edge panel |w − t^e φ̃| ≤ |φ − φ̃|, t ≤ 1) times ∫|L| dψ; an
+        // unresolved panel's integral is only known to within ∫|L| w plus what p̃ integrates to.
+        panel.error = if resolved {
+            tail * magnitude
+        } else {
+            (bound + size) * magnitude
         };
-        // An unresolved panel's integral is only known to within ∫|L| w plus what p̃ integrates to.
-        panel.error = match (resolved, graded) {
-            (true, _) => tail * per_unit,
-            (false, None) => (bound + size) * magnitude,
-            (false, Some(_)) => bound * magnitude + size * per_unit,
-        };
-        let rounding = (ROUNDING * size).max(NOISE * (self.exponent + 1.0) * largest_value);
+        let rounding = (ROUNDING * size).max(NOISE * (exponent + 1.0) * largest_value);
         panel.final_ = panel.stuck || (resolved && tail <= rounding);
         panel.coefficients = Some(c);
-        panel.graded = graded.map(|g| g.end);
+        panel.edge = edge;
         panel.scale = largest * magnitude;
         panel
     }
 
     /// The end of `[p, q]` on the lobe's edge (`a·d ≤ EDGE` there and not at the other end),
-    /// when panels are graded (`e < 1`).
+    /// when there are edge panels (`e < 1`).
     fn edge(&self, wa: &Sinusoid, p: &Azimuth, q: &Azimuth) -> Option<End> {
-        if self.grade == 0 {
-            return None;
-        }
+        self.edge_rule.as_ref()?;
         match (wa.at(p) <= EDGE, wa.at(q) <= EDGE) {
             (true, false) => Some(End::Start),
             (false, true) => Some(End::Finish),
@@ -612,64 +626,67 @@ impl<'a> Azimuthal<'a> {
         }
     }
 
-    /// Adds `∫_p^q L(ψ) w(ψ) dψ` to `s` for a graded panel, `G̃ = Σ_k c_k T_k(x)` interpolating
-    /// `G = w dψ/ds`, `s = (1 + x)/2`, cell by cell: with `Ĝ' = G̃` and `Ŝ' = s^k G̃` in `x`, a part
-    /// `[u, v]` of cell `i` has `∫w dψ = ±½ ΔĜ` and `∫(ψ − ψ_i) w dψ = (ψ_e − ψ_i) ∫w dψ ± (h/2) ΔŜ`
-    /// (`ψ_e` the graded end; `+` towards `p`, where `x` grows with `ψ`, `−` towards `q`).
-    fn add_graded(&self, c: &[f64; N + 1], g: &Graded, rows: &[(usize, f64); 2], s: &mut [f64; 3]) {
-        const M: usize = N + 1 + MAX_GRADE;
+    /// Adds `∫_p^q L(ψ) w(ψ) dψ` to `s` for an edge panel, `φ̃ = Σ_k c_k T_k(x)` interpolating `φ`
+    /// in `x = 2t − 1`, `t = (ψ − p)/h` (edge at `p`) or `(q − ψ)/h` (edge at `q`), `h = q − p`,
+    /// cell by cell: with `F₀(τ) = τ^(1+e) P(τ)` and `F₁(τ) = τ^(2+e) Q(τ)` ([`EdgeRule`]), a
+    /// part `[u, v]` of cell `i` has `∫w dψ = ±h (F₀(t_v) − F₀(t_u))` and
+    /// `∫(ψ − ψ_i) w dψ = (ψ_e − ψ_i) ∫w dψ + h² (F₁(t_v) − F₁(t_u))` (`ψ_e` the edge; `+`
+    /// towards `p`, where `t` grows with `ψ`, `−` towards `q`).
+    fn add_edge(
+        &self,
+        c: &[f64; N + 1],
+        p: f64,
+        q: f64,
+        end: End,
+        rows: &[(usize, f64); 2],
+        s: &mut [f64; 3],
+    ) {
+        let rule = self
+            .edge_rule
+            .as_ref()
+            .expect("edge panels only with an edge rule");
         let table = self.table;
-        let (p, q, h) = (g.p, g.q, g.h());
-        let gi: [f64; N + 2] = antiderivative(c);
+        let h = q - p;
         let slopes = table.has_slopes();
-        let si: [f64; M + 1] = if slopes {
-            // s^k G̃, one factor (1 + x)/2 at a time: x T_0 = T_1, x T_j = (T_{j+1} + T_{j−1})/2.
-            let mut y = [0.0; M];
-            y[..=N].copy_from_slice(c);
-            for _ in 0..g.k {
-                let mut xy = [0.0; M];
-                for j in 0..M {
-                    if y[j] == 0.0 {
-                        continue;
-                    }
-                    if j == 0 {
-                        xy[1] += y[0];
-                    } else {
-                        xy[j - 1] += 0.5 * y[j];
-                        if j + 1 < M {
-                            xy[j + 1] += 0.5 * y[j];
-                        }
-                    }
-                }
-                for j in 0..M {
-                    y[j] = 0.5 * (y[j] + xy[j]);
-                }
-            }
-            antiderivative(&y)
+        let zeroth = EdgeRule::apply(&rule.zeroth, c);
+        let first = if slopes {
+            EdgeRule::apply(&rule.first, c)
         } else {
-            [0.0; M + 1]
+            [0.0; N + 1]
         };
-        let (sign, anchor) = match g.end {
+        let (sign, anchor) = match end {
             End::Start => (1.0, p),
             End::Finish => (-1.0, q),
         };
-        let at = |psi: f64| -> (f64, f64) {
-            let x = g.x(psi);
-            (
-                chebyshev_eval(&gi, x),
-                if slopes { chebyshev_eval(&si, x) } else { 0.0 },
-            )
-        };
-        let at = |edge: Edge| {
-            at(match edge {
+        // The panel's points in x = 2t − 1 (t its distance from the edge over h).
+        let point = |edge: Edge| {
+            let psi = match edge {
                 Edge::Start => p,
                 Edge::Knot(k) => k,
                 Edge::End => q,
-            })
+            };
+            let t = match end {
+                End::Start => (psi - p) / h,
+                End::Finish => (q - psi) / h,
+            }
+            .clamp(0.0, 1.0);
+            2.0 * t - 1.0
         };
-        self.add_by_cells(p, q, rows, s, at, |i, (gu, su), (gv, sv)| {
-            let zeroth = sign * 0.5 * (gv - gu);
-            (zeroth, (anchor - table.knot(i)) * zeroth + 0.5 * h * (sv - su))
+        let eval = |xs: &[f64], f0: &mut [f64], f1: &mut [f64]| {
+            chebyshev_eval_into(&zeroth, xs, f0);
+            if slopes {
+                chebyshev_eval_into(&first, xs, f1);
+            }
+            for ((x, f0), f1) in xs.iter().zip(f0).zip(f1) {
+                let t = 0.5 * (1.0 + x);
+                let power = t.powf(1.0 + rule.exponent);
+                *f0 *= power;
+                *f1 = if slopes { *f1 * power * t } else { 0.0 };
+            }
+        };
+        self.add_by_cells(p, q, rows, s, point, eval, |i, (fu, gu), (fv, gv)| {
+            let zeroth = sign * h * (fv - fu);
+            (zeroth, (anchor - table.knot(i)) * zeroth + h * h * (gv - gu))
         });
     }
 
@@ -693,66 +710,71 @@ impl<'a> Azimuthal<'a> {
         } else {
             [0.0; N + 3]
         };
-        let at = |x: f64| -> (f64, f64) {
-            let gx = chebyshev_eval(&g, x);
-            (
-                gx,
-                if slopes {
-                    chebyshev_eval(&h_coefficients, x)
-                } else {
-                    0.0
-                },
-            )
+        let point = |edge: Edge| match edge {
+            Edge::Start => -1.0,
+            Edge::Knot(k) => (k - m) / h,
+            Edge::End => 1.0,
         };
-        let at = |edge: Edge| match edge {
-            Edge::Start => at(-1.0),
-            Edge::Knot(k) => at((k - m) / h),
-            Edge::End => at(1.0),
+        let eval = |xs: &[f64], g_values: &mut [f64], h_values: &mut [f64]| {
+            chebyshev_eval_into(&g, xs, g_values);
+            if slopes {
+                chebyshev_eval_into(&h_coefficients, xs, h_values);
+            }
         };
-        self.add_by_cells(p, q, rows, s, at, |i, (gu, hu), (gv, hv)| {
+        self.add_by_cells(p, q, rows, s, point, eval, |i, (gu, hu), (gv, hv)| {
             let zeroth = h * (gv - gu);
             (zeroth, h * h * (hv - hu) + (m - table.knot(i)) * zeroth)
         });
     }
 
-    /// Adds `∫_p^q L w dψ` to `s` cell by cell, `L = a₀ + a₁ (ψ − ψ_i)` on cell `i`: `at(edge)`
-    /// gives a panel's two antiderivatives at its ends and at the knots inside it, and
-    /// `moments(i, at(u), at(v))` turns them into `(∫w, ∫(ψ − ψ_i) w)` over the part `[u, v]` of
-    /// cell `i`.
+    /// Adds `∫_p^q L w dψ` to `s` cell by cell, `L = a₀ + a₁ (ψ − ψ_i)` on cell `i`: `point(edge)`
+    /// gives the variable of a panel's interpolant at its ends and at the knots inside it,
+    /// `eval(points, F, G)` a panel's two antiderivatives there (`G` zero when the lookup has no
+    /// slopes), and `moments(i, (F, G)(u), (F, G)(v))` turns them into `(∫w, ∫(ψ − ψ_i) w)` over
+    /// the part `[u, v]` of cell `i`. (All points at once: the antiderivatives' recurrences run
+    /// four at a time.)
+    #[allow(clippy::too_many_arguments)]
     fn add_by_cells(
         &self,
         p: f64,
         q: f64,
         rows: &[(usize, f64); 2],
         s: &mut [f64; 3],
-        at: impl Fn(Edge) -> (f64, f64),
+        point: impl Fn(Edge) -> f64,
+        eval: impl Fn(&[f64], &mut [f64], &mut [f64]),
         moments: impl Fn(usize, (f64, f64), (f64, f64)) -> (f64, f64),
     ) {
         let table = self.table;
         let cells = table.knots().len() - 1;
-        let mut i = table.cell_of(p);
-        while i + 1 < cells && table.knot(i + 1) <= p {
-            i += 1;
+        let mut first = table.cell_of(p);
+        while first + 1 < cells && table.knot(first + 1) <= p {
+            first += 1;
         }
-        let mut u = at(Edge::Start);
+        let mut points = Vec::with_capacity(8);
+        points.push(point(Edge::Start));
+        let mut i = first;
         loop {
             let next = table.knot(i + 1);
             let last = i + 1 >= cells || next >= q;
-            let v = at(if last { Edge::End } else { Edge::Knot(next) });
-            let (zeroth, first) = moments(i, u, v);
+            points.push(point(if last { Edge::End } else { Edge::Knot(next) }));
+            if last {
+                break;
+            }
+            i += 1;
+        }
+        let mut f = vec![0.0; points.len()];
+        let mut g = vec![0.0; points.len()];
+        eval(&points, &mut f, &mut g);
+        for (j, (f, g)) in f.windows(2).zip(g.windows(2)).enumerate() {
+            let (zeroth, first_moment) = moments(first + j, (f[0], g[0]), (f[1], g[1]));
             for &(row, w) in rows {
                 if w != 0.0 {
-                    let l = table.linear(row, i, zeroth, first);
+                    let l = table.linear(row, first + j, zeroth, first_moment);
                     for ch in 0..3 {
                         s[ch] += w * l[ch];
                     }
                 }
             }
-            if last {
-                break;
-            }
-            u = v;
-            i += 1;
         }
     }
 }
@@ -782,7 +804,7 @@ mod tests {
     use super::*;
     use crate::integrand::family::{AxisIntegrand, Profile};
     use crate::render::cuts::adaptive;
-    use crate::util::quadrature::GK7;
+    use crate::util::quadrature::{GK7, chebyshev_eval};
 
     /// The cell-by-cell quadrature the Chebyshev panels replaced, kept as the independent check:
     /// the same outer rule and arcs, and at each node every piece of an arc between cell knots
@@ -1041,6 +1063,39 @@ mod tests {
 
     /// The Chebyshev antiderivative differentiates back: `∫_{-1}^{x} Σ c_k T_k` against
     /// Gauss–Legendre for a polynomial of degree 16.
+    /// The edge rule's `P` and `Q` of a monomial `φ = t^j` are `τ^j/(e + j + 1)` and
+    /// `τ^j/(e + j + 2)` (`∫₀^τ t^(e+j) dt = τ^(e+j+1)/(e+j+1)`), for every degree the panels use.
+    #[test]
+    fn edge_rule_integrates_the_singular_factor_exactly() {
+        let lobatto = &*LOBATTO;
+        for e in [0.01, 0.3, 0.9] {
+            let rule = EdgeRule::new(e);
+            for j in 0..=N as i32 {
+                // t^j's Chebyshev coefficients in x = 2t − 1 (exact: degree ≤ 16).
+                let values: Vec<f64> = lobatto.x.iter().map(|x| (0.5 * (1.0 + x)).powi(j)).collect();
+                let c: [f64; N + 1] =
+                    std::array::from_fn(|k| lobatto.dct[k].iter().zip(&values).map(|(t, v)| t * v).sum());
+                let (p, q) = (
+                    EdgeRule::apply(&rule.zeroth, &c),
+                    EdgeRule::apply(&rule.first, &c),
+                );
+                for tau in [0.0f64, 0.013, 0.5, 0.77, 1.0] {
+                    let x = 2.0 * tau - 1.0;
+                    let want_p = tau.powi(j) / (e + j as f64 + 1.0);
+                    let want_q = tau.powi(j) / (e + j as f64 + 2.0);
+                    assert!(
+                        (chebyshev_eval(&p, x) - want_p).abs() <= 1e-13,
+                        "e {e}, j {j}, τ {tau}: P"
+                    );
+                    assert!(
+                        (chebyshev_eval(&q, x) - want_q).abs() <= 1e-13,
+                        "e {e}, j {j}, τ {tau}: Q"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn antiderivative_integrates_the_series() {
         let c: [f64; N + 1] =
