@@ -38,9 +38,9 @@ use std::sync::{Arc, LazyLock, Mutex};
 pub const TRUTH_TOLERANCE: f64 = 1e-9;
 
 /// Largest Phong exponent accepted, the lobe family's own limit. The certified truth
-/// ([`texel::lobe::phong`]) stays well under a second per normal up to it (about 0.05 s on Pisa
-/// 1024×512 at e = 10⁴ … 10⁶: `cargo bench --bench exact -- phong`; the slowest are lobes broader
-/// than a cosine, e < 1: docs/guide/real-light.md); past about 10⁴ its stated
+/// ([`texel::lobe::phong`]) stays under a second per normal up to it (about 0.02 s on Pisa
+/// 1024×512 at e = 10⁴ … 10⁶, at most about 0.6 s for lobes broader than a cosine, e < 1:
+/// `cargo bench --bench exact -- phong`, docs/guide/real-light.md); past about 10⁴ its stated
 /// error carries the weights' own rounding, `(a·d)^e` evaluated to a relative `~(e + 1) ε_mach`
 /// (10⁻⁹ of the truth at e = 10⁶).
 pub const MAX_EXPONENT: f64 = 1e6;

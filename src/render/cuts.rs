@@ -337,6 +337,7 @@ pub fn adaptive_worst_first<const K: usize>(
     tol: f64,
     checked: usize,
     rounding: usize,
+    split: impl Fn(usize, f64, f64) -> f64,
     f: &mut impl FnMut(usize, f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
     let mut done = Done {
@@ -377,7 +378,7 @@ pub fn adaptive_worst_first<const K: usize>(
     while open_error > target(&done) && open.len() < MAX_OPEN {
         let Some(worst) = open.pop() else { break };
         open_error -= worst.diff;
-        let m = 0.5 * (worst.a + worst.b);
+        let m = split(worst.piece, worst.a, worst.b);
         for (a, b) in [(worst.a, m), (m, worst.b)] {
             if let Some(o) = fit(worst.piece, a, b, worst.depth + 1, &mut done) {
                 open_error += o.diff;
@@ -394,6 +395,11 @@ pub fn adaptive_worst_first<const K: usize>(
         done.add(&o.value, o.diff);
     }
     (done.value, done.error, done.limited || missed)
+}
+
+/// The midpoint of `[a, b]`: [`adaptive_worst_first`]'s split when nothing better is known.
+pub fn midpoint(_piece: usize, a: f64, b: f64) -> f64 {
+    0.5 * (a + b)
 }
 
 /// The intervals [`adaptive_worst_first`] no longer bisects, summed.
@@ -442,10 +448,11 @@ mod tests {
         let exact = kinks_integral(&centres, alpha, -1.0, 1.0);
         let tol = 1e-10;
         let mut global_evaluations = 0;
-        let (value, error, limited) = adaptive_worst_first(&GK21, &pieces, tol, 1, 1, &mut |_, x| {
-            global_evaluations += 1;
-            f(x)
-        });
+        let (value, error, limited) =
+            adaptive_worst_first(&GK21, &pieces, tol, 1, 1, midpoint, &mut |_, x| {
+                global_evaluations += 1;
+                f(x)
+            });
         assert!(!limited);
         assert!(error <= tol, "stated error {error:e} over {tol:e}");
         assert!(
@@ -471,6 +478,37 @@ mod tests {
         );
     }
 
+    /// A jump at `1/3` to `1e-15` is out of reach of midpoint bisection (the depth limit,
+    /// reported), and integrated to the rounding by one split where `split` says it is.
+    #[test]
+    fn worst_first_splits_where_told() {
+        let step = |x: f64| [if x > 1.0 / 3.0 { x.exp() } else { 0.0 }, 0.0];
+        let exact = 1f64.exp() - (1.0f64 / 3.0).exp();
+        let (_, _, limited) =
+            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-15, 1, 1, midpoint, &mut |_, x| step(x));
+        assert!(limited);
+        let mut evaluations = 0;
+        let at_jump = |_: usize, a: f64, b: f64| {
+            if a < 1.0 / 3.0 && 1.0 / 3.0 < b {
+                1.0 / 3.0
+            } else {
+                0.5 * (a + b)
+            }
+        };
+        let (value, error, limited) =
+            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-15, 1, 1, at_jump, &mut |_, x| {
+                evaluations += 1;
+                step(x)
+            });
+        assert!(!limited && error <= 1e-15);
+        assert!((value[0] - exact).abs() <= 1e-14, "{} vs {exact}", value[0]);
+        assert_eq!(
+            evaluations,
+            3 * 21,
+            "one split: the whole interval, then its two halves"
+        );
+    }
+
     /// An integrand whose values are only known to a relative `1e-12` (a deterministic jitter,
     /// bounded by its rounding component) is not bisected into the depth limit at a tolerance
     /// below that, and the difference it leaves is stated.
@@ -478,10 +516,11 @@ mod tests {
     fn worst_first_stops_at_the_stated_rounding() {
         let jitter = |x: f64| 1e-12 * ((x * 1e6).sin() * 43758.5453).fract();
         let mut evaluations = 0;
-        let (value, error, limited) = adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-18, 1, 1, &mut |_, x| {
-            evaluations += 1;
-            [x.exp() * (1.0 + jitter(x)), 1e-12 * x.exp()]
-        });
+        let (value, error, limited) =
+            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-18, 1, 1, midpoint, &mut |_, x| {
+                evaluations += 1;
+                [x.exp() * (1.0 + jitter(x)), 1e-12 * x.exp()]
+            });
         let exact = 1f64.exp() - 1.0;
         assert!(!limited);
         assert!(evaluations <= 21 * 64, "{evaluations} evaluations");
@@ -492,9 +531,10 @@ mod tests {
         );
         // Without the rounding bound the same tolerance is out of reach: the depth limit or
         // the cap on open intervals ends it, and says so.
-        let (_, _, limited) = adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-18, 1, 1, &mut |_, x| {
-            [x.exp() * (1.0 + jitter(x)), 0.0]
-        });
+        let (_, _, limited) =
+            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-18, 1, 1, midpoint, &mut |_, x| {
+                [x.exp() * (1.0 + jitter(x)), 0.0]
+            });
         assert!(limited);
     }
 
@@ -502,9 +542,10 @@ mod tests {
     /// within the stated error.
     #[test]
     fn worst_first_reports_the_depth_limit() {
-        let (value, error, limited) = adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-30, 1, 1, &mut |_, x| {
-            [if x > 1.0 / 3.0 { 1.0 } else { 0.0 }, 0.0]
-        });
+        let (value, error, limited) =
+            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-30, 1, 1, midpoint, &mut |_, x| {
+                [if x > 1.0 / 3.0 { 1.0 } else { 0.0 }, 0.0]
+            });
         assert!(limited);
         assert!(
             (value[0] - 2.0 / 3.0).abs() <= error.max(1e-15),

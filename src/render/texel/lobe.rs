@@ -15,8 +15,10 @@
 //! the azimuth integral has a weak kink in `θ` (`~|θ − θ_c|^(1+e)` under the `thesis` lookup's
 //! steps), and the edge sweeps across hundreds of boundaries; the local strategy bisected each
 //! kink to an ever smaller share of the tolerance. Under Pisa (1024×512) at `e = 0.1` the global
-//! one needs 29 000 nodes where the local one needed 85 000, and the worst time per normal fell
-//! from 5.7 s to 1.8 s. (Breaks at every crossing cost more: 21 nodes each, about 1 000 of them.)
+//! one needs 29 000 nodes where the local one needed 85 000. For `e < 1` the crossings
+//! ([`edge_crossings`], closed form) are also where an interval is split when it is bisected
+//! ([`super::split_at_kink`]): 19 300 nodes for that normal. (Breaks at every crossing cost
+//! more: 21 nodes each, about 1 000 of them, and most kinks need no bisection.)
 //!
 //! **Azimuth integral** at a node: the circle's arcs inside both hemispheres are cut in closed
 //! form ([`crate::render::cuts::push_crossings`]). On an arc the weight `w(ψ)` is smooth (`a·d`
@@ -128,12 +130,20 @@ pub fn phong(n: Vec3, a: Vec3, exponent: f64, m: &EnvMap, tol: f64) -> PixelInte
         return out;
     };
     let table = m.cells();
+    // (For e ≥ 1 the kinks are of order 1 + e ≥ 2, and splitting at them was measured to gain
+    // nothing.)
+    let kinks = if exponent < 1.0 {
+        edge_crossings(&a, table)
+    } else {
+        Vec::new()
+    };
     let mut azimuth = Azimuthal::new(table, n, a, exponent, 0.5 * tol / PI);
     let (value, error, limited, _) = polar(
         &breaks,
         0.5 * tol,
         [1.0; 3],
         Strategy::WorstFirst,
+        &kinks,
         |theta, sin_t, cos_t| azimuth.at(theta, sin_t, cos_t),
     );
     out.value = value;
@@ -166,6 +176,24 @@ fn polar_breaks(n: &Vec3, a: &Vec3, height: usize) -> Option<Vec<f64>> {
     breaks.sort_by(f64::total_cmp);
     breaks.dedup_by(|x, y| (*x - *y).abs() <= 1e-15);
     Some(breaks)
+}
+
+/// The polar angles where the lobe's edge `a·d = 0` crosses the cell boundaries (meridians
+/// `ψ_k`), sorted: with `d = (sin θ sin ψ, cos θ, −sin θ cos ψ)`, `a·d = u sin θ + a_y cos θ`,
+/// `u = a_x sin ψ_k − a_z cos ψ_k`, which vanishes at `θ = atan2(|a_y|, −sgn(a_y) u) ∈ [0, π]`.
+/// There the azimuth integral kinks like `|θ − θ_k|^(1+e)` (`^(2+e)` under the bilinear
+/// lookup): the outer rule splits at them. None when `a_y = 0` (the edge is two meridians).
+fn edge_crossings(a: &Vec3, table: &CellTable) -> Vec<f64> {
+    if a.y == 0.0 {
+        return Vec::new();
+    }
+    let mut kinks: Vec<f64> = table
+        .knots()
+        .iter()
+        .map(|k| a.y.abs().atan2(-a.y.signum() * (a.x * k.sin - a.z * k.cos)))
+        .collect();
+    kinks.sort_by(f64::total_cmp);
+    kinks
 }
 
 /// The visible arcs of the circle of constant `θ` inside both hemispheres, as intervals of the
@@ -823,6 +851,7 @@ mod tests {
             0.5 * tol,
             [1.0; 3],
             Strategy::Local,
+            &[],
             |theta, sin_t, cos_t| {
                 visible_arcs(&n, &a, sin_t, cos_t, table.start(), &mut cuts, &mut arcs);
                 pieces.clear();
@@ -1063,6 +1092,26 @@ mod tests {
 
     /// The Chebyshev antiderivative differentiates back: `∫_{-1}^{x} Σ c_k T_k` against
     /// Gauss–Legendre for a polynomial of degree 16.
+    /// Each crossing is on the edge: `a·d = 0` at `(θ_k, ψ_k)`, and inside `[0, π]`.
+    #[test]
+    fn edge_crossings_lie_on_the_edge() {
+        let m = random_map(64, 32, 1.0);
+        let table = m.cells();
+        for a in [unit(0.3, 0.5, -0.8), unit(-0.6, -0.2, 0.1), unit(0.0, 0.9, 0.4)] {
+            let kinks = edge_crossings(&a, table);
+            assert_eq!(kinks.len(), table.knots().len());
+            // Each knot's crossing, recomputed in the knots' order, is on the edge.
+            for k in table.knots() {
+                let theta = a.y.abs().atan2(-a.y.signum() * (a.x * k.sin - a.z * k.cos));
+                assert!(kinks.contains(&theta));
+                let d = Vec3::new(theta.sin() * k.sin, theta.cos(), -theta.sin() * k.cos);
+                assert!(d.dot(&a).abs() <= 1e-15, "a·d = {:e}", d.dot(&a));
+                assert!((0.0..=PI).contains(&theta));
+            }
+        }
+        assert!(edge_crossings(&unit(0.6, 0.0, 0.8), table).is_empty());
+    }
+
     /// The edge rule's `P` and `Q` of a monomial `φ = t^j` are `τ^j/(e + j + 1)` and
     /// `τ^j/(e + j + 2)` (`∫₀^τ t^(e+j) dt = τ^(e+j+1)/(e+j+1)`), for every degree the panels use.
     #[test]

@@ -55,8 +55,13 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
     let scale = p.albedo.map(|a| a / PI);
     let mut intervals = Vec::with_capacity(8);
     let breaks = arcs.cuts.theta_breaks();
-    let (value, error, limited, evaluations) =
-        polar(&breaks, tol, scale, Strategy::Local, |theta, sin_t, cos_t| {
+    let (value, error, limited, evaluations) = polar(
+        &breaks,
+        tol,
+        scale,
+        Strategy::Local,
+        &[],
+        |theta, sin_t, cos_t| {
             arcs.at(cos_t, sin_t, &mut intervals);
             let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
             let rows = table.rows_at(theta);
@@ -74,7 +79,8 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
                 }
             }
             AzimuthIntegral::exact(s)
-        });
+        },
+    );
     PixelIntegral {
         value,
         error,
@@ -122,7 +128,9 @@ pub(super) enum Strategy {
 /// `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root end points of a
 /// circle's arcs at a tangency become smooth), to the tolerance `tol` shared by `strategy`; an
 /// interval is also accepted when `|K21 − G10|` is within what the nodes' rounding `r` can make.
-/// Returns the value, the error estimate (the sum of the accepted `|K21 − G10|` plus the same
+/// `kinks` (sorted polar angles) are where the integrand is known to kink inside the pieces:
+/// [`Strategy::WorstFirst`] splits an interval at the one nearest its middle
+/// ([`split_at_kink`]) instead of at its midpoint (the local strategy ignores them). Returns the value, the error estimate (the sum of the accepted `|K21 − G10|` plus the same
 /// rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e` and rounding `r`), whether
 /// a depth limit was hit and the number of nodes where `inner` ran.
 pub(super) fn polar(
@@ -130,6 +138,7 @@ pub(super) fn polar(
     tol: f64,
     scale: [f64; 3],
     strategy: Strategy,
+    kinks: &[f64],
     mut inner: impl FnMut(f64, f64, f64) -> AzimuthIntegral,
 ) -> ([f64; 3], f64, bool, u64) {
     let largest_scale = scale.iter().fold(0.0f64, |m, s| m.max(s.abs()));
@@ -183,13 +192,39 @@ pub(super) fn polar(
                 .iter()
                 .map(|&(t0, t1)| if t1 > t0 { (-1.0, 1.0) } else { (0.0, 0.0) })
                 .collect();
-            let (r, e, l) = adaptive_worst_first(&GK21, &spans, tol, 3, 3, &mut outer);
+            let split = |i: usize, a: f64, b: f64| split_at_kink(pieces[i], kinks, a, b);
+            let (r, e, l) = adaptive_worst_first(&GK21, &spans, tol, 3, 3, split, &mut outer);
             value = [r[0], r[1], r[2]];
             error = e + r[3] + r[4];
             limited = l;
         }
     }
     (value, error, limited, evaluations)
+}
+
+/// Where [`Strategy::WorstFirst`] splits the interval `[a, b]` (in `v`) of the piece
+/// `[t₀, t₁]` mapped by `θ = c + h sin(πv/2)`: at the kink of `kinks` (sorted) nearest the
+/// interval's middle `m`, if one lies in its middle half (`θ` between those of `(a + m)/2` and
+/// `(m + b)/2`), else at `m`. A kink split off becomes an end of both halves: each half has one
+/// kink fewer inside, where bisection would need a level per kink until they are apart. Under
+/// Pisa (the lobe's edge crossing the cell boundaries, `thesis` lookup) that cut the worst of 16
+/// normals from 37 600 nodes to 21 400 at `e = 0.01` and from 28 900 to 19 300 at `e = 0.1`;
+/// under the `mitsuba` lookup, whose kinks are an order weaker, by 2%.
+fn split_at_kink((t0, t1): (f64, f64), kinks: &[f64], a: f64, b: f64) -> f64 {
+    let m = 0.5 * (a + b);
+    let (c, h) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+    let theta = |v: f64| c + h * (FRAC_PI_2 * v).sin();
+    let (lo, hi, middle) = (theta(0.5 * (a + m)), theta(0.5 * (m + b)), theta(m));
+    let first = kinks.partition_point(|&k| k <= lo);
+    let nearest = kinks[first..]
+        .iter()
+        .take_while(|&&k| k < hi)
+        .min_by(|x, y| (*x - middle).abs().total_cmp(&(*y - middle).abs()));
+    match nearest {
+        // θ's inverse, kept inside the interval against rounding.
+        Some(&k) => ((((k - c) / h).clamp(-1.0, 1.0).asin()) / FRAC_PI_2).clamp(a, b),
+        None => m,
+    }
 }
 
 /// `E(n) = (1/π) ∫_{H(n)} L(d) max(0, n·d) dω` per channel to the absolute tolerance `tol`: a
