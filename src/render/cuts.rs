@@ -190,6 +190,19 @@ impl<'a> Cuts<'a> {
     }
 }
 
+/// A node `v ∈ [−1, 1]` of a polar-angle piece with centre `c` and half-width `h` under the map
+/// `θ = c + h sin(πv/2)` both exact integrators use (the square-root end points of a circle's
+/// arcs at a tangency become smooth): `(θ, dθ/dv, sin θ, cos θ)` with `dθ/dv = h (π/2) cos(πv/2)`,
+/// or `None` where that or `sin θ` vanishes (the node adds nothing).
+#[inline]
+pub fn sine_map(c: f64, h: f64, v: f64) -> Option<(f64, f64, f64, f64)> {
+    let (sv, cv) = (FRAC_PI_2 * v).sin_cos();
+    let theta = c + h * sv;
+    let jac = h * FRAC_PI_2 * cv;
+    let (sin_t, cos_t) = theta.sin_cos();
+    (jac > 0.0 && sin_t > 0.0).then_some((theta, jac, sin_t, cos_t))
+}
+
 /// Adaptive Gauss–Kronrod of a `K`-vector on `[a, b]` with the pair `rule` (e.g. [`crate::util::quadrature::GK21`]): on each interval the Kronrod
 /// value and its embedded Gauss value come from the same integrand values; the interval is accepted when they differ by at most its share of `tol` in every one
 /// of the first `checked` components (shares halve per bisection, so they add up to `tol`), else

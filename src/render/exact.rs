@@ -35,12 +35,12 @@
 //! but one that the tests check against closed forms and an independent method.
 
 pub use super::cuts::PixelIntegral;
-use super::cuts::{Cuts, adaptive};
+use super::cuts::{Cuts, adaptive, sine_map};
 use super::env::Environment;
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
 use crate::util::quadrature::GK21;
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::PI;
 
 /// Version of the quadrature, part of the exact reference's cache key: change it whenever a
 /// change could move any pixel by more than the tolerance.
@@ -103,13 +103,9 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, tol: f64) -
         // θ = c + h sin(πv/2): dθ = h (π/2) cos(πv/2) dv. Components 0–2: the channels;
         // 3: the inner error sum (integrated like the value, with |·|).
         let mut outer = |v: f64| -> [f64; 4] {
-            let (sv, cv) = (FRAC_PI_2 * v).sin_cos();
-            let theta = c + h * sv;
-            let jac = h * FRAC_PI_2 * cv;
-            let (sin_t, cos_t) = theta.sin_cos();
-            if jac <= 0.0 || sin_t <= 0.0 {
+            let Some((_, jac, sin_t, cos_t)) = sine_map(c, h, v) else {
                 return [0.0; 4];
-            }
+            };
             cuts.arcs(cos_t, sin_t, &mut arcs);
             let mut s = [0.0; 4];
             let arc_tol = inner_tol / arcs.len().max(1) as f64;

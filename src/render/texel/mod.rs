@@ -25,7 +25,7 @@
 pub mod cells;
 pub mod lobe;
 
-use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding, adaptive_worst_first};
+use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding, adaptive_worst_first, sine_map};
 use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
@@ -148,13 +148,9 @@ pub(super) fn polar(
     let mut outer = |i: usize, v: f64| -> [f64; 5] {
         let (t0, t1) = pieces[i];
         let (c, h) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
-        let (sv, cv) = (FRAC_PI_2 * v).sin_cos();
-        let theta = c + h * sv;
-        let jac = h * FRAC_PI_2 * cv;
-        let (sin_t, cos_t) = theta.sin_cos();
-        if jac <= 0.0 || sin_t <= 0.0 {
+        let Some((theta, jac, sin_t, cos_t)) = sine_map(c, h, v) else {
             return [0.0; 5];
-        }
+        };
         evaluations += 1;
         let node = inner(theta, sin_t, cos_t);
         let (s, f) = (node.value, sin_t * jac);
