@@ -74,15 +74,6 @@ pub struct ResultFolder {
 }
 
 impl ResultFolder {
-    /// Checks everything that can be checked before the work — the folder is a folder, its
-    /// name fits, no input lies inside it (it is replaced as a whole), nothing in it is foreign
-    /// to us, its parent is writable, no other command is writing it — then locks it, clears
-    /// what killed commands left beside it, and creates the staging folder.
-    ///
-    /// `what` names the folder in messages (`--out o`, `results/tiny`), `fix` says what else the
-    /// user can do (`use another --out`), and `inputs` are the command's input files
-    /// (`(description, path)`). `legacy` reads the manifests of this kind written before
-    /// manifests listed their files, so that their files count as ours.
     /// [`ResultFolder::prepare`] for a merge writing `out` from the shard folders `shards`
     /// (the inputs that must not lie inside it).
     pub fn prepare_merge<'a>(
@@ -100,6 +91,15 @@ impl ResultFolder {
         )
     }
 
+    /// Checks everything that can be checked before the work — the folder is a folder, its
+    /// name fits, no input lies inside it (it is replaced as a whole), nothing in it is foreign
+    /// to us, its parent is writable, no other command is writing it — then locks it, clears
+    /// what killed commands left beside it, and creates the staging folder.
+    ///
+    /// `what` names the folder in messages (`--out o`, `results/tiny`), `fix` says what else the
+    /// user can do (`use another --out`), and `inputs` are the command's input files
+    /// (`(description, path)`). `legacy` reads the manifests of this kind written before
+    /// manifests listed their files, so that their files count as ours.
     pub fn prepare(
         out: &Path,
         what: &str,

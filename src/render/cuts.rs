@@ -410,11 +410,6 @@ pub fn adaptive_worst_first<const K: usize>(
     (done.value, done.error, done.limited || missed)
 }
 
-/// The midpoint of `[a, b]`: [`adaptive_worst_first`]'s split when nothing better is known.
-pub fn midpoint(_piece: usize, a: f64, b: f64) -> f64 {
-    0.5 * (a + b)
-}
-
 /// The intervals [`adaptive_worst_first`] no longer bisects, summed.
 struct Done<const K: usize> {
     value: [f64; K],
@@ -435,6 +430,11 @@ impl<const K: usize> Done<K> {
 mod tests {
     use super::*;
     use crate::util::quadrature::GK21;
+
+    /// Plain bisection: the split when nothing is known of the integrand.
+    fn midpoint(_piece: usize, a: f64, b: f64) -> f64 {
+        0.5 * (a + b)
+    }
 
     /// `Σ_i |x − c_i|^α` on `[a, b]` in closed form.
     fn kinks_integral(centres: &[f64], alpha: f64, a: f64, b: f64) -> f64 {

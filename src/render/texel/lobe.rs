@@ -91,7 +91,7 @@
 use super::super::cuts::{PixelIntegral, push_crossings, push_tangencies};
 use super::super::env::EnvMap;
 use super::cells::{Azimuth, CellTable};
-use super::{AzimuthIntegral, Strategy, polar};
+use super::{AzimuthIntegral, Strategy, polar, push_in_span};
 use crate::util::geometry::Vec3;
 use crate::util::quadrature::{chebyshev_eval_into, gauss_jacobi_unit};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -142,8 +142,7 @@ pub fn phong(n: Vec3, a: Vec3, exponent: f64, m: &EnvMap, tol: f64) -> PixelInte
         &breaks,
         0.5 * tol,
         [1.0; 3],
-        Strategy::WorstFirst,
-        &kinks,
+        Strategy::WorstFirst { kinks: &kinks },
         |theta, sin_t, cos_t| azimuth.at(theta, sin_t, cos_t),
     );
     out.value = value;
@@ -214,7 +213,6 @@ fn visible_arcs(
     push_crossings(sin_t * a.x, sin_t * a.z, -a.y * cos_t, cuts);
     cuts.sort_by(f64::total_cmp);
     out.clear();
-    let end = start + TAU;
     for w in cuts.windows(2) {
         let (p0, p1) = (w[0], w[1]);
         if p1 <= p0 {
@@ -225,14 +223,7 @@ fn visible_arcs(
         if d.dot(n) <= 0.0 || d.dot(a) <= 0.0 {
             continue;
         }
-        let lo = start + (p0 + FRAC_PI_2 - start).rem_euclid(TAU);
-        let hi = lo + (p1 - p0);
-        if hi <= end {
-            out.push((lo, hi));
-        } else {
-            out.push((lo, end));
-            out.push((start, hi - TAU));
-        }
+        push_in_span(p0, p1, start, out);
     }
 }
 
@@ -687,11 +678,11 @@ impl<'a> Azimuthal<'a> {
             End::Finish => (-1.0, q),
         };
         // The panel's points in x = 2t − 1 (t its distance from the edge over h).
-        let point = |edge: Edge| {
-            let psi = match edge {
-                Edge::Start => p,
-                Edge::Knot(k) => k,
-                Edge::End => q,
+        let point = |at: PanelPoint| {
+            let psi = match at {
+                PanelPoint::Start => p,
+                PanelPoint::Knot(k) => k,
+                PanelPoint::End => q,
             };
             let t = match end {
                 End::Start => (psi - p) / h,
@@ -738,10 +729,10 @@ impl<'a> Azimuthal<'a> {
         } else {
             [0.0; N + 3]
         };
-        let point = |edge: Edge| match edge {
-            Edge::Start => -1.0,
-            Edge::Knot(k) => (k - m) / h,
-            Edge::End => 1.0,
+        let point = |at: PanelPoint| match at {
+            PanelPoint::Start => -1.0,
+            PanelPoint::Knot(k) => (k - m) / h,
+            PanelPoint::End => 1.0,
         };
         let eval = |xs: &[f64], g_values: &mut [f64], h_values: &mut [f64]| {
             chebyshev_eval_into(&g, xs, g_values);
@@ -768,7 +759,7 @@ impl<'a> Azimuthal<'a> {
         q: f64,
         rows: &[(usize, f64); 2],
         s: &mut [f64; 3],
-        point: impl Fn(Edge) -> f64,
+        point: impl Fn(PanelPoint) -> f64,
         eval: impl Fn(&[f64], &mut [f64], &mut [f64]),
         moments: impl Fn(usize, (f64, f64), (f64, f64)) -> (f64, f64),
     ) {
@@ -779,12 +770,16 @@ impl<'a> Azimuthal<'a> {
             first += 1;
         }
         let mut points = Vec::with_capacity(8);
-        points.push(point(Edge::Start));
+        points.push(point(PanelPoint::Start));
         let mut i = first;
         loop {
             let next = table.knot(i + 1);
             let last = i + 1 >= cells || next >= q;
-            points.push(point(if last { Edge::End } else { Edge::Knot(next) }));
+            points.push(point(if last {
+                PanelPoint::End
+            } else {
+                PanelPoint::Knot(next)
+            }));
             if last {
                 break;
             }
@@ -809,7 +804,7 @@ impl<'a> Azimuthal<'a> {
 
 /// Where [`Azimuthal::add_by_cells`] needs a panel's antiderivatives: its ends, or a knot inside.
 #[derive(Clone, Copy, Debug)]
-enum Edge {
+enum PanelPoint {
     Start,
     Knot(f64),
     End,
@@ -851,7 +846,6 @@ mod tests {
             0.5 * tol,
             [1.0; 3],
             Strategy::Local,
-            &[],
             |theta, sin_t, cos_t| {
                 visible_arcs(&n, &a, sin_t, cos_t, table.start(), &mut cuts, &mut arcs);
                 pieces.clear();

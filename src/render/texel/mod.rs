@@ -55,13 +55,8 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
     let scale = p.albedo.map(|a| a / PI);
     let mut intervals = Vec::with_capacity(8);
     let breaks = arcs.cuts.theta_breaks();
-    let (value, error, limited, evaluations) = polar(
-        &breaks,
-        tol,
-        scale,
-        Strategy::Local,
-        &[],
-        |theta, sin_t, cos_t| {
+    let (value, error, limited, evaluations) =
+        polar(&breaks, tol, scale, Strategy::Local, |theta, sin_t, cos_t| {
             arcs.at(cos_t, sin_t, &mut intervals);
             let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
             let rows = table.rows_at(theta);
@@ -79,8 +74,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
                 }
             }
             AzimuthIntegral::exact(s)
-        },
-    );
+        });
     PixelIntegral {
         value,
         error,
@@ -110,16 +104,18 @@ impl AzimuthIntegral {
 }
 
 /// How [`polar`] shares its tolerance between its intervals.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Strategy {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Strategy<'a> {
     /// Each piece to its share `tol (t₁ − t₀)/π`, halved at each bisection
     /// ([`adaptive_above_rounding`]): the Lambertian sums, whose integrands kink only where a
     /// circle's arc ends cross cell boundaries.
     Local,
     /// One tolerance for all pieces, the worst interval bisected first
     /// ([`adaptive_worst_first`]): a Phong lobe, whose edge crosses every cell boundary it
-    /// sweeps over (module docs of [`lobe`]).
-    WorstFirst,
+    /// sweeps over (module docs of [`lobe`]). `kinks` (sorted polar angles) are where the
+    /// integrand is known to kink inside the pieces: an interval is split at the one nearest its
+    /// middle ([`split_at_kink`]) rather than at its midpoint.
+    WorstFirst { kinks: &'a [f64] },
 }
 
 /// The outer rule both texel sums share: `∫ sin θ · s(θ) dθ · scale` per channel over the pieces
@@ -128,9 +124,7 @@ pub(super) enum Strategy {
 /// `θ = c + h sin(πv/2)` (`c`, `h` its centre and half-width: the square-root end points of a
 /// circle's arcs at a tangency become smooth), to the tolerance `tol` shared by `strategy`; an
 /// interval is also accepted when `|K21 − G10|` is within what the nodes' rounding `r` can make.
-/// `kinks` (sorted polar angles) are where the integrand is known to kink inside the pieces:
-/// [`Strategy::WorstFirst`] splits an interval at the one nearest its middle
-/// ([`split_at_kink`]) instead of at its midpoint (the local strategy ignores them). Returns the value, the error estimate (the sum of the accepted `|K21 − G10|` plus the same
+/// Returns the value, the error estimate (the sum of the accepted `|K21 − G10|` plus the same
 /// rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e` and rounding `r`), whether
 /// a depth limit was hit and the number of nodes where `inner` ran.
 pub(super) fn polar(
@@ -138,7 +132,6 @@ pub(super) fn polar(
     tol: f64,
     scale: [f64; 3],
     strategy: Strategy,
-    kinks: &[f64],
     mut inner: impl FnMut(f64, f64, f64) -> AzimuthIntegral,
 ) -> ([f64; 3], f64, bool, u64) {
     let largest_scale = scale.iter().fold(0.0f64, |m, s| m.max(s.abs()));
@@ -183,7 +176,7 @@ pub(super) fn polar(
                 error += e + r[3] + r[4];
             }
         }
-        Strategy::WorstFirst => {
+        Strategy::WorstFirst { kinks } => {
             let spans: Vec<(f64, f64)> = pieces
                 .iter()
                 .map(|&(t0, t1)| if t1 > t0 { (-1.0, 1.0) } else { (0.0, 0.0) })
@@ -260,18 +253,23 @@ impl VisibleAzimuths<'_> {
         let mut arcs = self.arcs.borrow_mut();
         self.cuts.arcs(cos_t, sin_t, &mut arcs);
         out.clear();
-        let end = self.start + TAU;
         for &(phi0, phi1) in arcs.iter() {
-            // ψ = φ + π/2 (the exact quadrature's azimuth φ has ω = (sin θ cos φ, cos θ,
-            // sin θ sin φ)), moved into the span.
-            let lo = self.start + (phi0 + FRAC_PI_2 - self.start).rem_euclid(TAU);
-            let hi = lo + (phi1 - phi0);
-            if hi <= end {
-                out.push((lo, hi));
-            } else {
-                out.push((lo, end));
-                out.push((self.start, hi - TAU));
-            }
+            push_in_span(phi0, phi1, self.start, out);
         }
+    }
+}
+
+/// Pushes the arc `[φ₀, φ₁]` of the exact quadrature's azimuth (`ω = (sin θ cos φ, cos θ,
+/// sin θ sin φ)`) as the map's azimuth `ψ = φ + π/2`, moved into the table's span
+/// `[start, start + 2π]`: one interval, or two where it wraps past the span's end.
+fn push_in_span(phi0: f64, phi1: f64, start: f64, out: &mut Vec<(f64, f64)>) {
+    let end = start + TAU;
+    let lo = start + (phi0 + FRAC_PI_2 - start).rem_euclid(TAU);
+    let hi = lo + (phi1 - phi0);
+    if hi <= end {
+        out.push((lo, hi));
+    } else {
+        out.push((lo, end));
+        out.push((start, hi - TAU));
     }
 }
