@@ -16,6 +16,18 @@ impl InputError {
     }
 }
 
+/// Cholesky of `Q = K + σ_n² I` failed even with the largest jitter of the ladder
+/// (`bq::factor::jitter_ladder`, math.md §5).
+#[derive(Debug, Clone, thiserror::Error)]
+#[error(
+    "Q is not positive definite even with jitter {jitter:.3e} added to its diagonal \
+     (n = {n}); increase the noise σ_n² or remove duplicate points"
+)]
+pub struct NotPositiveDefinite {
+    pub n: usize,
+    pub jitter: f64,
+}
+
 /// Everything that can go wrong in the library.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -34,7 +46,7 @@ pub enum Error {
     Numerical {
         what: String,
         #[source]
-        source: crate::bq::factor::NotPositiveDefinite,
+        source: NotPositiveDefinite,
     },
     /// Encoding an output (CSV, SVG, PNG, EXR) failed.
     #[error("{0}")]
@@ -66,8 +78,8 @@ impl Error {
     }
 }
 
-impl From<crate::bq::factor::NotPositiveDefinite> for Error {
-    fn from(source: crate::bq::factor::NotPositiveDefinite) -> Self {
+impl From<NotPositiveDefinite> for Error {
+    fn from(source: NotPositiveDefinite) -> Self {
         Error::Numerical {
             what: "computing BMC weights".into(),
             source,

@@ -16,6 +16,7 @@ pub mod provenance;
 pub mod render;
 pub mod sampling;
 pub mod schema;
+pub mod table;
 pub mod util;
 
 pub use error::{Error, InputError, Result};

@@ -9,8 +9,8 @@
 
 use crate::experiment::spec::ExperimentSpec;
 use crate::render::integrator::IntegratorKind;
-use crate::render::table::spec::TableSpec;
 use crate::sampling::Design;
+use crate::table::spec::TableSpec;
 use schemars::{JsonSchema, Schema, SchemaGenerator, json_schema};
 use std::borrow::Cow;
 

@@ -46,8 +46,8 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    if kind == workbench::render::table::shard::KIND {
-        let report = workbench::render::table::shard::merge(&args.out, &args.dirs)?;
+    if kind == workbench::table::shard::KIND {
+        let report = workbench::table::shard::merge(&args.out, &args.dirs)?;
         stdout(&report.table_md)?;
         stdout(&format!("\n{}", report.times_md))?;
         status!(

@@ -251,7 +251,7 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let plan = workbench::render::table::load(spec)?;
+    let plan = workbench::table::load(spec)?;
     if let Some(w) = plan.model.as_ref().and_then(|m| m.accuracy_warning()) {
         status!("warning: {w}");
     }
@@ -264,9 +264,9 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         let out = args
             .out
             .clone()
-            .unwrap_or_else(|| workbench::render::table::shard::default_out(&results, &plan, shard));
+            .unwrap_or_else(|| workbench::table::shard::default_out(&results, &plan, shard));
         let report = pool.install(|| {
-            workbench::render::table::shard::run_shard(
+            workbench::table::shard::run_shard(
                 &plan,
                 &results,
                 shard,
@@ -284,7 +284,7 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let report =
-        pool.install(|| workbench::render::table::run(&plan, &results, args.resume, &Bar::new(args.quiet)))?;
+        pool.install(|| workbench::table::run(&plan, &results, args.resume, &Bar::new(args.quiet)))?;
     stdout(&report.table_md)?;
     stdout(&format!("\n{}", report.times_md))?;
     status!("render: table → {}", report.out_dir.display());
@@ -635,7 +635,7 @@ fn render_image(
     let (image, sds, what) = match kind {
         Some(kind) => {
             let mut integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model, seed)?;
-            for line in workbench::render::table::runner::numerical_warnings(&integrator) {
+            for line in workbench::table::runner::numerical_warnings(&integrator) {
                 status!("warning: {line}");
             }
             if args.sd_out.is_some() {

@@ -15,7 +15,7 @@ use std::time::Instant;
 use workbench::error::InputError;
 use workbench::experiment as ex;
 use workbench::files::spec_json::{self, SpecKind};
-use workbench::render::table::{self, TablePlan};
+use workbench::table::{self, TablePlan};
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \

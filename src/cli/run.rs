@@ -102,8 +102,8 @@ pub fn validate(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
     let text = workbench::files::spec_json::read_spec(&args.file).unwrap_or_default();
     match workbench::files::spec_json::spec_kind(&text) {
         Some(SpecKind::RenderTable) => {
-            let plan = workbench::render::table::load(&args.file)?;
-            stdout(&workbench::render::table::describe(&plan))?;
+            let plan = workbench::table::load(&args.file)?;
+            stdout(&workbench::table::describe(&plan))?;
         }
         Some(SpecKind::Irradiance) => {
             let plan = workbench::irradiance::load(&args.file)?;

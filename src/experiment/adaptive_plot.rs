@@ -21,7 +21,7 @@ struct Series {
     name: String,
     /// The method's name (the series' name without its N₀).
     method: String,
-    /// Its estimators' face ([`super::faces`]): its colour, and its marker at the first stage.
+    /// Its estimators' face ([`crate::plot::faces`]): its colour, and its marker at the first stage.
     face: SeriesStyle,
     /// The index of its first stage N₀ among the plot's, which picks line style and marker.
     stage: usize,
@@ -41,7 +41,7 @@ fn stage_marker(m: usize, stage: usize) -> usize {
     }
 }
 
-/// How series are drawn: the colour of their estimators' face ([`super::faces`]), and per
+/// How series are drawn: the colour of their estimators' face ([`crate::plot::faces`]), and per
 /// first stage a line style (solid, dashed, alternating) and a marker ([`stage_marker`]: the
 /// face's at the first).
 fn styles(series: &[Series]) -> Vec<SeriesStyle> {
@@ -92,7 +92,7 @@ fn series_at(plan: &Plan, cells: &[Cell], fi: usize, first_n: usize) -> Vec<Seri
     let mut keys: Vec<String> = Vec::new();
     let mut labels: Vec<Vec<String>> = Vec::new();
     let mut out: Vec<Series> = Vec::new();
-    let faces = super::faces::faces(&plan.estimators);
+    let faces = super::plot::faces(&plan.estimators);
     for c in cells.iter().filter(|c| c.integrand == fi && c.first_n == first_n) {
         let e = &plan.estimators[c.estimator];
         let mut settings = serde_json::to_value(&e.settings).expect("settings serialize");
@@ -340,7 +340,7 @@ mod tests {
         Series {
             name: format!("{name}, N₀ = {stage}"),
             method: name.into(),
-            face: super::super::faces::faces_of(&[(method, None, crate::experiment::faces::UNIFORM)])[0],
+            face: crate::plot::faces::faces_of(&[(method, None, crate::plot::faces::UNIFORM)])[0],
             stage,
             points: Vec::new(),
             max_n: Vec::new(),

@@ -1,7 +1,7 @@
 //! One SVG per integrand, `<integrand>-cost.svg`: each estimator's mean absolute error against
 //! its median wall-clock seconds per trial, log–log, one point per N — the equal-time comparison
 //! ("is BMC worth it at equal time?"). An estimator below another at the same seconds is the
-//! better buy. Each point is labelled with its N; each estimator has its face ([`super::faces`]). The median, not the mean, of the seconds: on a busy machine a preempted trial
+//! better buy. Each point is labelled with its N; each estimator has its face ([`crate::plot::faces`]). The median, not the mean, of the seconds: on a busy machine a preempted trial
 //! takes milliseconds, which would swamp the mean of an estimator that needs microseconds.
 //! Wall-clock, so machine-dependent: the file is written but never committed. Same
 //! look as [`super::plot`].
@@ -47,7 +47,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         super::plot::error_axis_label("mean absolute error |Î − I|"),
     );
 
-    let faces = super::faces::faces(&plan.estimators);
+    let faces = super::plot::faces(&plan.estimators);
     let legend: Vec<LegendEntry> = plan
         .estimators
         .iter()

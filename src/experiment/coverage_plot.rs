@@ -72,7 +72,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let height = style::plot_height(CHART_HEIGHT);
     let to_px = move |v: f64| (v - y0) / (y1 - y0) * height;
     let found = style::coincidences(&names, &points, to_px, "N");
-    let faces = super::faces::faces(&plan.estimators);
+    let faces = super::plot::faces(&plan.estimators);
     for entry in legend.iter_mut() {
         if let Swatch::Series(ei) = entry.swatch {
             entry.swatch = Swatch::Styled(found.style(ei, faces[ei]));

@@ -12,7 +12,6 @@ pub mod cost_plot;
 pub mod coverage_plot;
 pub mod drive;
 pub mod export;
-pub mod faces;
 pub mod finish;
 pub mod fit;
 pub mod merge;

@@ -1,5 +1,5 @@
 //! One SVG per integrand: absolute error against N on log–log axes (plotters), and its caption
-//! file. Each estimator has its mean error (line and markers, in its face: [`super::faces`])
+//! file. Each estimator has its mean error (line and markers, in its face: [`crate::plot::faces`])
 //! and, as `plot.bands` says ([`super::plan::resolve_bands`]; by default where it overlaps no
 //! band drawn before it, [`non_overlapping`]), the 10–90% quantile band of its trials (light
 //! fill, dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]),
@@ -199,7 +199,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     let labels: Vec<String> = plan.estimators.iter().map(|e| e.label.clone()).collect();
     let to_px = style::log_px((y0, y1), style::plot_height(CHART_HEIGHT));
     let found = style::coincidences(&labels, &means, &to_px, "N");
-    let faces = super::faces::faces(&plan.estimators);
+    let faces = super::plot::faces(&plan.estimators);
     let styles: Vec<SeriesStyle> = (0..means.len()).map(|ei| found.style(ei, faces[ei])).collect();
     let mut coincident = found.notes;
     if let Some((ei, a, _)) = &guide {
@@ -388,6 +388,20 @@ fn subtitle(name: &str, truth: f64, trials: usize) -> String {
     }
 }
 
+/// The faces of an experiment's `estimators`, in their order: each estimator's method, kernel
+/// and design through [`crate::plot::faces::faces_of`] (the rule of [`crate::plot::faces`]).
+pub fn faces(estimators: &[super::plan::PlannedEstimator]) -> Vec<SeriesStyle> {
+    let identities: Vec<(
+        crate::bq::estimator::Method,
+        Option<&serde_json::Value>,
+        crate::sampling::Design,
+    )> = estimators
+        .iter()
+        .map(|e| (e.method, e.settings.kernel.as_ref(), e.design))
+        .collect();
+    crate::plot::faces::faces_of(&identities)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -502,5 +516,56 @@ mod tests {
             )
             .contains("no slope")
         );
+    }
+}
+
+#[cfg(test)]
+mod face_tests {
+    use super::*;
+    use crate::experiment::plan;
+
+    fn plan_of(estimators: &str) -> plan::Plan {
+        let text = format!(
+            r#"{{"name": "x", "integrands": ["cos3"], "estimators": {estimators}, "samples": [4], "trials": 2, "seed": 1}}"#
+        );
+        plan::resolve(&plan::parse(&text).unwrap()).unwrap()
+    }
+
+    /// The same estimator has the same face whatever else the run compares, and the first
+    /// four methods are told apart by colour, the designs by marker, MC by its dashed line.
+    #[test]
+    fn an_estimator_keeps_its_face_across_runs() {
+        let a = plan_of(r#"[{"label": "MC", "method": "mc"}, {"label": "BMC", "method": "bmc"}]"#);
+        let b = plan_of(
+            r#"[{"label": "BSQ", "method": "bsq"}, {"label": "BMC", "method": "bmc"},
+                {"label": "BMC sobol", "method": "bmc", "design": "sobol"}, {"label": "MC", "method": "mc"},
+                {"label": "BMCP", "method": "bmcp"}]"#,
+        );
+        let (fa, fb) = (faces(&a.estimators), faces(&b.estimators));
+        assert_eq!(fa[0], fb[3]);
+        assert_eq!(fa[1], fb[1]);
+        assert!(fa[0].dashed && !fa[1].dashed);
+        assert_eq!((fb[2].colour, fb[1].colour), (1, 1));
+        assert_ne!(fb[2].marker, fb[1].marker);
+        // MC, BMC, BMCP, BSQ.
+        let colours: Vec<usize> = [3, 1, 4, 0].map(|i| fb[i].colour).to_vec();
+        assert_eq!(colours, [0, 1, 2, 3]);
+    }
+
+    /// Estimators the rule would draw alike (a noise sweep) still differ, each by a colour of
+    /// its own; another kernel gets a colour other than the method's.
+    #[test]
+    fn estimators_alike_are_told_apart() {
+        let p = plan_of(
+            r#"[{"label": "BMC a", "method": "bmc", "noise": 0.01}, {"label": "BMC b", "method": "bmc", "noise": 0.001},
+                {"label": "BMC s", "method": "bmc", "kernel": {"type": "sobolev", "s": 2.75}}]"#,
+        );
+        let f = faces(&p.estimators);
+        for i in 0..f.len() {
+            for j in 0..i {
+                assert_ne!((f[i].colour, f[i].marker), (f[j].colour, f[j].marker), "{i} {j}");
+            }
+        }
+        assert_ne!(f[2].colour, 1);
     }
 }

@@ -135,12 +135,7 @@ impl Identity {
 /// shards and resumed runs (not a security measure).
 pub fn plan_hash(plan: &Plan) -> String {
     let bytes = serde_json::to_vec(&super::export::plan_json(plan)).expect("the plan serializes");
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{h:016x}")
+    crate::util::hash::fnv1a_hex(bytes)
 }
 
 /// The column line after the identity.

@@ -335,17 +335,13 @@ pub fn host_tag() -> &'static str {
         if boot.is_empty() && namespace.as_os_str().is_empty() {
             return "0".repeat(12);
         }
-        // FNV-1a, 64 bits: stable across builds and platforms (std's hasher is not).
-        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in boot
-            .trim()
-            .bytes()
-            .chain([0])
-            .chain(namespace.as_os_str().as_encoded_bytes().iter().copied())
-        {
-            hash ^= u64::from(b);
-            hash = hash.wrapping_mul(0x0100_0000_01b3);
-        }
+        // Stable across builds and platforms (std's hasher is not).
+        let hash = crate::util::hash::fnv1a(
+            boot.trim()
+                .bytes()
+                .chain([0])
+                .chain(namespace.as_os_str().as_encoded_bytes().iter().copied()),
+        );
         format!("{:012x}", hash >> 16)
     })
 }

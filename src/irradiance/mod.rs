@@ -493,12 +493,7 @@ pub fn plan_hash(plan: &IrradiancePlan) -> String {
         "seed": plan.seed, "estimators": plan.estimators.iter().map(|e| e.name.clone()).collect::<Vec<_>>(),
         "published": plan.published,
     });
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in serde_json::to_vec(&v).expect("serialisable") {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    format!("{h:016x}")
+    crate::util::hash::fnv1a_hex(serde_json::to_vec(&v).expect("serialisable"))
 }
 
 /// What a run wrote.

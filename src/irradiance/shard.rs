@@ -36,14 +36,9 @@ pub const PARTIAL_LOG: &str = "irradiance.partial.csv";
 /// units.
 const BATCH_NORMALS: usize = 2048;
 
-/// FNV-1a (64 bits) of `text`, hex.
+/// FNV-1a (64 bits) of `text`, hex ([`crate::util::hash`]).
 fn fnv(text: &str) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes() {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{h:016x}")
+    crate::util::hash::fnv1a_hex(text.bytes())
 }
 
 /// What a log and a shard record say they are: the plan ([`super::plan_hash`]) and the map's

@@ -7,6 +7,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 mod chart;
+pub mod faces;
 pub use chart::*;
 
 /// Width of every plot in pixels.

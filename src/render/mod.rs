@@ -13,7 +13,6 @@ pub mod image;
 pub mod integrator;
 pub mod renderer;
 pub mod scene;
-pub mod table;
 pub mod texel;
 pub mod uncertainty;
 

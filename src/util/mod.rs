@@ -4,6 +4,7 @@
 
 pub mod cubature;
 pub mod geometry;
+pub mod hash;
 pub mod memory;
 pub mod quadrature;
 pub mod report;

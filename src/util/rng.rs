@@ -32,9 +32,7 @@ pub fn stream(seed: u64, path: &[u64]) -> WorkbenchRng {
 
 /// A stable 64-bit identifier for a string (FNV-1a), for naming cells by label.
 pub fn label_id(label: &str) -> u64 {
-    label.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
-    })
+    super::hash::fnv1a(label.bytes())
 }
 
 #[cfg(test)]

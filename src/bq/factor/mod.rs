@@ -26,16 +26,9 @@ pub const ILL_CONDITIONED: f64 = 1e12;
 /// more than 1e14, so the jitter ladder is climbed instead.
 pub const NUMERICALLY_SINGULAR: f64 = 1e14;
 
-/// Cholesky failed even with the largest jitter.
-#[derive(Debug, Clone, thiserror::Error)]
-#[error(
-    "Q is not positive definite even with jitter {jitter:.3e} added to its diagonal \
-     (n = {n}); increase the noise σ_n² or remove duplicate points"
-)]
-pub struct NotPositiveDefinite {
-    pub n: usize,
-    pub jitter: f64,
-}
+/// Cholesky failed even with the largest jitter: defined with the library's errors
+/// ([`crate::error`]), the floor every room stands on, and named here where it arises.
+pub use crate::error::NotPositiveDefinite;
 
 /// What the factorisation needed.
 #[derive(Clone, Copy, Debug, PartialEq)]

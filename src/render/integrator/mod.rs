@@ -158,7 +158,7 @@ impl IntegratorKind {
 
     /// The design of the points its estimates use: MC's fresh samples drawn from its density
     /// (uniform or cosine), the sample sets' design for the estimators with weights. This is what
-    /// a figure's marker shows ([`crate::experiment::faces`]), so cosine MC in a render table
+    /// a figure's marker shows ([`crate::plot::faces`]), so cosine MC in a render table
     /// looks as it does in an experiment.
     pub fn design(self) -> Design {
         if self.uses_sets() {

@@ -24,7 +24,7 @@
 //! form ([`crate::render::cuts::push_crossings`]). On an arc the weight `w(ψ)` is smooth (`a·d`
 //! and `n·d` are sinusoids `A sin ψ + B + C cos ψ` in the map's azimuth `ψ`) and the map is a
 //! polynomial of degree ≤ 1 in `ψ` on each cell (`L = a₀ + a₁ (ψ − ψ_i)`,
-//! [`super::cells::CellTable::linear`]), so each cell needs only the moments `∫w` and
+//! [`crate::render::env::cells::CellTable::linear`]), so each cell needs only the moments `∫w` and
 //! `∫(ψ − ψ_i) w`. Each arc is cut into panels; on a panel `w` is interpolated at the 17
 //! Chebyshev–Lobatto points (`p̃ = Σ_{k≤16} c_k T_k`), `p̃` and `x·p̃` are integrated in closed
 //! form (Chebyshev antiderivatives) and the antiderivatives evaluated at the cell knots inside
@@ -32,7 +32,7 @@
 //! per cell. A panel's error estimate is
 //!
 //! - `τΛ` if it is resolved: `τ = 2 (|c₁₃| + |c₁₄| + |c₁₅| + |c₁₆|)` estimates `max|w − p̃|`, and
-//!   `Λ = max_channel ∫_panel |L| dψ` ([`super::cells::CellTable::magnitude`]) turns it into a
+//!   `Λ = max_channel ∫_panel |L| dψ` ([`crate::render::env::cells::CellTable::magnitude`]) turns it into a
 //!   bound on `∫ L (w − p̃)`; resolved means that the largest sampled weight is at least 1/16 of
 //!   the weight's bound on the panel, `W̄ = ((e + 1)/2π) (max a·d)^e · max n·d` (the maxima of the
 //!   two sinusoids over the panel, in closed form), so that a lobe far narrower than the points'
@@ -90,8 +90,8 @@
 
 use super::super::cuts::{PixelIntegral, push_crossings, push_tangencies};
 use super::super::env::EnvMap;
-use super::cells::{Azimuth, CellTable};
 use super::{AzimuthIntegral, Strategy, polar, push_in_span};
+use crate::render::env::cells::{Azimuth, CellTable};
 use crate::util::geometry::Vec3;
 use crate::util::quadrature::{chebyshev_eval_into, gauss_jacobi_unit};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};

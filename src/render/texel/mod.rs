@@ -2,7 +2,7 @@
 //!
 //! Under either lookup a lat-long map is a simple function of the map's angles: with
 //! `d = (sin θ sin ψ, cos θ, −sin θ cos ψ)` (`θ` from `+y`, `ψ = atan2(d.x, −d.z)`) it is
-//! constant (`thesis`) or bilinear (`mitsuba`) on a grid of cells ([`cells::CellTable`]). For a
+//! constant (`thesis`) or bilinear (`mitsuba`) on a grid of cells ([`crate::render::env::cells::CellTable`]). For a
 //! Lambertian pixel
 //!
 //! `I = (albedo/π) ∫₀^π sin θ Σ_arcs ∫_arc L(θ, ψ) (A sin ψ + B + C cos ψ) dψ dθ`,
@@ -22,16 +22,15 @@
 //! estimate far above K21's own error on smooth pieces; the tests check it
 //! against closed forms and brute force.
 
-pub mod cells;
 pub mod lobe;
 
 use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding, adaptive_worst_first, sine_map};
+use super::env::cells::Azimuth;
 use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
 use super::scene::Scene;
 use crate::util::geometry::{Frame, Vec3};
 use crate::util::quadrature::GK21;
-use cells::Azimuth;
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

@@ -325,3 +325,32 @@ fn a_clamped_map_is_the_map_with_its_texels_capped() {
         assert!(!d.join("out/bad").exists());
     }
 }
+
+/// A table's variant has the face of the same estimator in an experiment: cosine MC its
+/// cosine marker (not uniform MC's), BMC on Sobol sets BMC's colour with Sobol's marker.
+#[test]
+fn variants_wear_the_faces_of_the_same_estimators_in_an_experiment() {
+    let table = workbench::table::plan::parse(
+        r#"{"name": "t", "variants": [{"integrator": "mc"}, {"integrator": "mc-cos"},
+            {"integrator": "bmc"}, {"integrator": "bmc-sobol"}]}"#,
+        std::path::Path::new("t.json"),
+    )
+    .unwrap();
+    let experiment = workbench::experiment::plan::resolve(
+        &workbench::experiment::plan::parse(
+            r#"{"name": "x", "integrands": ["cos3"], "samples": [4], "trials": 2, "seed": 1,
+                "estimators": [{"label": "MC", "method": "mc"},
+                {"label": "MC cosine", "method": "mc", "design": "cosine"},
+                {"label": "BMC", "method": "bmc"},
+                {"label": "BMC Sobol", "method": "bmc", "design": "sobol"}]}"#,
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let (ours, theirs) = (
+        workbench::table::plot::variant_faces(&table),
+        workbench::experiment::plot::faces(&experiment.estimators),
+    );
+    assert_eq!(ours, theirs);
+    assert_ne!(ours[0].marker, ours[1].marker);
+}

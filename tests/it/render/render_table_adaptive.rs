@@ -249,10 +249,10 @@ fn adaptive_spec_errors_are_exit_2_before_any_work() {
 /// Defaults of the adaptive fields, and the plan a spec resolves to.
 #[test]
 fn adaptive_fields_resolve_with_defaults() {
-    use workbench::render::table::adaptive::plan::{AdaptivePlan, DEFAULT_FIRST_SPP};
+    use workbench::table::adaptive::plan::{AdaptivePlan, DEFAULT_FIRST_SPP};
     let text = r#"{"name": "t", "adaptive": {"target_sd": [0.05, 0.02], "max_spp": 256},
                    "variants": [{"integrator": "mc"}, {"integrator": "bmc"}]}"#;
-    let plan = workbench::render::table::plan::parse(text, Path::new("t.json")).unwrap();
+    let plan = workbench::table::plan::parse(text, Path::new("t.json")).unwrap();
     assert_eq!(
         plan.adaptive,
         Some(AdaptivePlan {
@@ -270,7 +270,7 @@ fn adaptive_fields_resolve_with_defaults() {
     );
     assert_eq!(DEFAULT_FIRST_SPP, workbench::bq::stages::DEFAULT_MIN_N);
     // A fixed-spp table has no adaptive plan.
-    let fixed = workbench::render::table::plan::parse(
+    let fixed = workbench::table::plan::parse(
         r#"{"name": "t", "variants": [{"integrator": "mc"}]}"#,
         Path::new("t.json"),
     )

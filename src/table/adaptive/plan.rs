@@ -3,7 +3,7 @@
 
 use crate::bq::weights::Scale;
 use crate::render::integrator::{IntegratorKind, check_spp};
-use crate::render::table::spec::AdaptiveSpec;
+use crate::table::spec::AdaptiveSpec;
 
 /// The first stage when `first_spp` is not given (as `render --target-sd`'s default `--spp`).
 pub use crate::render::adaptive::DEFAULT_FIRST_SPP;

@@ -1,12 +1,12 @@
 //! `rmse_vs_spp.svg` of an adaptive table: mean RMSE against the mean samples per pixel each
 //! target took, log–log, one line per variant through its targets, with the 95% intervals as
-//! bars (the plot style of [`crate::render::table::plot`]). Both axes are deterministic; seconds
+//! bars (the plot style of [`crate::table::plot`]). Both axes are deterministic; seconds
 //! are not drawn (they are machine-dependent, see `timings.md`).
 
 use super::summary::AdaptiveCell;
 use crate::plot::{self as style, Axis, LegendEntry, Swatch};
-use crate::render::table::plan::TablePlan;
-use crate::render::table::plot::{RMSE_AXIS, reference_caption, variant_entries, variant_faces};
+use crate::table::plan::TablePlan;
+use crate::table::plot::{RMSE_AXIS, reference_caption, variant_entries, variant_faces};
 
 const CHART_HEIGHT: u32 = 500;
 

@@ -65,12 +65,7 @@ pub fn plan_hash(plan: &TablePlan) -> String {
         o.remove("cache");
     }
     let bytes = serde_json::to_vec(&v).expect("serialisable");
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{h:016x}")
+    crate::util::hash::fnv1a_hex(bytes)
 }
 
 /// `manifest.json`: the resolved plan, with the reference and how render seeds are derived.

@@ -1,5 +1,5 @@
 //! `rmse_vs_spp.svg` and its caption: mean RMSE against spp, log–log, one line per variant
-//! (in its face, as an experiment's estimators: [`crate::experiment::faces`]) at its true spp
+//! (in its face, as an experiment's estimators: [`crate::plot::faces`]) at its true spp
 //! with its 95% intervals as bars, a dashed spp^(−1/2) guide through MC, and a legend below the
 //! chart. Variants that lie on an earlier one are drawn over it, the earlier one wider, and
 //! named in the caption; nothing is moved off its spp.
@@ -108,7 +108,7 @@ pub fn variant_entries(plan: &TablePlan) -> Vec<LegendEntry> {
 }
 
 /// Each variant's face: its method, its own model's kernel, its points' design
-/// ([`crate::experiment::faces::faces_of`]).
+/// ([`crate::plot::faces::faces_of`]).
 pub fn variant_faces(plan: &TablePlan) -> Vec<SeriesStyle> {
     let series: Vec<_> = plan
         .variants
@@ -118,7 +118,7 @@ pub fn variant_faces(plan: &TablePlan) -> Vec<SeriesStyle> {
             (v.kind.method, kernel, v.kind.design())
         })
         .collect();
-    crate::experiment::faces::faces_of(&series)
+    crate::plot::faces::faces_of(&series)
 }
 
 /// The legend (one entry per variant, in its face, wider where a later one lies on it, the
@@ -288,34 +288,5 @@ mod tests {
             found.style(0, SeriesStyle::of(0)),
             found.style(1, SeriesStyle::of(1))
         );
-    }
-
-    /// A table's variant has the face of the same estimator in an experiment: cosine MC its
-    /// cosine marker (not uniform MC's), BMC on Sobol sets BMC's colour with Sobol's marker.
-    #[test]
-    fn variants_wear_the_faces_of_the_same_estimators_in_an_experiment() {
-        let table = super::super::plan::parse(
-            r#"{"name": "t", "variants": [{"integrator": "mc"}, {"integrator": "mc-cos"},
-                {"integrator": "bmc"}, {"integrator": "bmc-sobol"}]}"#,
-            std::path::Path::new("t.json"),
-        )
-        .unwrap();
-        let experiment = crate::experiment::plan::resolve(
-            &crate::experiment::plan::parse(
-                r#"{"name": "x", "integrands": ["cos3"], "samples": [4], "trials": 2, "seed": 1,
-                    "estimators": [{"label": "MC", "method": "mc"},
-                    {"label": "MC cosine", "method": "mc", "design": "cosine"},
-                    {"label": "BMC", "method": "bmc"},
-                    {"label": "BMC Sobol", "method": "bmc", "design": "sobol"}]}"#,
-            )
-            .unwrap(),
-        )
-        .unwrap();
-        let (ours, theirs) = (
-            variant_faces(&table),
-            crate::experiment::faces::faces(&experiment.estimators),
-        );
-        assert_eq!(ours, theirs);
-        assert_ne!(ours[0].marker, ours[1].marker);
     }
 }

@@ -17,7 +17,7 @@ use crate::files::result_folder::ResultFolder;
 use crate::render::adaptive::AdaptiveImage;
 use crate::render::image::{ColourMap, ErrorScale, Image};
 use crate::render::renderer::Renderer;
-use crate::render::table::plan::{TablePlan, png_name};
+use crate::table::plan::{TablePlan, png_name};
 use crate::util::report::Reporter;
 use plan::AdaptivePlan;
 use runner::AdaptiveRow;

@@ -2,7 +2,7 @@
 //! spp and the shares, per (variant, target).
 
 use super::runner::AdaptiveRow;
-use crate::render::table::plan::TablePlan;
+use crate::table::plan::TablePlan;
 
 /// Summary of one (variant, target) cell.
 #[derive(Clone, Debug, PartialEq)]

@@ -4,7 +4,7 @@
 //! with circles finds it so everywhere.
 //!
 //! - **Colour: the method**, with the default kernel (Sobolev s = 1.4): MC vermillion, BMC
-//!   blue, BMCP bluish green, BSQ reddish purple ([`crate::plot::PALETTE`]'s first four). Another
+//!   blue, BMCP bluish green, BSQ reddish purple ([`super::PALETTE`]'s first four). Another
 //!   kernel takes one of the palette's other colours, in the order the run first uses each
 //!   (method, kernel) pair.
 //! - **Marker: the design**: uniform a filled circle, Sobol a filled triangle, stratified a
@@ -15,9 +15,8 @@
 //! Estimators the rule gives one face (a noise or amplitude sweep, a tolerance variant) take,
 //! in their order, the next colour that no estimator of the run has yet, keeping their marker.
 
-use super::plan::PlannedEstimator;
+use super::{PALETTE, SeriesStyle};
 use crate::bq::estimator::Method;
-use crate::plot::{PALETTE, SeriesStyle};
 use crate::sampling::{Density, Design};
 
 /// The uniform design (the default), for callers without a design.
@@ -55,15 +54,6 @@ fn is_default_kernel(k: &serde_json::Value) -> bool {
         && k.get("s").and_then(|s| s.as_f64()) == Some(1.4)
 }
 
-/// The faces of `estimators`, in their order (see the module docs).
-pub fn faces(estimators: &[PlannedEstimator]) -> Vec<SeriesStyle> {
-    let identities: Vec<(Method, Option<&serde_json::Value>, Design)> = estimators
-        .iter()
-        .map(|e| (e.method, e.settings.kernel.as_ref(), e.design))
-        .collect();
-    faces_of(&identities)
-}
-
 /// The faces of series that are each a method with a kernel (`None`: none, or the default)
 /// on a design, in their order: the rule of the module docs, for experiments' estimators and
 /// render tables' variants alike.
@@ -98,61 +88,10 @@ pub fn faces_of(series: &[(Method, Option<&serde_json::Value>, Design)]) -> Vec<
                 face.colour = c;
             } else {
                 // More series than colours: the palette again, with the next marker.
-                face.marker = (face.marker + out.len()) % crate::plot::MARKERS;
+                face.marker = (face.marker + out.len()) % super::MARKERS;
             }
         }
         out.push(face);
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::experiment::plan;
-
-    fn plan_of(estimators: &str) -> plan::Plan {
-        let text = format!(
-            r#"{{"name": "x", "integrands": ["cos3"], "estimators": {estimators}, "samples": [4], "trials": 2, "seed": 1}}"#
-        );
-        plan::resolve(&plan::parse(&text).unwrap()).unwrap()
-    }
-
-    /// The same estimator has the same face whatever else the run compares, and the first
-    /// four methods are told apart by colour, the designs by marker, MC by its dashed line.
-    #[test]
-    fn an_estimator_keeps_its_face_across_runs() {
-        let a = plan_of(r#"[{"label": "MC", "method": "mc"}, {"label": "BMC", "method": "bmc"}]"#);
-        let b = plan_of(
-            r#"[{"label": "BSQ", "method": "bsq"}, {"label": "BMC", "method": "bmc"},
-                {"label": "BMC sobol", "method": "bmc", "design": "sobol"}, {"label": "MC", "method": "mc"},
-                {"label": "BMCP", "method": "bmcp"}]"#,
-        );
-        let (fa, fb) = (faces(&a.estimators), faces(&b.estimators));
-        assert_eq!(fa[0], fb[3]);
-        assert_eq!(fa[1], fb[1]);
-        assert!(fa[0].dashed && !fa[1].dashed);
-        assert_eq!((fb[2].colour, fb[1].colour), (1, 1));
-        assert_ne!(fb[2].marker, fb[1].marker);
-        // MC, BMC, BMCP, BSQ.
-        let colours: Vec<usize> = [3, 1, 4, 0].map(|i| fb[i].colour).to_vec();
-        assert_eq!(colours, [0, 1, 2, 3]);
-    }
-
-    /// Estimators the rule would draw alike (a noise sweep) still differ, each by a colour of
-    /// its own; another kernel gets a colour other than the method's.
-    #[test]
-    fn estimators_alike_are_told_apart() {
-        let p = plan_of(
-            r#"[{"label": "BMC a", "method": "bmc", "noise": 0.01}, {"label": "BMC b", "method": "bmc", "noise": 0.001},
-                {"label": "BMC s", "method": "bmc", "kernel": {"type": "sobolev", "s": 2.75}}]"#,
-        );
-        let f = faces(&p.estimators);
-        for i in 0..f.len() {
-            for j in 0..i {
-                assert_ne!((f[i].colour, f[i].marker), (f[j].colour, f[j].marker), "{i} {j}");
-            }
-        }
-        assert_ne!(f[2].colour, 1);
-    }
 }

@@ -5,7 +5,7 @@ use super::plan::AdaptivePlan;
 use crate::render::adaptive::{self, AdaptiveImage, AdaptiveSampler};
 use crate::render::image::Image;
 use crate::render::renderer::Renderer;
-use crate::render::table::plan::TablePlan;
+use crate::table::plan::TablePlan;
 use crate::util::report::{Reporter, Silent};
 use std::time::Instant;
 

@@ -2,13 +2,15 @@
 //! the procedural sky, a constant white environment, or an equirectangular map.
 
 use super::scene::Rgb;
-use super::texel::cells::CellTable;
 use crate::error::InputError;
 use crate::files::read::FileKind;
 use crate::util::geometry::Vec3;
+use cells::CellTable;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
+
+pub mod cells;
 
 /// The radiance `env(ω)` arriving from direction `ω` (unit) when nothing is in the way.
 #[derive(Clone, Debug)]

@@ -8,8 +8,8 @@
 
 use super::runner::AdaptiveRow;
 use super::summary::AdaptiveCell;
-use crate::render::table::export::{VARIANT_COLUMNS, num, variant_fields};
-use crate::render::table::plan::TablePlan;
+use crate::table::export::{VARIANT_COLUMNS, num, variant_fields};
+use crate::table::plan::TablePlan;
 use std::fmt::Write as _;
 
 /// Writing CSV into a `Vec` cannot fail.

@@ -227,7 +227,7 @@ impl CellTable {
     }
 
     /// `L_row(ψ)` per channel, for `start ≤ ψ ≤ start + 2π` (the profile the moments integrate;
-    /// for the quadrature of a non-linear weight, [`super::lobe`]).
+    /// for the quadrature of a non-linear weight, [`crate::render::texel::lobe`]).
     #[inline]
     pub fn value(&self, row: usize, psi: f64) -> [f64; 3] {
         let i = self.cell_of(psi);
