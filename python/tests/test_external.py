@@ -3,6 +3,7 @@ with `{"type": "python", "name": …}` integrands — the built-in's numbers to 
 function, batched calls, computed truths within their error estimate, errors naming the
 integrand, the trial and N with nothing written."""
 
+import itertools
 import json
 import math
 import os
@@ -149,3 +150,47 @@ def test_the_cli_refuses_a_python_integrand(cli, tmp_path):
     p = cli("validate", "e.json", check=False)
     assert p.returncode == 2
     assert 'integrands[0]: type: "python" names a Python callable' in p.stderr
+
+
+# Issue 42, item 4: a callable that itself calls `run` (a nested run on a worker thread, whose
+# workspace the outer unit holds, or onto which a rayon wait steals another outer unit).
+# Before: pyo3's PanicException ("RefCell already borrowed"), a BaseException, not a ValueError.
+NESTED = {"name": "p", "integrands": [{"type": "python", "name": "f", "truth": 1.0}],
+          "estimators": [{"label": "MC", "method": "mc"}, {"label": "BMC", "method": "bmc"}],
+          "samples": [8, 16], "trials": 3, "seed": 1}
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_callable_that_calls_run_gets_a_nested_run_not_a_panic(threads):
+    inner = dict(NESTED, integrands=["cos3"], trials=1, samples=[4])
+    expected_inner = wb.run(inner)
+    seen = []
+
+    def f(p):
+        rows = wb.run(inner, threads=2)
+        seen.append(rows["estimate"].tolist())
+        return p[:, 2]
+
+    plain = wb.run(NESTED, integrands={"f": lambda p: p[:, 2]}, threads=threads)
+    nested = wb.run(NESTED, integrands={"f": f}, threads=threads)
+    # The nested runs gave their own rows, and the outer rows are those of a run without them.
+    assert seen and all(s == expected_inner["estimate"].tolist() for s in seen)
+    for column in plain:
+        a, b = plain[column], nested[column]
+        assert a == b if isinstance(a, list) else np.array_equal(a, b, equal_nan=True), column
+
+
+def test_a_callable_that_writes_a_nested_run_folder(tmp_path):
+    inner = dict(NESTED, integrands=["cos3"], trials=1, samples=[4])
+
+    calls = itertools.count()
+
+    def f(p):
+        # One folder per call: two nested runs may be under way at once (each releases the GIL).
+        wb.run(inner, out=tmp_path / f"inner-{len(p)}-{next(calls)}", threads=2)
+        return p[:, 2]
+
+    result = wb.run(NESTED, integrands={"f": f}, out=tmp_path / "outer", threads=2)
+    assert (tmp_path / "outer" / "trials.csv").exists() and (tmp_path / "inner-8-0" / "trials.csv").exists()
+    assert result["out"].endswith("outer")
+
