@@ -11,6 +11,7 @@ mod args;
 mod arrays;
 mod external;
 mod integrand;
+mod json;
 mod model;
 mod rule;
 mod run;

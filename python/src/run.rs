@@ -18,14 +18,7 @@ use workbench::integrand::external::ExternalIntegrand;
 /// truth is computed by cubature (which calls the callables).
 fn plan_of(py: Python<'_>, spec: &Bound<'_, PyAny>, integrands: Option<&Bound<'_, PyAny>>) -> PyResult<Plan> {
     let (text, file) = if spec.cast::<PyDict>().is_ok() {
-        let dumps = py.import("json")?.getattr("dumps")?;
-        let kwargs = PyDict::new(py);
-        kwargs.set_item("allow_nan", false)?;
-        let text: String = dumps
-            .call((spec,), Some(&kwargs))
-            .map_err(|e| value_error(format!("spec: {}", e.value(py))))?
-            .extract()?;
-        (text, None)
+        (crate::json::to_json(spec, "")?, None)
     } else {
         let is_path =
             spec.cast::<PyString>().is_ok() || spec.is_instance(&py.import("os")?.getattr("PathLike")?)?;

@@ -194,3 +194,19 @@ def test_a_callable_that_writes_a_nested_run_folder(tmp_path):
     assert (tmp_path / "outer" / "trials.csv").exists() and (tmp_path / "inner-8-0" / "trials.csv").exists()
     assert result["out"].endswith("outer")
 
+# Issue 42, Low: a complex return value was cut to its real part (numpy's ComplexWarning only);
+# strings were parsed as numbers.
+@pytest.mark.parametrize(
+    "f, message",
+    [
+        (lambda p: p[:, 2] + 1j * p[:, 0], "returned complex values"),
+        (lambda p: (p[:, 2] + 0j).tolist(), "returned complex values"),
+        (lambda p: [str(v) for v in p[:, 2]], "returned strings"),
+    ],
+)
+def test_a_callable_returning_complex_or_text_is_refused(f, message):
+    spec = dict(python_cos3(), estimators=BASE["estimators"][:1], checks=[], samples=[4])
+    with pytest.raises(ValueError) as e:
+        wb.run(spec, integrands={"cos3": f})
+    assert 'integrand "cos3", trial ' in str(e.value) and message in str(e.value), str(e.value)
+
