@@ -194,6 +194,7 @@ def test_a_callable_that_writes_a_nested_run_folder(tmp_path):
     assert (tmp_path / "outer" / "trials.csv").exists() and (tmp_path / "inner-8-0" / "trials.csv").exists()
     assert result["out"].endswith("outer")
 
+
 # Issue 42, Low: a complex return value was cut to its real part (numpy's ComplexWarning only);
 # strings were parsed as numbers.
 @pytest.mark.parametrize(
@@ -210,3 +211,33 @@ def test_a_callable_returning_complex_or_text_is_refused(f, message):
         wb.run(spec, integrands={"cos3": f})
     assert 'integrand "cos3", trial ' in str(e.value) and message in str(e.value), str(e.value)
 
+
+# Issue 43, item 4: the computed truth of a tilted smooth lobe meets its default tolerance (in
+# μ = cos θ the cubature ran out of values although right to 1e-13), and a tolerance out of the
+# cubature's reach is refused as the tolerance's, with the remedy.
+def tilted_lobe(points):
+    a = np.array([np.sin(np.radians(40)), 0.0, np.cos(np.radians(40))])
+    return np.exp(8.0 * (points @ a - 1.0)) * points[:, 2]
+
+
+def test_the_computed_truth_of_a_tilted_smooth_lobe_meets_the_default_tolerance(tmp_path):
+    spec = dict(BASE, estimators=BASE["estimators"][:1], checks=[], trials=2, samples=[4],
+                integrands=[{"type": "python", "name": "lobe"}])
+    wb.run(spec, integrands={"lobe": tilted_lobe}, out=tmp_path / "o")
+    f = json.loads((tmp_path / "o" / "manifest.json").read_text())["plan"]["integrands"][0]
+    # The same integrand as the library's family (Gaussian × cos θ), whose truth is certified.
+    a = [np.sin(np.radians(40)), 0.0, np.cos(np.radians(40))]
+    family = wb.Integrand({"type": "gaussian", "axis": a, "sharpness": 8.0, "cosine": True})
+    assert f["truth_source"] == "cubature"
+    assert 0 < f["truth_error_estimate"] <= 1e-10 * abs(family.truth)
+    assert abs(f["truth"] - family.truth) <= max(f["truth_error_estimate"], 1e-15)
+
+
+def test_an_unreachable_tolerance_is_refused_as_the_tolerance_with_the_remedy():
+    spec = dict(BASE, estimators=BASE["estimators"][:1], checks=[], trials=1, samples=[4],
+                integrands=[{"type": "python", "name": "step"}])
+    with pytest.raises(ValueError) as e:
+        wb.run(spec, integrands={"step": lambda p: (p[:, 0] > 0.3).astype(np.float64)})
+    m = str(e.value)
+    assert m.startswith("integrands[0]: tolerance: the cubature did not reach the default tolerance"), m
+    assert "the integrand's values were fine" in m and 'give "truth"' in m and "trial" not in m, m
