@@ -19,7 +19,9 @@ scene has a delta light the table says which version ran (``mi.__version__``).
 **The methods.** ``--methods`` names the workbench integrator's ``method`` values (``bmc``,
 ``mc_bsdf``, ``mc_cosine``, and any method the integrator gains later, e.g. ``bq-pss``:
 ``{"type": "workbench", "method": NAME, "n": N}`` at 1 spp, refused by the integrator itself if
-unknown), or ``NAME:key=value:…`` for other properties (``bmc:kernel=fitted``). Mitsuba's ``path``
+unknown), or ``NAME:key=value:…`` for other properties (``bmc:kernel=fitted``; ``bmc:n=16``: 16
+points per camera sample and N/16 camera samples per pixel, so that the pixel's footprint is
+sampled as ``direct``'s N spp sample it). Default ``bmc,bmc:n=16,mc_bsdf``. Mitsuba's ``path``
 (``max_depth`` 2) is rendered too, at N spp.
 
 **The reference.** ``path`` with ``max_depth`` 2 at ``--ref-spp`` spp, rendered as two halves of
@@ -232,6 +234,9 @@ def workbench_method(spec: str):
         props[k] = int(v) if v.lstrip("-").isdigit() else (float(v) if _is_float(v) else v)
 
     def at(b):
+        if "n" in props:  # n points per camera sample, b/n camera samples (antialiasing)
+            spp = max(1, int(round(b / props["n"])))
+            return dict(props), spp, spp * (1 + props["n"])
         n = max(2, int(round(b)))
         return dict(props, n=n), 1, 1 + n
 
@@ -247,16 +252,23 @@ def _is_float(v):
 
 
 def direct_config(name: str, form: str):
-    """``direct`` at budget b: ``half`` = e = b_s = b/2 at 1 spp; ``spp`` = b spp of 1 + 1."""
+    """``direct`` at budget b: ``half`` = e = b_s = b/2 at 1 spp; ``spp`` = b spp of 1 + 1.
+    Mitsuba's ``ldsampler`` rounds any sample count to a power of 4 of at least 4, so with it the
+    spp is the nearest such count, and the ``half`` form is 4 spp of e = b_s = b/8 (the same
+    budget; the table states what was rendered)."""
 
     def at(b):
+        ld = name == "ldsampler"
         if form == "half":
-            m = max(1, int(round(b / 2)))
-            return {"type": "direct", "emitter_samples": m, "bsdf_samples": m}, 1, 1 + 2 * m
+            s, m = (4, max(1, int(round(b / 8)))) if ld else (1, max(1, int(round(b / 2))))
+            return {"type": "direct", "emitter_samples": m, "bsdf_samples": m}, s, s * (1 + 2 * m)
         s = max(1, int(round(b)))
+        if ld:
+            s = 4 ** max(1, int(round(math.log(s, 4))))
         return {"type": "direct", "emitter_samples": 1, "bsdf_samples": 1}, s, 3 * s
 
-    label = f"direct {name} {'N/2+N/2' if form == 'half' else '1+1 ×N'}"
+    half = "4 spp × (N/8+N/8)" if name == "ldsampler" else "N/2+N/2"
+    label = f"direct {name} {half if form == 'half' else '1+1 ×N'}"
     return label, at
 
 
@@ -329,7 +341,7 @@ def main(argv=None):
     p.add_argument("--spps", default="16,64", help="budgets N, rays per pixel")
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--ref-spp", type=int, default=1024)
-    p.add_argument("--methods", default="bmc,mc_bsdf")
+    p.add_argument("--methods", default="bmc,bmc:n=16,mc_bsdf")
     p.add_argument("--sampler", default="ldsampler", choices=["ldsampler", "multijitter"])
     p.add_argument("--res", default=None, help="W,H: the film's resolution")
     p.add_argument("--crop", default=None, help="X,Y,W,H: a crop of the film")
@@ -422,18 +434,19 @@ def main(argv=None):
             continue
         # Equal time: every other method at the budget that takes the first workbench method's time.
         target = group[0]["seconds"]
+        timing = f"equal time ({group[0]['method']}: {target:.3f} s)"
+        rows.append(dict(group[0], timing=timing))  # the method whose time the others take
         for r in group[1:]:
             b = max(2, int(round(n * target / max(r["seconds"], 1e-9))))
             if r["kind"] == "workbench":
                 at = dict(methods)[r["method"]]
             elif r["kind"] == "direct":
-                at = direct_config(r["config"], "half" if "N/2" in r["method"] else "spp")[1]
+                at = direct_config(r["config"], "spp" if r["method"].endswith("1+1 ×N") else "half")[1]
             else:
                 at = path_method()[1]
             sc = scenes[r.get("config", "default")]
             eq = cell(sc, r["method"], at, b, seeds, ref, progress)
-            rows.append(dict(eq, kind=r["kind"], config=r.get("config"), n=n,
-                             timing=f"equal time ({group[0]['method']}: {target:.3f} s)"))
+            rows.append(dict(eq, kind=r["kind"], config=r.get("config"), n=n, timing=timing))
     smallest = min(r["rmse"] for r in rows)
     if ref_rmse > 0.1 * smallest:
         progress(f"warning: the reference's own RMSE {ref_rmse:.3g} is more than a tenth of the smallest "

@@ -75,6 +75,9 @@ fn plan_of(py: Python<'_>, spec: &Bound<'_, PyAny>, integrands: Option<&Bound<'_
 /// Numerical warnings grouped by their first words, with their counts.
 type Warnings = Vec<(String, usize)>;
 
+/// `summary.csv`, `stopping_trials.csv` and `stopping_summary.csv` as the CLI writes them.
+type Tables = [Vec<u8>; 3];
+
 /// `tolerance` of a python integrand: positive, finite, and only without `truth`.
 fn check_tolerance(e: &ExternalSpec, t: f64) -> Result<(), String> {
     if e.truth.is_some() {
@@ -174,7 +177,7 @@ pub fn run<'py>(
     }
     let (rows, warnings, csvs) = py
         .detach(
-            || -> workbench::Result<(Vec<TrialRow>, Warnings, Option<[Vec<u8>; 3]>)> {
+            || -> workbench::Result<(Vec<TrialRow>, Warnings, Option<Tables>)> {
                 let pool = workbench::util::threads::pool(threads)?;
                 let results = pool.install(|| workbench::experiment::runner::run(&plan, &|| {}))?;
                 // The weight sets' numerical warnings, grouped as the CLI prints them.
