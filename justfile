@@ -34,3 +34,11 @@ bench:
 bench-irradiance:
     cargo build --release
     /usr/bin/time -f "%e s wall, %U s user" target/release/workbench run experiments/irradiance-pisa.json --threads 2 -q --out target/bench-irradiance
+
+# The workbench Mitsuba integrator against Mitsuba's strongest `direct` on one scene (issue 41):
+# 16 and 64 rays per pixel, 4 seeds, equal spp and equal time; the table goes to
+# target/vs-direct/SCENE/. Needs the Python package and mitsuba (docs/python.md), e.g.
+#   just vs-direct --scene my_scene.xml
+#   just vs-direct --case spheres-museum        (a scene of python/comparison/scenes.py; WORKBENCH_DATA)
+vs-direct *args:
+    python python/comparison/vs_direct.py {{args}}

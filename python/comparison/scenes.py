@@ -55,6 +55,35 @@ def _write(text: str) -> str:
     return path
 
 
+def source(name: str, env: str = "museum", shell: str = "plastic"):
+    """``(xml_path, params)``: the scene ``name`` (``bsdf_spheres`` or ``matpreview``) as a
+    temporary XML file with absolute paths (at its own resolution) and the parameters
+    ``mi.load_file`` needs, for scripts that edit the XML further (vs_direct.py)."""
+    root = data_root()
+    if name == "bsdf_spheres":
+        folder = os.path.join(root, SPHERES)
+        with open(os.path.join(folder, "test_envmap_path.xml")) as f:
+            main = f.read()
+        main = main.replace('<path value="../../../common"/>',
+                            f'<path value="{os.path.join(root, "mitsuba-data", "common")}"/>')
+        main = main.replace('value="textures/museum.exr"', f'value="{env_path(env)}"')
+        main = main.replace('<include filename="fragments/sphere_grid.xml"/>',
+                            f'<include filename="{os.path.join(folder, "fragments", "sphere_grid.xml")}"/>')
+        return _write(main), {}
+    if name == "matpreview":
+        folder = os.path.join(root, MATPREVIEW)
+        with open(os.path.join(folder, "matpreview.xml")) as f:
+            text = f.read()
+        text = text.replace('value="envmap.exr"', f'value="{env_path(env) if env != "museum" else os.path.join(folder, "envmap.exr")}"')
+        text = text.replace('value="matpreview.serialized"', f'value="{os.path.join(folder, "matpreview.serialized")}"')
+        if SHELLS.get(shell):
+            text = re.sub(r'<bsdf type="plastic" id="bsdf-matpreview">.*?</bsdf>', SHELLS[shell], text, flags=re.S)
+        elif shell not in SHELLS:
+            raise SystemExit(f"error: shell {shell!r}; expected one of {list(SHELLS)}")
+        return _write(text), {"max_depth": 2}
+    raise SystemExit(f"error: scene {name!r}; expected bsdf_spheres or matpreview")
+
+
 def load(name: str, res=None, env: str = "museum", shell: str = "plastic", spp: int = 1):
     """``(scene, sensor)`` — sensor None: the scene's own. ``name``: ``bsdf_spheres``,
     ``matpreview`` or ``cornell_box``; ``res`` = (width, height)."""

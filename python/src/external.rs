@@ -86,6 +86,32 @@ fn batch_fn(f: Py<PyAny>) -> Arc<BatchFn> {
             let result = f.call1(py, (array,)).map_err(raised)?;
             let result = result.bind(py);
             let numpy = py.import("numpy").map_err(raised)?;
+            // The values' own kind first: `asarray(…, dtype=float64)` would cut complex values to
+            // their real part (with only a ComplexWarning) and parse strings as numbers.
+            if let Ok(kind) = numpy
+                .getattr("asarray")
+                .and_then(|a| a.call1((result,)))
+                .and_then(|a| a.getattr("dtype"))
+                .and_then(|d| d.getattr("kind"))
+                .and_then(|k| k.extract::<String>())
+            {
+                let what = match kind.as_str() {
+                    "b" | "i" | "u" | "f" => None,
+                    "c" => Some(
+                        "complex values (an integral of real values is what is estimated: return the real part, or the modulus, yourself)",
+                    ),
+                    "U" | "S" => Some("strings"),
+                    "O" => Some("Python objects that are not all real numbers"),
+                    _ => Some("values that are not real numbers"),
+                };
+                if let Some(what) = what {
+                    return Err(format!(
+                        "returned {what}: {}, not an array of {} float64 values",
+                        arrays::describe(result),
+                        points.len()
+                    ));
+                }
+            }
             let kwargs = PyDict::new(py);
             kwargs
                 .set_item("dtype", numpy.getattr("float64").map_err(raised)?)

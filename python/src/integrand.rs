@@ -27,13 +27,8 @@ impl Integrand {
         let spec = if let Ok(name) = spec.cast::<PyString>() {
             IntegrandSpec::Named(name.to_str()?.to_string())
         } else {
-            let dumps = py.import("json")?.getattr("dumps")?;
-            let kwargs = pyo3::types::PyDict::new(py);
-            kwargs.set_item("allow_nan", false)?;
-            let text: String = dumps
-                .call((spec,), Some(&kwargs))
-                .map_err(|e| value_error(format!("spec: {}", e.value(py))))?
-                .extract()?;
+            let text =
+                crate::json::to_json(spec, "").map_err(|e| value_error(format!("spec: {}", e.value(py))))?;
             let family: FamilySpec = workbench::files::spec_json::parse(&text, "the integrand")
                 .map_err(|m| value_error(format!("spec: {m}")))?;
             IntegrandSpec::Family(family)

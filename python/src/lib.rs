@@ -10,7 +10,9 @@
 mod args;
 mod arrays;
 mod external;
+mod frame;
 mod integrand;
+mod json;
 mod model;
 mod rule;
 mod run;
@@ -50,6 +52,7 @@ fn _workbench(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<integrand::Integrand>()?;
     m.add_function(wrap_pyfunction!(run::run, m)?)?;
     m.add_function(wrap_pyfunction!(run::trial_points, m)?)?;
+    m.add_function(wrap_pyfunction!(frame::to_world, m)?)?;
     m.add(
         "METHODS",
         workbench::bq::estimator::Method::ALL.map(|m| m.name()).to_vec(),

@@ -36,20 +36,14 @@ impl<'py> ModelArgs<'py> {
 
     /// The model spec: the kernel parsed as an experiment file's `"kernel"` (so the same
     /// messages: `kernel.s: invalid type: …`), the rest as given.
-    pub fn spec(&self, py: Python<'_>) -> PyResult<ModelSpec> {
+    pub fn spec(&self, _py: Python<'_>) -> PyResult<ModelSpec> {
         let kernel = match &self.kernel {
             None => None,
             Some(k) => {
                 let json = if let Ok(name) = k.cast::<PyString>() {
                     serde_json::json!({ "type": name.to_str()? }).to_string()
                 } else {
-                    let dumps = py.import("json")?.getattr("dumps")?;
-                    let kwargs = pyo3::types::PyDict::new(py);
-                    kwargs.set_item("allow_nan", false)?;
-                    dumps
-                        .call((k,), Some(&kwargs))
-                        .map_err(|e| value_error(format!("kernel: {}", e.value(py))))?
-                        .extract::<String>()?
+                    crate::json::to_json(k, "kernel")?
                 };
                 let spec: ModelSpec =
                     workbench::files::spec_json::parse(&format!("{{\"kernel\": {json}}}"), "the model")

@@ -18,14 +18,7 @@ use workbench::integrand::external::ExternalIntegrand;
 /// truth is computed by cubature (which calls the callables).
 fn plan_of(py: Python<'_>, spec: &Bound<'_, PyAny>, integrands: Option<&Bound<'_, PyAny>>) -> PyResult<Plan> {
     let (text, file) = if spec.cast::<PyDict>().is_ok() {
-        let dumps = py.import("json")?.getattr("dumps")?;
-        let kwargs = PyDict::new(py);
-        kwargs.set_item("allow_nan", false)?;
-        let text: String = dumps
-            .call((spec,), Some(&kwargs))
-            .map_err(|e| value_error(format!("spec: {}", e.value(py))))?
-            .extract()?;
-        (text, None)
+        (crate::json::to_json(spec, "")?, None)
     } else {
         let is_path =
             spec.cast::<PyString>().is_ok() || spec.is_instance(&py.import("os")?.getattr("PathLike")?)?;
@@ -82,6 +75,9 @@ fn plan_of(py: Python<'_>, spec: &Bound<'_, PyAny>, integrands: Option<&Bound<'_
 /// Numerical warnings grouped by their first words, with their counts.
 type Warnings = Vec<(String, usize)>;
 
+/// `summary.csv`, `stopping_trials.csv` and `stopping_summary.csv` as the CLI writes them.
+type Tables = [Vec<u8>; 3];
+
 /// `tolerance` of a python integrand: positive, finite, and only without `truth`.
 fn check_tolerance(e: &ExternalSpec, t: f64) -> Result<(), String> {
     if e.truth.is_some() {
@@ -102,7 +98,8 @@ fn check_tolerance(e: &ExternalSpec, t: f64) -> Result<(), String> {
 ///
 /// ``integrands`` maps names to your own integrands: callables taking a float64 array of shape
 /// ``(n, 3)`` (unit directions, ``z ≥ 0``) and returning ``n`` values (anything
-/// ``numpy.asarray(…, dtype=float64)`` turns into shape ``(n,)``), called once per trial's point
+/// ``numpy.asarray(…, dtype=float64)`` turns into shape ``(n,)``; complex values and strings are
+/// refused, not converted), called once per trial's point
 /// set, never per point, from the run's worker threads (one at a time, holding the GIL): they
 /// must be pure functions of the points. The spec names each as ``{"type": "python", "name":
 /// NAME}`` with optional ``"truth"`` (∫ f dω if known), ``"tolerance"`` (the absolute error
@@ -116,16 +113,23 @@ fn check_tolerance(e: &ExternalSpec, t: f64) -> Result<(), String> {
 /// figures, summary, checks, manifest — and returns ``{"out": str, "report": str, "passed":
 /// bool}``: the folder, the text the CLI prints and whether every check passed.
 ///
+/// With ``tables=True`` it returns every table of the run as columns instead: ``{"trials": …,
+/// "summary": …, "stopping_trials": …, "stopping_summary": …}`` — ``trials.csv`` (as above),
+/// ``summary.csv`` and, for tolerance estimators, ``stopping_trials.csv`` (per trial the points
+/// used, ``n_used``) and ``stopping_summary.csv`` (``{}`` without tolerance estimators), each the
+/// CLI's CSV to the bit. With ``out`` too, these keys are added to the folder's dict.
+///
 /// Errors are the CLI's messages: for a file ``file: path: message``, for a dict ``path:
 /// message``.
 #[pyfunction]
-#[pyo3(signature = (spec, *, integrands=None, out=None, threads=None))]
+#[pyo3(signature = (spec, *, integrands=None, out=None, threads=None, tables=false))]
 pub fn run<'py>(
     py: Python<'py>,
     spec: &Bound<'py, PyAny>,
     integrands: Option<&Bound<'py, PyAny>>,
     out: Option<&Bound<'py, PyAny>>,
     threads: Option<Whole>,
+    tables: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads.map(|t| t.count("threads")).transpose()?;
     if let Some(t) = threads {
@@ -157,43 +161,85 @@ pub fn run<'py>(
         crate::model::warn(py, &w)?;
     }
     if let Some(out) = out {
-        return write_folder(py, &plan, spec, out, threads);
-    }
-    let (rows, warnings) = py
-        .detach(|| -> workbench::Result<(Vec<TrialRow>, Warnings)> {
-            let pool = workbench::util::threads::pool(threads)?;
-            let results = pool.install(|| workbench::experiment::runner::run(&plan, &|| {}))?;
-            // The weight sets' numerical warnings, grouped as the CLI prints them.
-            let mut warnings = Vec::new();
-            for r in &results.units {
-                workbench::experiment::drive::group_warnings(&mut warnings, &r.messages);
+        let d = write_folder(py, &plan, spec, out, threads)?;
+        if tables {
+            let folder = std::path::PathBuf::from(d.get_item("out")?.expect("set").extract::<String>()?);
+            for (key, file) in TABLES {
+                let bytes = match std::fs::read(folder.join(file)) {
+                    Ok(b) => b,
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+                    Err(e) => return Err(value_error(format!("out: reading {file}: {e}"))),
+                };
+                d.set_item(key, csv_columns(py, &bytes)?)?;
             }
-            // Units come in (N, trial) order, each with its rows in (integrand, estimator) order;
-            // trials.csv is in (integrand, estimator, N, trial) order.
-            let per_unit: Vec<Vec<TrialRow>> = results
-                .units
-                .iter()
-                .enumerate()
-                .map(|(u, r)| {
-                    workbench::experiment::rows::unit_row_values(&plan, r, u / plan.trials, u % plan.trials)
+        }
+        return Ok(d);
+    }
+    let (rows, warnings, csvs) = py
+        .detach(
+            || -> workbench::Result<(Vec<TrialRow>, Warnings, Option<Tables>)> {
+                let pool = workbench::util::threads::pool(threads)?;
+                let results = pool.install(|| workbench::experiment::runner::run(&plan, &|| {}))?;
+                // The weight sets' numerical warnings, grouped as the CLI prints them.
+                let mut warnings = Vec::new();
+                for r in &results.units {
+                    workbench::experiment::drive::group_warnings(&mut warnings, &r.messages);
+                }
+                // Units come in (N, trial) order, each with its rows in (integrand, estimator) order;
+                // trials.csv is in (integrand, estimator, N, trial) order.
+                let per_unit: Vec<Vec<TrialRow>> = results
+                    .units
+                    .iter()
+                    .enumerate()
+                    .map(|(u, r)| {
+                        workbench::experiment::rows::unit_row_values(
+                            &plan,
+                            r,
+                            u / plan.trials,
+                            u % plan.trials,
+                        )
                         .into_iter()
                         .map(|(row, _)| row)
                         .collect()
-                })
-                .collect();
-            let (ne, nn) = (plan.estimators.len(), plan.samples.len());
-            let mut rows = Vec::with_capacity(per_unit.len() * plan.integrands.len() * ne);
-            for fi in 0..plan.integrands.len() {
-                for ei in 0..ne {
-                    for ni in 0..nn {
-                        for t in 0..plan.trials {
-                            rows.push(per_unit[ni * plan.trials + t][fi * ne + ei].clone());
+                    })
+                    .collect();
+                let (ne, nn) = (plan.estimators.len(), plan.samples.len());
+                let mut rows = Vec::with_capacity(per_unit.len() * plan.integrands.len() * ne);
+                for fi in 0..plan.integrands.len() {
+                    for ei in 0..ne {
+                        for ni in 0..nn {
+                            for t in 0..plan.trials {
+                                rows.push(per_unit[ni * plan.trials + t][fi * ne + ei].clone());
+                            }
                         }
                     }
                 }
-            }
-            Ok((rows, warnings))
-        })
+                // The other tables, from the same units as the CLI writes them from its logs.
+                let csvs = tables.then(|| {
+                    use workbench::experiment::{adaptive, export, rows as ex_rows, summary};
+                    let mut acc = summary::Accumulator::new(&plan);
+                    for (u, r) in results.units.iter().enumerate() {
+                        let (ni, t) = (u / plan.trials, u % plan.trials);
+                        for (row, values) in ex_rows::unit_row_values(&plan, r, ni, t) {
+                            acc.push(row.integrand, row.estimator, ni, &values);
+                        }
+                    }
+                    let summary_csv = export::summary_csv(&plan, &acc.summarize(&plan));
+                    let outcomes = adaptive::Outcomes::of_units(&plan, &results.units);
+                    let has_tolerance = plan.estimators.iter().any(|e| e.tolerance.is_some());
+                    let (stopping_trials, stopping_summary) = if has_tolerance {
+                        (
+                            adaptive::trials_csv(&plan, &outcomes),
+                            adaptive::summary_csv(&plan, &adaptive::summarize(&plan, &outcomes)),
+                        )
+                    } else {
+                        (Vec::new(), Vec::new())
+                    };
+                    [summary_csv, stopping_trials, stopping_summary]
+                });
+                Ok((rows, warnings, csvs))
+            },
+        )
         .map_err(library_error)?;
     for (message, count) in &warnings {
         crate::model::warn(py, &format!("{count} weight set(s): {message}"))?;
@@ -212,7 +258,105 @@ pub fn run<'py>(
             ),
         )?;
     }
-    columns(py, &plan, &rows)
+    let trials = columns(py, &plan, &rows)?;
+    let Some(csvs) = csvs else {
+        return Ok(trials);
+    };
+    let d = PyDict::new(py);
+    d.set_item("trials", trials)?;
+    for ((key, _), bytes) in TABLES.iter().skip(1).zip(csvs.iter()) {
+        d.set_item(key, csv_columns(py, bytes)?)?;
+    }
+    Ok(d)
+}
+
+/// The tables of `run(…, tables=True)`: key and file.
+const TABLES: [(&str, &str); 4] = [
+    ("trials", "trials.csv"),
+    ("summary", "summary.csv"),
+    ("stopping_trials", "stopping_trials.csv"),
+    ("stopping_summary", "stopping_summary.csv"),
+];
+
+/// Columns that hold text whatever their fields look like (labels are free text).
+const TEXT_COLUMNS: [&str; 6] = [
+    "integrand",
+    "estimator",
+    "method",
+    "design",
+    "model",
+    "chosen_models",
+];
+
+/// A CSV the library wrote (header, then rows; a field quoted when it holds `,`, `"` or a line
+/// break) as columns: text columns ([`TEXT_COLUMNS`], or any with a field that is no number) as
+/// lists of str, `true`/`false` columns as bool arrays, whole-number columns as int64 arrays,
+/// the rest as float64 arrays with NaN where a field is empty (what `pandas.read_csv` gives).
+/// Empty bytes: no columns.
+fn csv_columns<'py>(py: Python<'py>, bytes: &[u8]) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    let text = std::str::from_utf8(bytes).map_err(|e| value_error(format!("a table is not UTF-8: {e}")))?;
+    let mut records = parse_csv(text).into_iter();
+    let Some(header) = records.next() else {
+        return Ok(out);
+    };
+    let rows: Vec<Vec<String>> = records.collect();
+    for (c, name) in header.iter().enumerate() {
+        let fields: Vec<&str> = rows.iter().map(|r| r.get(c).map_or("", String::as_str)).collect();
+        let text_column = TEXT_COLUMNS.contains(&name.as_str());
+        if !text_column && !fields.is_empty() && fields.iter().all(|f| *f == "true" || *f == "false") {
+            let v: Vec<bool> = fields.iter().map(|f| *f == "true").collect();
+            out.set_item(name, numpy::PyArray1::from_vec(py, v))?;
+        } else if !text_column && !fields.is_empty() && fields.iter().all(|f| f.parse::<i64>().is_ok()) {
+            let v: Vec<i64> = fields.iter().map(|f| f.parse().expect("checked")).collect();
+            out.set_item(name, numpy::PyArray1::from_vec(py, v))?;
+        } else if !text_column && fields.iter().all(|f| f.is_empty() || f.parse::<f64>().is_ok()) {
+            let v: Vec<f64> = fields
+                .iter()
+                .map(|f| {
+                    if f.is_empty() {
+                        f64::NAN
+                    } else {
+                        f.parse().expect("checked")
+                    }
+                })
+                .collect();
+            out.set_item(name, arrays::vector(py, v))?;
+        } else {
+            out.set_item(name, fields)?;
+        }
+    }
+    Ok(out)
+}
+
+/// The records of a CSV (RFC 4180 quoting).
+fn parse_csv(text: &str) -> Vec<Vec<String>> {
+    let mut records = Vec::new();
+    let (mut record, mut field) = (Vec::new(), String::new());
+    let (mut quoted, mut chars) = (false, text.chars().peekable());
+    while let Some(c) = chars.next() {
+        match (quoted, c) {
+            (true, '"') if chars.peek() == Some(&'"') => {
+                field.push('"');
+                chars.next();
+            }
+            (true, '"') => quoted = false,
+            (true, c) => field.push(c),
+            (false, '"') => quoted = true,
+            (false, ',') => record.push(std::mem::take(&mut field)),
+            (false, '\r') => {}
+            (false, '\n') => {
+                record.push(std::mem::take(&mut field));
+                records.push(std::mem::take(&mut record));
+            }
+            (false, c) => field.push(c),
+        }
+    }
+    if !field.is_empty() || !record.is_empty() {
+        record.push(field);
+        records.push(record);
+    }
+    records
 }
 
 /// `run(…, out=…)`: the result folder as `workbench run FILE --out OUT` writes it (CSVs, figures,

@@ -95,7 +95,7 @@ def test_rule_arguments():
     raises(r"^kernel: sobolev kernel: s must be in \(1, 2\), \(2, 3\) or \(3, 4\), got 2$", wb.rule, 16, kernel={"type": "sobolev", "s": 2})
     raises(r"^kernel.type: unknown variant `matern`", wb.rule, 16, kernel="matern")
     raises(r"^kernel: unknown field `scale`", wb.rule, 16, kernel={"type": "se", "scale": 1})
-    raises(r"^kernel: Out of range float", wb.rule, 16, kernel={"type": "sobolev", "s": float("nan")})
+    raises(r"^kernel\.s: must be a finite number, got nan", wb.rule, 16, kernel={"type": "sobolev", "s": float("nan")})
     raises(r"^noise: noise must be finite and >= 0, got -1$", wb.rule, 16, noise=-1.0)
     raises(r'^kernel_mean: unknown kernel mean "quad"', wb.rule, 16, kernel_mean="quad")
     raises(r"^kernel_mean_samples: is only used with", wb.rule, 16, kernel_mean_samples=10)
@@ -167,6 +167,46 @@ def test_run_errors_are_the_cli_messages(cli, tmp_path, spec):
 def test_run_arguments(tmp_path):
     raises(r"^threads: must be in 1..=256, got 0", wb.run, GOOD, threads=0)
     raises(r"^spec: must be an experiment as a dict .* got a Python int", wb.run, 3)
-    raises(r"^spec: Out of range float", wb.run, GOOD | {"seed": float("inf")})
+    raises(r"^seed: must be a finite number, got inf", wb.run, GOOD | {"seed": float("inf")})
     missing = str(tmp_path / "missing.json")
     raises(r"missing.json", wb.run, missing)
+
+
+# Issue 42, Low: values JSON cannot hold are refused naming their field (json.dumps said "Out of
+# range float values are not JSON compliant" without the field, and a set's TypeError had no
+# place); every dict argument goes through the one check (run's spec, Integrand's, the kernel).
+RUN_SPEC = {"name": "x", "integrands": ["cos3"], "estimators": [{"label": "MC", "method": "mc"}],
+            "samples": [4], "trials": 1, "seed": 1}
+
+
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (lambda s: s["estimators"].append({"label": "P", "method": "bmcp", "prior": float("nan")}),
+         r"^estimators\[1\]\.prior: must be a finite number, got nan \(JSON has no NaN or infinity\)$"),
+        (lambda s: s.update(integrands=[{"type": "python", "name": "f", "truth": float("inf")}]),
+         r"^integrands\[0\]\.truth: must be a finite number, got inf"),
+        (lambda s: s["estimators"][0].update(noise=np.float32("nan")),
+         r"^estimators\[0\]\.noise: must be a finite number, got nan"),
+        (lambda s: s.update(samples={4, 8}), r"^samples: must be a list, got \{.*\} \(a Python set\)"),
+        (lambda s: s.update(samples=[4, 1 + 2j]), r"^samples\[1\]: must be a JSON value .*got \(1\+2j\) \(a Python complex\)"),
+        (lambda s: s.update(seed=object()), r"^seed: must be a JSON value .*\(a Python object\)"),
+        (lambda s: s["estimators"][0].update({3: "x"}), r"^estimators\[0\]: keys must be str .*got the key 3 \(a Python int\)"),
+    ],
+)
+def test_a_spec_dict_names_the_field_that_json_cannot_hold(edit, match):
+    spec = json.loads(json.dumps(RUN_SPEC))
+    edit(spec)
+    raises(match, wb.run, spec, integrands={"f": lambda p: p[:, 2]})
+
+
+def test_every_dict_argument_names_the_field():
+    raises(r"^spec: axis\[1\]: must be a finite number, got nan",
+           wb.Integrand, {"type": "lobe", "axis": [0, float("nan"), 1], "exponent": 8})
+    raises(r"^spec: normal: must be a list, got", wb.Integrand,
+           {"type": "envmap", "env": "x.hdr", "normal": {0.0, 1.0}})
+    raises(r"^kernel\.s: must be a finite number, got inf", wb.weights, POINTS,
+           kernel={"type": "sobolev", "s": float("inf")})
+    # numpy numbers and arrays are JSON numbers and lists.
+    lobe = wb.Integrand({"type": "lobe", "axis": np.array([0.5, 0.0, 0.866]), "exponent": np.int64(8)})
+    assert lobe.name == wb.Integrand({"type": "lobe", "axis": [0.5, 0, 0.866], "exponent": 8}).name

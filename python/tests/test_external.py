@@ -3,6 +3,7 @@ with `{"type": "python", "name": …}` integrands — the built-in's numbers to 
 function, batched calls, computed truths within their error estimate, errors naming the
 integrand, the trial and N with nothing written."""
 
+import itertools
 import json
 import math
 import os
@@ -149,3 +150,94 @@ def test_the_cli_refuses_a_python_integrand(cli, tmp_path):
     p = cli("validate", "e.json", check=False)
     assert p.returncode == 2
     assert 'integrands[0]: type: "python" names a Python callable' in p.stderr
+
+
+# Issue 42, item 4: a callable that itself calls `run` (a nested run on a worker thread, whose
+# workspace the outer unit holds, or onto which a rayon wait steals another outer unit).
+# Before: pyo3's PanicException ("RefCell already borrowed"), a BaseException, not a ValueError.
+NESTED = {"name": "p", "integrands": [{"type": "python", "name": "f", "truth": 1.0}],
+          "estimators": [{"label": "MC", "method": "mc"}, {"label": "BMC", "method": "bmc"}],
+          "samples": [8, 16], "trials": 3, "seed": 1}
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_callable_that_calls_run_gets_a_nested_run_not_a_panic(threads):
+    inner = dict(NESTED, integrands=["cos3"], trials=1, samples=[4])
+    expected_inner = wb.run(inner)
+    seen = []
+
+    def f(p):
+        rows = wb.run(inner, threads=2)
+        seen.append(rows["estimate"].tolist())
+        return p[:, 2]
+
+    plain = wb.run(NESTED, integrands={"f": lambda p: p[:, 2]}, threads=threads)
+    nested = wb.run(NESTED, integrands={"f": f}, threads=threads)
+    # The nested runs gave their own rows, and the outer rows are those of a run without them.
+    assert seen and all(s == expected_inner["estimate"].tolist() for s in seen)
+    for column in plain:
+        a, b = plain[column], nested[column]
+        assert a == b if isinstance(a, list) else np.array_equal(a, b, equal_nan=True), column
+
+
+def test_a_callable_that_writes_a_nested_run_folder(tmp_path):
+    inner = dict(NESTED, integrands=["cos3"], trials=1, samples=[4])
+
+    calls = itertools.count()
+
+    def f(p):
+        # One folder per call: two nested runs may be under way at once (each releases the GIL).
+        wb.run(inner, out=tmp_path / f"inner-{len(p)}-{next(calls)}", threads=2)
+        return p[:, 2]
+
+    result = wb.run(NESTED, integrands={"f": f}, out=tmp_path / "outer", threads=2)
+    assert (tmp_path / "outer" / "trials.csv").exists() and (tmp_path / "inner-8-0" / "trials.csv").exists()
+    assert result["out"].endswith("outer")
+
+
+# Issue 42, Low: a complex return value was cut to its real part (numpy's ComplexWarning only);
+# strings were parsed as numbers.
+@pytest.mark.parametrize(
+    "f, message",
+    [
+        (lambda p: p[:, 2] + 1j * p[:, 0], "returned complex values"),
+        (lambda p: (p[:, 2] + 0j).tolist(), "returned complex values"),
+        (lambda p: [str(v) for v in p[:, 2]], "returned strings"),
+    ],
+)
+def test_a_callable_returning_complex_or_text_is_refused(f, message):
+    spec = dict(python_cos3(), estimators=BASE["estimators"][:1], checks=[], samples=[4])
+    with pytest.raises(ValueError) as e:
+        wb.run(spec, integrands={"cos3": f})
+    assert 'integrand "cos3", trial ' in str(e.value) and message in str(e.value), str(e.value)
+
+
+# Issue 43, item 4: the computed truth of a tilted smooth lobe meets its default tolerance (in
+# μ = cos θ the cubature ran out of values although right to 1e-13), and a tolerance out of the
+# cubature's reach is refused as the tolerance's, with the remedy.
+def tilted_lobe(points):
+    a = np.array([np.sin(np.radians(40)), 0.0, np.cos(np.radians(40))])
+    return np.exp(8.0 * (points @ a - 1.0)) * points[:, 2]
+
+
+def test_the_computed_truth_of_a_tilted_smooth_lobe_meets_the_default_tolerance(tmp_path):
+    spec = dict(BASE, estimators=BASE["estimators"][:1], checks=[], trials=2, samples=[4],
+                integrands=[{"type": "python", "name": "lobe"}])
+    wb.run(spec, integrands={"lobe": tilted_lobe}, out=tmp_path / "o")
+    f = json.loads((tmp_path / "o" / "manifest.json").read_text())["plan"]["integrands"][0]
+    # The same integrand as the library's family (Gaussian × cos θ), whose truth is certified.
+    a = [np.sin(np.radians(40)), 0.0, np.cos(np.radians(40))]
+    family = wb.Integrand({"type": "gaussian", "axis": a, "sharpness": 8.0, "cosine": True})
+    assert f["truth_source"] == "cubature"
+    assert 0 < f["truth_error_estimate"] <= 1e-10 * abs(family.truth)
+    assert abs(f["truth"] - family.truth) <= max(f["truth_error_estimate"], 1e-15)
+
+
+def test_an_unreachable_tolerance_is_refused_as_the_tolerance_with_the_remedy():
+    spec = dict(BASE, estimators=BASE["estimators"][:1], checks=[], trials=1, samples=[4],
+                integrands=[{"type": "python", "name": "step"}])
+    with pytest.raises(ValueError) as e:
+        wb.run(spec, integrands={"step": lambda p: (p[:, 0] > 0.3).astype(np.float64)})
+    m = str(e.value)
+    assert m.startswith("integrands[0]: tolerance: the cubature did not reach the default tolerance"), m
+    assert "the integrand's values were fine" in m and 'give "truth"' in m and "trial" not in m, m

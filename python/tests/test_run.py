@@ -45,8 +45,8 @@ SPEC = {
 
 
 @pytest.fixture(scope="module")
-def cli_trials(tmp_path_factory):
-    """The CLI's trials.csv of SPEC: header and rows."""
+def cli_folder(tmp_path_factory):
+    """The CLI's result folder of SPEC."""
     import subprocess
 
     from conftest import cli_binary
@@ -56,7 +56,13 @@ def cli_trials(tmp_path_factory):
     p = subprocess.run([str(cli_binary()), "run", "spec.json", "--out", "out", "-q"], cwd=d,
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
-    return read_csv(d / "out" / "trials.csv")
+    return d / "out"
+
+
+@pytest.fixture(scope="module")
+def cli_trials(cli_folder):
+    """The CLI's trials.csv of SPEC: header and rows."""
+    return read_csv(cli_folder / "trials.csv")
 
 
 @pytest.fixture(scope="module")
@@ -158,3 +164,98 @@ def test_estimate_reproduces_each_row(e, py_trials):
                     assert d["model"] == py_trials["model"][row[0]]
                 checked += 1
     assert checked == len(SPEC["samples"]) * SPEC["trials"] * len(INTEGRANDS)
+
+
+def same_table(columns, path):
+    """The columns of run(…, tables=True) are the CSV's fields, value for value and bit for bit."""
+    header, rows = read_csv(path)
+    assert list(columns) == header, path.name
+    for k, name in enumerate(header):
+        got, want = columns[name], [r[k] for r in rows]
+        if isinstance(got, list):
+            assert got == want, name
+        elif got.dtype == np.bool_:
+            assert got.tolist() == [v == "true" for v in want], name
+        elif got.dtype == np.int64:
+            assert got.tolist() == [int(v) for v in want], name
+        else:
+            assert got.dtype == np.float64 and same_bits(got, [exact(v) for v in want]), name
+
+
+# Issue 43, item 4: run() also returns the summary rows and the tolerance estimators' samples.
+def test_run_tables_are_the_cli_csvs(cli_folder, py_trials):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        tables = wb.run(SPEC, tables=True, threads=2)
+    assert sorted(tables) == ["stopping_summary", "stopping_trials", "summary", "trials"]
+    for name in py_trials:
+        a, b = py_trials[name], tables["trials"][name]
+        assert a == b if isinstance(a, list) else same_bits(a, b), name
+    same_table(tables["summary"], cli_folder / "summary.csv")
+    same_table(tables["stopping_trials"], cli_folder / "stopping_trials.csv")
+    same_table(tables["stopping_summary"], cli_folder / "stopping_summary.csv")
+    # The samples a tolerance estimator used, per trial.
+    used = tables["stopping_trials"]["n_used"]
+    assert used.dtype == np.int64 and np.all(used >= 4) and np.all(used <= 64)
+    # Without tolerance estimators the stopping tables are empty; the old return is unchanged.
+    plain = SPEC | {"estimators": ESTIMATORS[:2], "integrands": INTEGRANDS[:1]}
+    t = wb.run(plain, tables=True)
+    assert t["stopping_trials"] == {} and t["stopping_summary"] == {}
+    assert list(wb.run(plain)) == list(t["trials"])
+
+
+def test_run_tables_with_out_are_read_from_the_folder(tmp_path):
+    plain = SPEC | {"estimators": ESTIMATORS[:2], "integrands": INTEGRANDS[:1]}
+    r = wb.run(plain, out=tmp_path / "o", tables=True)
+    assert {"out", "report", "passed", "trials", "summary"} <= set(r)
+    same_table(r["summary"], tmp_path / "o" / "summary.csv")
+    same_table(r["trials"], tmp_path / "o" / "trials.csv")
+    assert same_bits(r["summary"]["mean_abs_error"], wb.run(plain, tables=True)["summary"]["mean_abs_error"])
+
+
+# Issue 43, item 4: wb.to_world carries a rule's local points to a world normal.
+def test_to_world_rotates_local_points_to_the_normal():
+    points, _ = wb.rule(32, seed=3)
+    n = np.array([0.3, 0.5, -0.8])
+    world = wb.to_world(points, n)
+    n_hat = n / np.linalg.norm(n)
+    assert world.shape == (32, 3) and world.dtype == np.float64
+    assert np.allclose(np.linalg.norm(world, axis=1), 1, atol=1e-12)
+    assert np.allclose(world @ n_hat, points[:, 2], atol=1e-12)          # the normal's cosine is kept
+    assert np.allclose(world @ world.T, points @ points.T, atol=1e-12)   # a rotation: angles kept
+    # An azimuth rotates about the normal first.
+    phi = 0.7
+    c, s = np.cos(phi), np.sin(phi)
+    rotated = points @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    assert np.allclose(wb.to_world(points, n, azimuth=phi), wb.to_world(rotated, n), atol=1e-14)
+    # Rule.estimate is valid for values at rotated points: the weights of the rotated points are
+    # the rule's (isotropic kernel), so the estimate of a world lobe is the local lobe's.
+    rule = wb.Rule(points)
+    assert np.allclose(wb.weights(rotated), rule.weights(), rtol=1e-9, atol=1e-12)
+    local_axis = np.array([0.5, 0.0, np.sqrt(0.75)])
+    world_axis = wb.to_world(local_axis[None, :], n)[0]
+    f_world = np.maximum(wb.to_world(points, n, azimuth=phi) @ world_axis, 0) ** 8
+    f_local = np.maximum(rotated @ local_axis, 0) ** 8
+    assert np.allclose(f_world, f_local, rtol=1e-12, atol=1e-15)
+    v_world, sd_world = rule.estimate(f_world)
+    v_local, sd_local = wb.Rule(rotated).estimate(f_local)
+    assert abs(v_world - v_local) <= 1e-9 * abs(v_local) and abs(sd_world - sd_local) <= 1e-6 * sd_local
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"normal": [0, 0, 0]}, r"^normal: must be a non-zero finite vector, got \[0, 0, 0\]"),
+        ({"normal": [0, float("nan"), 1]}, r"^normal: must be a non-zero finite vector"),
+        ({"normal": [0, 1]}, r"^normal: must be three numbers \[x, y, z\]"),
+        ({"normal": "up"}, r"^normal: must be three numbers"),
+        ({"normal": [0, 0, 1], "azimuth": float("inf")}, r"^azimuth: must be a finite angle"),
+        ({"normal": [0, 0, 1], "azimuth": "east"}, r"^azimuth: must be a number"),
+    ],
+)
+def test_to_world_refuses_bad_input(kwargs, match):
+    points, _ = wb.rule(4, seed=1)
+    with pytest.raises(ValueError, match=match):
+        wb.to_world(points, **kwargs)

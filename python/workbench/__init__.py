@@ -5,7 +5,8 @@ Quadrature rules (``rule``, ``Rule``), BMC / BMCP / Bayes–Sard weights for giv
 (``weights``), kernel means (``kernel_means``, ``prior_variance``), estimates with their stated
 sd (``estimate``, ``Rule.estimate``), the fitted model of a kernel grid (``fit``), the integrand
 families with their certified truths (``Integrand``) and whole experiments (``run``, whose result
-is the rows of ``trials.csv`` as columns: ``pandas.DataFrame(run(spec))``).
+is the rows of ``trials.csv`` as columns: ``pandas.DataFrame(run(spec))``; ``tables=True``
+adds the summary and stopping tables), and ``to_world`` (a rule's local points at a world normal).
 
 Directions are float64 numpy arrays of shape ``(n, 3)`` in the local frame (normal ``+z``), unit
 vectors (``|‖p‖ − 1| ≤ 1e-9``) with ``z ≥ 0``. Bad input raises ``ValueError`` with the
@@ -24,6 +25,7 @@ from ._workbench import (
     prior_variance,
     rule,
     run,
+    to_world,
     trial_points,
     weights,
 )
@@ -40,6 +42,7 @@ __all__ = [
     "prior_variance",
     "rule",
     "run",
+    "to_world",
     "trial_points",
     "weights",
 ]

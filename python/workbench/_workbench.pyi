@@ -230,6 +230,7 @@ def run(
     integrands: Optional[Mapping[str, Callable[[Points], Values]]] = None,
     out: Optional[Union[str, PathLike[str]]] = None,
     threads: Optional[int] = None,
+    tables: bool = False,
 ) -> dict[str, Any]:
     """Runs an experiment (a dict holding an experiment file's JSON, or such a file's path) and
     returns the rows of its ``trials.csv``, in its order, as columns: ``integrand``,
@@ -240,7 +241,8 @@ def run(
 
     ``integrands`` maps names to your own integrands: callables taking a float64 array of shape
     ``(n, 3)`` (unit directions, ``z ≥ 0``) and returning ``n`` values (anything
-    ``numpy.asarray(…, dtype=float64)`` turns into shape ``(n,)``), called once per trial's point
+    ``numpy.asarray(…, dtype=float64)`` turns into shape ``(n,)``; complex values and strings are
+    refused, not converted), called once per trial's point
     set, never per point, from the run's worker threads (one at a time, holding the GIL): they
     must be pure functions of the points. The spec names each as ``{"type": "python", "name":
     NAME}`` with optional ``"truth"`` (∫ f dω if known), ``"tolerance"`` (the absolute error
@@ -254,6 +256,12 @@ def run(
     figures, summary, checks, manifest — and returns ``{"out": str, "report": str, "passed":
     bool}``: the folder, the text the CLI prints and whether every check passed.
 
+    With ``tables=True`` it returns every table of the run as columns instead: ``{"trials": …,
+    "summary": …, "stopping_trials": …, "stopping_summary": …}`` — ``trials.csv`` (as above),
+    ``summary.csv`` and, for tolerance estimators, ``stopping_trials.csv`` (per trial the points
+    used, ``n_used``) and ``stopping_summary.csv`` (``{}`` without tolerance estimators), each the
+    CLI's CSV to the bit. With ``out`` too, these keys are added to the folder's dict.
+
     Errors are the CLI's messages: for a file ``file: path: message``, for a dict ``path:
     message``.
     """
@@ -261,3 +269,17 @@ def run(
 def trial_points(seed: int, design: DesignName, n: int, trial: int) -> Points:
     """The points ``design`` draws at ``n`` in trial ``trial`` of an experiment with master seed
     ``seed``: what every estimator with that design sees in that row of ``trials.csv``."""
+
+def to_world(points: Points, normal: Sequence[float], azimuth: Optional[float] = None) -> Points:
+    """Carries directions in the local frame (normal ``+z``) to the world: each point rotated by
+    ``azimuth`` (radians, default 0) about ``+z``, then mapped by the orthonormal frame
+    ``(t, b, n)`` about the unit ``normal`` (normalised; Duff et al., JCGT 2017 — the frame of the
+    renderer and of the ``envmap`` integrand). A rule's weights are invariant under this
+    rotation (its kernels are isotropic), so ``Rule.estimate(values)`` with values taken at
+    ``to_world(rule.points, n, φ)`` estimates the integral over the hemisphere about ``n``.
+
+    >>> points, _ = rule(16, seed=1)
+    >>> world = to_world(points, [0.0, 1.0, 0.0], azimuth=0.5)
+    >>> bool(abs(world[:, 1] - points[:, 2]).max() < 1e-12)
+    True
+    """

@@ -48,6 +48,21 @@ pub fn read_outcomes(plan: &Plan, logs: &LogSet) -> crate::Result<Outcomes> {
     Ok(Outcomes { outcomes })
 }
 
+impl Outcomes {
+    /// The outcomes of units computed in memory (`units[n_index · trials + trial]`, as
+    /// [`super::runner::Results`] holds them): what the unit logs of the same run hold, for
+    /// callers that write no log (the Python bindings' `run(spec, tables=True)`).
+    pub fn of_units(plan: &Plan, units: &[super::runner::UnitResult]) -> Outcomes {
+        let mut outcomes = Vec::with_capacity(units.len() * plan.integrands.len() * plan.estimators.len());
+        for u in units {
+            for per_integrand in &u.sequential {
+                outcomes.extend(per_integrand.iter().copied());
+            }
+        }
+        Outcomes { outcomes }
+    }
+}
+
 /// One (integrand, tolerance estimator, first stage) cell of `stopping_summary.csv`.
 #[derive(Debug, Clone)]
 pub struct Cell {

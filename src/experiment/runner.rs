@@ -106,7 +106,14 @@ pub fn run_units(plan: &Plan, units: &[usize], tick: &(dyn Fn() + Sync)) -> crat
     let results: Vec<crate::Result<UnitResult>> = units
         .par_iter()
         .map(|&u| {
-            let r = WORKSPACE.with_borrow_mut(|ws| run_unit(plan, u / plan.trials, u % plan.trials, ws));
+            // A unit's integrand may re-enter a run on this thread (a Python callable calling
+            // `workbench.run`, or a rayon wait stealing another unit meanwhile): the thread's
+            // workspace is then in use, and the nested unit gets a fresh one. A workspace is
+            // scratch space only, so the numbers are the same either way.
+            let r = WORKSPACE.with(|cell| match cell.try_borrow_mut() {
+                Ok(mut ws) => run_unit(plan, u / plan.trials, u % plan.trials, &mut ws),
+                Err(_) => run_unit(plan, u / plan.trials, u % plan.trials, &mut SpdWorkspace::new()),
+            });
             tick();
             r
         })

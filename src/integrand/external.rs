@@ -97,8 +97,16 @@ impl ExternalIntegrand {
             Some(t) => (t, Truth::Given),
             None => {
                 let mut batch = |p: &[Vec3]| checked(&*f, p);
-                let c = cubature::hemisphere(&mut batch, spec.tolerance)
-                    .map_err(|m| format!("truth: computing ∫ f dω: {m}"))?;
+                let c = cubature::hemisphere(&mut batch, spec.tolerance).map_err(|e| match e {
+                    // Not the integrand's fault: the tolerance is out of the cubature's reach.
+                    cubature::Failure::NotReached { error, .. } => format!(
+                        "tolerance: {e}; the integrand's values were fine, the tolerance is beyond \
+                         what the cubature reaches for it: give \"truth\" (∫ f dω, if known) or a \
+                         \"tolerance\" of at least {}",
+                        reachable(error)
+                    ),
+                    _ => format!("truth: computing ∫ f dω: {e}"),
+                })?;
                 (c.value, Truth::Cubature(c))
             }
         };
@@ -121,6 +129,19 @@ impl ExternalIntegrand {
     pub fn values(&self, points: &[Vec3]) -> Result<Vec<f64>, String> {
         checked(&*self.f, points)
     }
+}
+
+/// A round tolerance above the error estimate `error` that the cubature reached: the
+/// smallest `d·10^k` (d = 1, 2, 5) at least twice it, as text (`2e-9`).
+fn reachable(error: f64) -> String {
+    let target = 2.0 * error;
+    let k = target.log10().floor() as i32;
+    for d in [1.0, 2.0, 5.0] {
+        if d * 10f64.powi(k) >= target {
+            return format!("{d}e{k}");
+        }
+    }
+    format!("1e{}", k + 1)
 }
 
 /// `f(points)`, checked: one value per point, all finite.
@@ -200,6 +221,19 @@ mod tests {
                 .starts_with("truth: ")
         );
         assert!(ExternalIntegrand::new(&spec(Some(f64::INFINITY), None), nan.clone()).is_err());
+        // A tolerance out of the cubature's reach (a step along a curve) is the tolerance's
+        // fault, named as such with the remedy, not the integrand's.
+        let step: Arc<BatchFn> =
+            Arc::new(|p: &[Vec3]| Ok(p.iter().map(|w| f64::from(u8::from(w.x > 0.3))).collect()));
+        let e = ExternalIntegrand::new(&spec(None, None), step).unwrap_err();
+        assert!(
+            e.starts_with("tolerance: the cubature did not reach the default tolerance"),
+            "{e}"
+        );
+        assert!(
+            e.contains("the integrand's values were fine") && e.contains("give \"truth\""),
+            "{e}"
+        );
         assert!(ExternalIntegrand::new(&spec(None, Some(-1.0)), nan.clone()).is_err());
         assert!(ExternalIntegrand::new(&spec(Some(1.0), Some(1e-3)), nan).is_err());
     }
