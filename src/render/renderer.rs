@@ -233,6 +233,7 @@ impl Renderer {
                     stats.worst_pixel = (k % self.width, k / self.width);
                 }
                 stats.depth_limited += q.depth_limited as usize;
+                stats.work_limited += q.work_limited as usize;
                 stats.evaluations += q.evaluations;
             }
         }
@@ -267,6 +268,8 @@ pub struct ExactStats {
     pub worst_pixel: (usize, usize),
     /// Pixels where some interval reached the bisection depth limit.
     pub depth_limited: usize,
+    /// Pixels whose outer rule stopped at its work limit ([`crate::render::cuts::MAX_PAIRS`]).
+    pub work_limited: usize,
     /// Integrand evaluations in all.
     pub evaluations: u64,
 }
