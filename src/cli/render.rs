@@ -656,6 +656,15 @@ fn render_image(
             bar.start("rows", args.height() as u64);
             let (image, stats) = pool.install(|| renderer.render_exact(tol, &bar));
             bar.finish();
+            if stats.work_limited > 0 {
+                status!(
+                    "warning: {} pixel(s) stopped at the exact quadrature's work limit ({} nodes) before \
+                     their tolerance; their error estimates count what is left (largest {:.1e})",
+                    stats.work_limited,
+                    workbench::render::texel::MAX_NODES,
+                    stats.max_error
+                );
+            }
             let limited = if stats.depth_limited > 0 {
                 format!(
                     "; {} pixel(s) reached the bisection depth limit (their error estimate counts it)",

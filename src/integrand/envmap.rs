@@ -180,6 +180,15 @@ impl EnvmapIntegrand {
                     texel::lobe::phong(normal, frame.to_world(&axis), exponent, m, tol)
                 }
             };
+            if q.work_limited {
+                return Err(format!(
+                    "env: the truth's quadrature stopped at its work limit ({} nodes) with error estimate {} \
+                     (tolerance {}); a map this extreme needs a larger tolerance than the family's",
+                    texel::MAX_NODES,
+                    shown(q.error),
+                    shown(tol)
+                ));
+            }
             let truth: f64 = (0..3).map(|c| weights[c] * q.value[c]).sum();
             // The error is per channel; the weights of a channel add up to ≤ 1.
             (truth, q.error * weights.iter().sum::<f64>())

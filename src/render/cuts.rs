@@ -14,6 +14,14 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 /// Deepest bisection of one interval (2⁻⁴⁰ of it).
 const MAX_DEPTH: u32 = 40;
 
+/// Most Kronrod pairs the texel sums' outer rule applies for one integral (both strategies,
+/// [`adaptive_above_rounding`] and [`adaptive_worst_first`]): 2²⁰ / 21, about a million
+/// integrand nodes, a hundred times what the worst pixel of the thesis scene under a
+/// 1024×512 map needs. It bounds the work where the tolerance cannot be reached (the depth
+/// limit alone would allow 2⁴⁰ intervals); a pixel that reaches it says so
+/// ([`PixelIntegral::work_limited`]).
+pub const MAX_PAIRS: u64 = (1 << 20) / 21;
+
 /// The value of a pixel integral per channel with its estimated absolute error.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelIntegral {
@@ -23,6 +31,9 @@ pub struct PixelIntegral {
     pub error: f64,
     /// Whether some interval hit the bisection depth limit (the error estimate still counts it).
     pub depth_limited: bool,
+    /// Whether the outer rule stopped at its work limit ([`MAX_PAIRS`]) before meeting the
+    /// tolerance (the error estimate still counts every interval; implies `depth_limited`).
+    pub work_limited: bool,
     /// Integrand evaluations (for benchmarks).
     pub evaluations: u64,
 }
@@ -217,7 +228,8 @@ pub fn adaptive<const K: usize>(
     checked: usize,
     f: &mut impl FnMut(f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
-    adaptive_above_rounding(rule, a, b, tol, checked, None, f)
+    let mut unbounded = u64::MAX;
+    adaptive_above_rounding(rule, a, b, tol, checked, None, &mut unbounded, f)
 }
 
 /// [`adaptive`], where component `rounding` (if any, past the `checked` ones) of the integrand
@@ -226,6 +238,11 @@ pub fn adaptive<const K: usize>(
 /// (the Kronrod and Gauss weights differ by at most 4 in sum, so that is the difference values
 /// off by `r` can make by themselves). Differences the integrand's own values cannot resolve
 /// are not chased into the depth limit; they are still counted in the error estimate.
+///
+/// `budget` is the number of pairs the rule may still apply (shared by the calls for one
+/// integral, [`MAX_PAIRS`]): once it is spent, every interval left is accepted as it is, and
+/// the depth-limit flag reports it (the differences are still counted).
+#[allow(clippy::too_many_arguments)]
 pub fn adaptive_above_rounding<const K: usize>(
     rule: &Kronrod,
     a: f64,
@@ -233,6 +250,7 @@ pub fn adaptive_above_rounding<const K: usize>(
     tol: f64,
     checked: usize,
     rounding: Option<usize>,
+    budget: &mut u64,
     f: &mut impl FnMut(f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
     let mut apply = |a: f64, b: f64| kronrod_pair(rule, a, b, checked, f);
@@ -242,8 +260,9 @@ pub fn adaptive_above_rounding<const K: usize>(
     let mut stack = vec![(a, b, tol, 0u32)];
     while let Some((a, b, tol, depth)) = stack.pop() {
         let (value, diff) = apply(a, b);
+        *budget = budget.saturating_sub(1);
         let m = 0.5 * (a + b);
-        let stuck = depth >= MAX_DEPTH || m <= a || m >= b;
+        let stuck = depth >= MAX_DEPTH || m <= a || m >= b || *budget == 0;
         let within = diff <= tol || rounding.is_some_and(|r| diff <= 4.0 * value[r].abs());
         if within || stuck {
             limited |= !within;
@@ -343,13 +362,16 @@ const MAX_OPEN: usize = 1 << 16;
 /// only while it is among the largest errors left, which under a real map's many texel
 /// boundaries costs a third of the nodes (module docs of [`super::texel::lobe`]). Returns the
 /// sum of the Kronrod values, the sum of the differences, and whether the tolerance was missed
-/// at the depth limit or the cap on open intervals.
+/// at the depth limit, the cap on open intervals or the end of `budget` (the pairs it may
+/// still apply, [`MAX_PAIRS`]).
+#[allow(clippy::too_many_arguments)]
 pub fn adaptive_worst_first<const K: usize>(
     rule: &Kronrod,
     pieces: &[(f64, f64)],
     tol: f64,
     checked: usize,
     rounding: usize,
+    budget: &mut u64,
     split: impl Fn(usize, f64, f64) -> f64,
     f: &mut impl FnMut(usize, f64) -> [f64; K],
 ) -> ([f64; K], f64, bool) {
@@ -388,7 +410,14 @@ pub fn adaptive_worst_first<const K: usize>(
             open.push(o);
         }
     }
+    *budget = budget.saturating_sub(pieces.len() as u64);
+    let mut spent = false;
     while open_error > target(&done) && open.len() < MAX_OPEN {
+        if *budget < 2 {
+            spent = true;
+            break;
+        }
+        *budget -= 2;
         let Some(worst) = open.pop() else { break };
         open_error -= worst.diff;
         let m = split(worst.piece, worst.a, worst.b);
@@ -403,7 +432,7 @@ pub fn adaptive_worst_first<const K: usize>(
     let mut rest = open.into_vec();
     rest.sort_by(|x, y| x.piece.cmp(&y.piece).then(x.a.total_cmp(&y.a)));
     let open_error: f64 = rest.iter().map(|o| o.diff).sum();
-    let missed = open_error > target(&done);
+    let missed = open_error > target(&done) || spent;
     for o in &rest {
         done.add(&o.value, o.diff);
     }
@@ -461,11 +490,19 @@ mod tests {
         let exact = kinks_integral(&centres, alpha, -1.0, 1.0);
         let tol = 1e-10;
         let mut global_evaluations = 0;
-        let (value, error, limited) =
-            adaptive_worst_first(&GK21, &pieces, tol, 1, 1, midpoint, &mut |_, x| {
+        let (value, error, limited) = adaptive_worst_first(
+            &GK21,
+            &pieces,
+            tol,
+            1,
+            1,
+            &mut { u64::MAX },
+            midpoint,
+            &mut |_, x| {
                 global_evaluations += 1;
                 f(x)
-            });
+            },
+        );
         assert!(!limited);
         assert!(error <= tol, "stated error {error:e} over {tol:e}");
         assert!(
@@ -497,8 +534,16 @@ mod tests {
     fn worst_first_splits_where_told() {
         let step = |x: f64| [if x > 1.0 / 3.0 { x.exp() } else { 0.0 }, 0.0];
         let exact = 1f64.exp() - (1.0f64 / 3.0).exp();
-        let (_, _, limited) =
-            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-15, 1, 1, midpoint, &mut |_, x| step(x));
+        let (_, _, limited) = adaptive_worst_first(
+            &GK21,
+            &[(0.0, 1.0)],
+            1e-15,
+            1,
+            1,
+            &mut { u64::MAX },
+            midpoint,
+            &mut |_, x| step(x),
+        );
         assert!(limited);
         let mut evaluations = 0;
         let at_jump = |_: usize, a: f64, b: f64| {
@@ -508,11 +553,19 @@ mod tests {
                 0.5 * (a + b)
             }
         };
-        let (value, error, limited) =
-            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-15, 1, 1, at_jump, &mut |_, x| {
+        let (value, error, limited) = adaptive_worst_first(
+            &GK21,
+            &[(0.0, 1.0)],
+            1e-15,
+            1,
+            1,
+            &mut { u64::MAX },
+            at_jump,
+            &mut |_, x| {
                 evaluations += 1;
                 step(x)
-            });
+            },
+        );
         assert!(!limited && error <= 1e-15);
         assert!((value[0] - exact).abs() <= 1e-14, "{} vs {exact}", value[0]);
         assert_eq!(
@@ -529,11 +582,19 @@ mod tests {
     fn worst_first_stops_at_the_stated_rounding() {
         let jitter = |x: f64| 1e-12 * ((x * 1e6).sin() * 43758.5453).fract();
         let mut evaluations = 0;
-        let (value, error, limited) =
-            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-18, 1, 1, midpoint, &mut |_, x| {
+        let (value, error, limited) = adaptive_worst_first(
+            &GK21,
+            &[(0.0, 1.0)],
+            1e-18,
+            1,
+            1,
+            &mut { u64::MAX },
+            midpoint,
+            &mut |_, x| {
                 evaluations += 1;
                 [x.exp() * (1.0 + jitter(x)), 1e-12 * x.exp()]
-            });
+            },
+        );
         let exact = 1f64.exp() - 1.0;
         assert!(!limited);
         assert!(evaluations <= 21 * 64, "{evaluations} evaluations");
@@ -544,21 +605,80 @@ mod tests {
         );
         // Without the rounding bound the same tolerance is out of reach: the depth limit or
         // the cap on open intervals ends it, and says so.
-        let (_, _, limited) =
-            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-18, 1, 1, midpoint, &mut |_, x| {
-                [x.exp() * (1.0 + jitter(x)), 0.0]
-            });
+        let (_, _, limited) = adaptive_worst_first(
+            &GK21,
+            &[(0.0, 1.0)],
+            1e-18,
+            1,
+            1,
+            &mut { u64::MAX },
+            midpoint,
+            &mut |_, x| [x.exp() * (1.0 + jitter(x)), 0.0],
+        );
         assert!(limited);
+    }
+
+    /// Both outer rules stop at their work budget on an integrand whose tolerance is out of
+    /// reach (noise far above it, no rounding bound: what one texel of 3·10¹¹ made of the
+    /// Lambertian sums, issue 42.1), say so, and still count what is left in the error.
+    #[test]
+    fn both_rules_stop_at_the_work_budget() {
+        let noisy = |x: f64| [x.exp() + 1e-9 * ((x * 1e6).sin() * 43758.5453).fract(), 0.0];
+        let exact = 1f64.exp() - 1.0;
+        let mut budget = 500;
+        let mut pairs = 0u64;
+        let (value, error, limited) =
+            adaptive_above_rounding(&GK21, 0.0, 1.0, 1e-20, 1, Some(1), &mut budget, &mut |x| {
+                pairs += 1;
+                noisy(x)
+            });
+        let pairs = pairs / 21;
+        assert!(limited && budget == 0);
+        // The budget, then one pair for each interval still on the stack (at most one per level).
+        assert!(pairs <= 500 + MAX_DEPTH as u64 + 1, "{pairs} pairs");
+        assert!(
+            (value[0] - exact).abs() <= error + 1e-9,
+            "{} vs {exact}",
+            value[0]
+        );
+        let mut budget = 500;
+        let mut pairs = 0u64;
+        let (value, error, limited) = adaptive_worst_first(
+            &GK21,
+            &[(0.0, 1.0)],
+            1e-20,
+            1,
+            1,
+            &mut budget,
+            midpoint,
+            &mut |_, x| {
+                pairs += 1;
+                noisy(x)
+            },
+        );
+        assert!(limited && budget < 2);
+        assert!(pairs / 21 <= 500, "{} pairs", pairs / 21);
+        assert!(
+            (value[0] - exact).abs() <= error + 1e-9,
+            "{} vs {exact}",
+            value[0]
+        );
     }
 
     /// A jump cannot be resolved to `1e-30`: the depth limit is reported, the value is still
     /// within the stated error.
     #[test]
     fn worst_first_reports_the_depth_limit() {
-        let (value, error, limited) =
-            adaptive_worst_first(&GK21, &[(0.0, 1.0)], 1e-30, 1, 1, midpoint, &mut |_, x| {
-                [if x > 1.0 / 3.0 { 1.0 } else { 0.0 }, 0.0]
-            });
+        let (value, error, limited) = adaptive_worst_first(
+            &GK21,
+            &[(0.0, 1.0)],
+            1e-30,
+            1,
+            1,
+            &mut { u64::MAX },
+            midpoint,
+            &mut |_, x| [if x > 1.0 / 3.0 { 1.0 } else { 0.0 }, 0.0],
+        );
         assert!(limited);
         assert!(
             (value[0] - 2.0 / 3.0).abs() <= error.max(1e-15),

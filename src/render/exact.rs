@@ -135,6 +135,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, tol: f64) -
         value,
         error,
         depth_limited: limited,
+        work_limited: false,
         evaluations,
     }
 }

@@ -28,15 +28,24 @@ const PIXELS: u64 = 0x91c;
 /// `2^24` pixels (4096 × 4096) stay under 1 GiB.
 pub const MAX_PIXELS: usize = 1 << 24;
 
-/// Rejects empty images and images too large for memory, naming the options.
+/// Rejects empty images, images with a side the tool could not read back, and images too large
+/// for memory, naming the options. The side limit is the decoder's,
+/// [`crate::render::env::MAX_IMAGE_SIDE`]: one limit for the writer and the reader, so that
+/// every image `render` writes is one `--reference` (and `--env`) reads (issue 42.5: a
+/// 100000×1 render was written, then refused by its own `--reference`).
 pub fn check_size(width: usize, height: usize) -> Result<(), InputError> {
     if width == 0 || height == 0 {
         return Err(InputError::new(format!(
             "--width/--height: the image must be at least 1×1, got {width}×{height}"
         )));
     }
+    let side = crate::render::env::MAX_IMAGE_SIDE as usize;
     match width.checked_mul(height) {
         // Under the fixed limit, the image must also fit the memory budget.
+        Some(n) if n <= MAX_PIXELS && (width > side || height > side) => Err(InputError::new(format!(
+            "--width/--height: {width}×{height} has a side over {side}, the largest the image reader \
+             accepts (so that every image written can be read back as a --reference)"
+        ))),
         Some(n) if n <= MAX_PIXELS => crate::bq::rule::check_memory(
             &format!("--width/--height: a {width}×{height} image"),
             48 * n as u64,
@@ -233,6 +242,7 @@ impl Renderer {
                     stats.worst_pixel = (k % self.width, k / self.width);
                 }
                 stats.depth_limited += q.depth_limited as usize;
+                stats.work_limited += q.work_limited as usize;
                 stats.evaluations += q.evaluations;
             }
         }
@@ -267,6 +277,8 @@ pub struct ExactStats {
     pub worst_pixel: (usize, usize),
     /// Pixels where some interval reached the bisection depth limit.
     pub depth_limited: usize,
+    /// Pixels whose outer rule stopped at its work limit ([`crate::render::cuts::MAX_PAIRS`]).
+    pub work_limited: usize,
     /// Integrand evaluations in all.
     pub evaluations: u64,
 }

@@ -49,6 +49,8 @@ pub struct CellTable {
     /// `∫|L|`), and each row's largest `|L|` over its cells and channels (the bound otherwise).
     nonnegative: bool,
     row_max: Vec<f64>,
+    /// Each row's [`CellTable::magnitude`] over the whole circle.
+    row_total: Vec<f64>,
 }
 
 /// How `θ ∈ [0, π]` maps to profile rows.
@@ -116,6 +118,7 @@ impl CellTable {
             knots: Vec::new(),
             nonnegative: true,
             row_max: Vec::new(),
+            row_total: Vec::new(),
         };
         // Both lookups' texels are the a₀ (the bilinear profile runs between two of them).
         table.nonnegative = table.a0.iter().flatten().all(|&v| v >= 0.0);
@@ -138,6 +141,8 @@ impl CellTable {
                 table.prefix.push(sum);
             }
         }
+        let (first, last) = (table.knots[0], table.knots[cells]);
+        table.row_total = (0..rows).map(|row| table.magnitude(row, &first, &last)).collect();
         table
     }
 
@@ -271,6 +276,45 @@ impl CellTable {
         } else {
             self.row_max[row] * (b.psi - a.psi)
         }
+    }
+
+    /// Profile rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// A scale of the rounding of [`CellTable::integral`]`(row, a, b)` (`a ≤ b` in the span), in
+    /// units of `ε_mach` per moment: the prefix sums it subtracts have run up to
+    /// [`CellTable::magnitude`] from the span's start to the end of `b`'s cell, and each of
+    /// the two partial cells evaluates antiderivatives of size `|a₀| (π + 2)` and, bilinear,
+    /// `2 |a₁| (1 + cell width)` at both ends (the largest channel). A difference is off by a
+    /// few ulps of these, not of itself: one texel of 3·10¹¹ in a row makes every interval
+    /// past it uncertain by 10⁻⁵ absolute.
+    pub fn rounding_scale(&self, row: usize, a: &Azimuth, b: &Azimuth) -> f64 {
+        let (ia, ib) = (self.cell_of(a.psi), self.cell_of(b.psi));
+        let prefix = if self.nonnegative {
+            self.prefix[row * (self.cells + 1) + ib + 1][0]
+                .iter()
+                .fold(0.0, |m: f64, &v| m.max(v))
+        } else {
+            self.row_max[row] * (self.knot(ib + 1) - self.start)
+        };
+        let partial = |i: usize| {
+            let k = row * self.cells + i;
+            let largest = |v: &[f64; 3]| v.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
+            let slope = self
+                .a1
+                .get(k)
+                .map_or(0.0, |a1| 2.0 * largest(a1) * (1.0 + self.width));
+            largest(&self.a0[k]) * (PI + 2.0) + slope
+        };
+        prefix + partial(ia) + partial(ib)
+    }
+
+    /// [`CellTable::magnitude`] over the whole circle: a bound on every prefix sum of the row,
+    /// so a few ulps of it bound the rounding of any [`CellTable::integral`] in the row.
+    pub fn row_magnitude(&self, row: usize) -> f64 {
+        self.row_total[row]
     }
 
     /// `∫_a^b L_row(ψ)·{1, sin ψ, cos ψ} dψ` per channel, for `start ≤ a ≤ b ≤ start + 2π`.

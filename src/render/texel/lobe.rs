@@ -20,6 +20,14 @@
 //! ([`super::split_at_kink`]): 19 300 nodes for that normal. (Breaks at every crossing cost
 //! more: 21 nodes each, about 1 000 of them, and most kinks need no bisection.)
 //!
+//! **Support.** A sharp lobe is narrower than a cell (`1/√e` = 0.003 rad at `e = 10⁵`, a row of
+//! a 16×8 map 0.45 rad): the outer rule's first nodes, spread over the band the hemispheres
+//! leave, can all miss it, agree on 0 and accept it. So the lobe's support is found first
+//! ([`Support`]): the band `|θ − θ_a| ≤ γ₀` outside which the whole integral is below `tol/8`
+//! (from `cos^e γ₀` and the map's magnitude; that bound is added to the stated error), with
+//! the peak `θ_a` a break. Its pieces are then a few lobe widths wide (`γ₀ ≈ 8/√e`), and the
+//! rule resolves them. (For `e` below about 30, `γ₀ ≥ π/2` and nothing changes.)
+//!
 //! **Azimuth integral** at a node: the circle's arcs inside both hemispheres are cut in closed
 //! form ([`crate::render::cuts::push_crossings`]). On an arc the weight `w(ψ)` is smooth (`a·d`
 //! and `n·d` are sinusoids `A sin ψ + B + C cos ψ` in the map's azimuth `ψ`) and the map is a
@@ -124,12 +132,15 @@ pub fn phong(n: Vec3, a: Vec3, exponent: f64, m: &EnvMap, tol: f64) -> PixelInte
         value: [0.0; 3],
         error: 0.0,
         depth_limited: false,
+        work_limited: false,
         evaluations: 0,
     };
-    let Some(breaks) = polar_breaks(&n, &a, m.height) else {
+    let table = m.cells();
+    let support = Support::new(&a, exponent, table, 0.125 * tol);
+    out.error = support.tail;
+    let Some(breaks) = polar_breaks(&n, &a, m.height, support.band) else {
         return out;
     };
-    let table = m.cells();
     // (For e ≥ 1 the kinks are of order 1 + e ≥ 2, and splitting at them was measured to gain
     // nothing.)
     let kinks = if exponent < 1.0 {
@@ -146,15 +157,62 @@ pub fn phong(n: Vec3, a: Vec3, exponent: f64, m: &EnvMap, tol: f64) -> PixelInte
         |theta, sin_t, cos_t| azimuth.at(theta, sin_t, cos_t),
     );
     out.value = value;
-    out.error = error;
-    out.depth_limited = limited || azimuth.limited;
+    out.error += error;
+    out.depth_limited = limited.any() || azimuth.limited;
+    out.work_limited = limited.work;
     out.evaluations = azimuth.evaluations;
     out
 }
 
+/// Where the lobe can matter (module docs, "Support"): the polar band `|θ − θ_a| ≤ γ₀` about
+/// the axis's polar angle `θ_a`, outside which `a·d < cos γ₀` and so `w < ((e + 1)/2π) cos^e γ₀`,
+/// with `γ₀` chosen so that the whole integral outside is at most `tail_tol`: with
+/// `Λ = 2 max_row ∫|L| dψ ≥ ∫_{S²} |L| dω`, `cos γ₀ = (tail_tol / (((e + 1)/2π) Λ))^(1/e)`.
+/// A lobe narrower than a cell is then found by the outer rule (whose nodes, spread over a
+/// band set by the hemispheres alone, all missed a lobe of `e = 10⁵` on a 16×8 map: issue
+/// 42.2) instead of being integrated as 0 with a tiny error.
+struct Support {
+    /// `(θ_a − γ₀, θ_a, θ_a + γ₀)` clamped to `[0, π]`, or `None` when `γ₀ ≥ π/2` (the
+    /// hemispheres' band is already narrower: nothing changes).
+    band: Option<(f64, f64, f64)>,
+    /// The bound on what lies outside, `((e + 1)/2π) cos^e γ₀ Λ` (0 without a band), added to
+    /// the stated error.
+    tail: f64,
+}
+
+impl Support {
+    fn new(a: &Vec3, exponent: f64, table: &CellTable, tail_tol: f64) -> Self {
+        let magnitude = 2.0
+            * (0..table.rows())
+                .map(|r| table.row_magnitude(r))
+                .fold(0.0, f64::max);
+        let peak = (exponent + 1.0) / TAU * magnitude;
+        let whole = Support {
+            band: None,
+            tail: 0.0,
+        };
+        if !(peak > 0.0 && peak.is_finite() && tail_tol > 0.0) {
+            return whole;
+        }
+        // cos γ₀ ≥ 1: the whole integral is below `tail_tol` (an empty band).
+        let cos_gamma = (tail_tol / peak).powf(1.0 / exponent).min(1.0);
+        let gamma = cos_gamma.acos();
+        if gamma >= FRAC_PI_2 {
+            return whole;
+        }
+        let theta_a = a.y.clamp(-1.0, 1.0).acos();
+        Support {
+            band: Some(((theta_a - gamma).max(0.0), theta_a, (theta_a + gamma).min(PI))),
+            tail: peak * cos_gamma.powf(exponent),
+        }
+    }
+}
+
 /// The outer rule's breaks: `0`, `π/2`, `π`, the tangencies of the two great circles and the
-/// map's rows, inside the band of `θ` where both hemispheres meet the circles (`None` if empty).
-fn polar_breaks(n: &Vec3, a: &Vec3, height: usize) -> Option<Vec<f64>> {
+/// map's rows, inside the band of `θ` where both hemispheres meet the circles and, if given, the
+/// lobe's `support` `(lo, θ_a, hi)` ([`Support`]; then `θ_a`, the lobe's peak, is a break too),
+/// or `None` if that is empty.
+fn polar_breaks(n: &Vec3, a: &Vec3, height: usize, support: Option<(f64, f64, f64)>) -> Option<Vec<f64>> {
     let mut breaks = vec![0.0, FRAC_PI_2, PI];
     push_tangencies(n, 0.0, &mut breaks);
     push_tangencies(a, 0.0, &mut breaks);
@@ -166,7 +224,11 @@ fn polar_breaks(n: &Vec3, a: &Vec3, height: usize) -> Option<Vec<f64>> {
         ((t - FRAC_PI_2).max(0.0), (t + FRAC_PI_2).min(PI))
     };
     let ((lo_n, hi_n), (lo_a, hi_a)) = (band(n), band(a));
-    let (lo, hi) = (lo_n.max(lo_a), hi_n.min(hi_a));
+    let (mut lo, mut hi) = (lo_n.max(lo_a), hi_n.min(hi_a));
+    if let Some((lo_s, peak, hi_s)) = support {
+        (lo, hi) = (lo.max(lo_s), hi.min(hi_s));
+        breaks.push(peak);
+    }
     if hi <= lo {
         return None;
     }
@@ -836,7 +898,7 @@ mod tests {
     fn per_cell(n: Vec3, a: Vec3, exponent: f64, m: &EnvMap, tol: f64) -> PixelIntegral {
         let table = m.cells();
         let norm = (exponent + 1.0) / TAU;
-        let breaks = polar_breaks(&n, &a, m.height).expect("the hemispheres meet");
+        let breaks = polar_breaks(&n, &a, m.height, None).expect("the hemispheres meet");
         let inner_tol = 0.5 * tol / PI;
         let mut worst_inner = 0.0f64;
         let mut limited = false;
@@ -898,7 +960,8 @@ mod tests {
         PixelIntegral {
             value,
             error: error + PI * worst_inner,
-            depth_limited: limited || outer_limited,
+            depth_limited: limited || outer_limited.any(),
+            work_limited: outer_limited.work,
             evaluations: 0,
         }
     }
@@ -1076,6 +1139,42 @@ mod tests {
                         assert!(
                             (got_ch - want_ch).abs() <= got.error,
                             "{lookup:?} tilt {tilt} e {e} channel {ch}: {got_ch} vs {want_ch} (error estimate {:.1e})",
+                            got.error
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// A lobe about the normal under a constant 16×8 map of 1 integrates to `(e + 1)/(e + 2)`,
+    /// for exponents up to the cap, both lookups, two normals (issue 42.2: from `e = 10⁵` the
+    /// outer rule's nodes all missed a lobe narrower than a row and the truth came out as 0 with
+    /// a stated error of 10⁻²⁹): within the stated error, which stays below `tol` plus the
+    /// weights' rounding floor.
+    #[test]
+    fn sharp_lobes_about_the_normal_give_the_closed_form_on_a_coarse_map() {
+        use crate::render::env::Lookup;
+        let tol = 1e-9;
+        for lookup in Lookup::ALL {
+            let m = EnvMap::from_texels(16, 8, vec![[1.0; 3]; 128]).with_lookup(lookup);
+            for n in [unit(0.6, 0.8, 0.0), unit(0.3, 0.5, -0.8)] {
+                for e in [30.0, 1e3, 1e4, 1e5, 3e5, 1e6] {
+                    let got = phong(n, n, e, &m, tol);
+                    let want = (e + 1.0) / (e + 2.0);
+                    assert!(!got.depth_limited, "{lookup:?} n {n:?} e {e}: depth limit");
+                    let floor = 8.0 * NOISE * (e + 1.0) * want;
+                    assert!(
+                        got.error <= tol + floor,
+                        "{lookup:?} n {n:?} e {e}: stated error {:.2e} over {:.2e}",
+                        got.error,
+                        tol + floor
+                    );
+                    for ch in 0..3 {
+                        assert!(
+                            (got.value[ch] - want).abs() <= got.error,
+                            "{lookup:?} n {n:?} e {e}: {} vs {want} (stated {:.1e})",
+                            got.value[ch],
                             got.error
                         );
                     }

@@ -24,7 +24,7 @@
 
 pub mod lobe;
 
-use super::cuts::{Cuts, PixelIntegral, adaptive_above_rounding, adaptive_worst_first, sine_map};
+use super::cuts::{Cuts, MAX_PAIRS, PixelIntegral, adaptive_above_rounding, adaptive_worst_first, sine_map};
 use super::env::cells::Azimuth;
 use super::env::{EnvMap, Environment};
 use super::integrator::ShadingPoint;
@@ -37,12 +37,27 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 /// Version of the texel sum, part of the exact reference's cache key under a map.
 pub const VERSION: &str = "texel-sum v1";
 
+/// Most integrand nodes of the outer rule for one integral ([`MAX_PAIRS`] Kronrod pairs).
+pub const MAX_NODES: u64 = MAX_PAIRS * 21;
+
 /// Default absolute tolerance per pixel and channel under a map (`render --integrator exact`,
 /// a table's exact reference): well below the 1e-5 the thesis images need, and reached in
 /// minutes for a 500×500 image under a 1024×512 map.
 pub const DEFAULT_TOLERANCE: f64 = 1e-6;
 
-/// `L_o` at `p` under the map `m` (which `env` holds) to the absolute tolerance `tol`.
+/// Relative rounding of the Lambertian sum at a node, per unit of `(|A| + |B| + |C|) Λ` summed
+/// over its intervals and rows (`Λ` the interval's
+/// [`crate::render::env::cells::CellTable::rounding_scale`]): each moment is a difference of
+/// prefix sums and partial cells' antiderivatives, off by a few ulps of those, not of itself —
+/// with one texel of 3·10¹¹ among ones, 10⁻⁵ absolute against a tolerance of 10⁻⁶, which
+/// bisection can never reach (issue 42.1: the exact render never ended). Eight ulps: the three
+/// moments, with room. (The prefix sums' own accumulated rounding, a fixed offset per cell, is
+/// not counted; where it matters the work limit, [`MAX_PAIRS`], ends the bisection.)
+const SUM_ROUNDING: f64 = 8.0 * f64::EPSILON;
+
+/// `L_o` at `p` under the map `m` (which `env` holds) to the absolute tolerance `tol`. The
+/// stated error carries the sum's rounding floor ([`SUM_ROUNDING`], the map's magnitude times
+/// the albedo's `1/π`), which can exceed `tol` under a map with very bright texels.
 pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap, tol: f64) -> PixelIntegral {
     let table = m.cells();
     let arcs = VisibleAzimuths {
@@ -60,6 +75,7 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
             let (a, b, cc) = (n.x * sin_t, n.y * cos_t, -n.z * sin_t);
             let rows = table.rows_at(theta);
             let mut s = [0.0; 3];
+            let mut magnitude = 0.0;
             for &(lo, hi) in &intervals {
                 let (lo, hi) = (Azimuth::new(lo), Azimuth::new(hi));
                 for (row, weight) in rows {
@@ -70,21 +86,27 @@ pub fn integrate(p: &ShadingPoint, scene: &Scene, env: &Environment, m: &EnvMap,
                     for ch in 0..3 {
                         s[ch] += weight * (a * m[1][ch] + b * m[0][ch] + cc * m[2][ch]);
                     }
+                    magnitude += weight * table.rounding_scale(row, &lo, &hi);
                 }
             }
-            AzimuthIntegral::exact(s)
+            AzimuthIntegral {
+                value: s,
+                error: 0.0,
+                rounding: SUM_ROUNDING * (a.abs() + b.abs() + cc.abs()) * magnitude,
+            }
         });
     PixelIntegral {
         value,
         error,
-        depth_limited: limited,
+        depth_limited: limited.any(),
+        work_limited: limited.work,
         evaluations,
     }
 }
 
 /// What the outer rule needs at a node `θ`: the azimuth integral `s(θ)` per channel, an estimate
-/// of its error and a bound `r ≥ 0` on its rounding error (both 0 for the Lambertian sum, whose
-/// inner integral is exact).
+/// of its error and a bound `r ≥ 0` on its rounding error (the Lambertian sum's inner integral
+/// is exact: its error is 0, its rounding that of the prefix sums, [`SUM_ROUNDING`]).
 pub(super) struct AzimuthIntegral {
     pub value: [f64; 3],
     pub error: f64,
@@ -92,7 +114,7 @@ pub(super) struct AzimuthIntegral {
 }
 
 impl AzimuthIntegral {
-    /// An exact inner integral.
+    /// An exact inner integral, free of rounding (an empty circle).
     fn exact(value: [f64; 3]) -> Self {
         AzimuthIntegral {
             value,
@@ -124,15 +146,17 @@ pub(super) enum Strategy<'a> {
 /// circle's arcs at a tangency become smooth), to the tolerance `tol` shared by `strategy`; an
 /// interval is also accepted when `|K21 − G10|` is within what the nodes' rounding `r` can make.
 /// Returns the value, the error estimate (the sum of the accepted `|K21 − G10|` plus the same
-/// rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e` and rounding `r`), whether
-/// a depth limit was hit and the number of nodes where `inner` ran.
+/// rule's `∫ sin θ (e + r) dθ · max scale` of the nodes' errors `e` and rounding `r`), which
+/// limits were hit and the number of nodes where `inner` ran. The work is bounded:
+/// [`MAX_PAIRS`] Kronrod pairs in all, past which every interval left is accepted as it is
+/// ([`Limits::work`]).
 pub(super) fn polar(
     breaks: &[f64],
     tol: f64,
     scale: [f64; 3],
     strategy: Strategy,
     mut inner: impl FnMut(f64, f64, f64) -> AzimuthIntegral,
-) -> ([f64; 3], f64, bool, u64) {
+) -> ([f64; 3], f64, Limits, u64) {
     let largest_scale = scale.iter().fold(0.0f64, |m, s| m.max(s.abs()));
     let pieces: Vec<(f64, f64)> = breaks.windows(2).map(|w| (w[0], w[1])).collect();
     let mut evaluations = 0u64;
@@ -157,6 +181,7 @@ pub(super) fn polar(
     let mut value = [0.0; 3];
     let mut error = 0.0;
     let mut limited = false;
+    let mut budget = MAX_PAIRS;
     match strategy {
         Strategy::Local => {
             for (i, &(t0, t1)) in pieces.iter().enumerate() {
@@ -165,13 +190,15 @@ pub(super) fn polar(
                 }
                 let piece_tol = tol * (t1 - t0) / PI;
                 let (r, e, l) =
-                    adaptive_above_rounding(&GK21, -1.0, 1.0, piece_tol, 3, Some(3), &mut |v| outer(i, v));
+                    adaptive_above_rounding(&GK21, -1.0, 1.0, piece_tol, 3, Some(3), &mut budget, &mut |v| {
+                        outer(i, v)
+                    });
                 limited |= l;
                 for k in 0..3 {
                     value[k] += r[k];
                 }
-                // (`+ 0.0 + 0.0` for an exact inner integral: the Lambertian sums' errors are
-                // unchanged.)
+                // (`r[4]` is 0 for the Lambertian sum's exact inner integral; `r[3]` its
+                // rounding floor.)
                 error += e + r[3] + r[4];
             }
         }
@@ -181,13 +208,33 @@ pub(super) fn polar(
                 .map(|&(t0, t1)| if t1 > t0 { (-1.0, 1.0) } else { (0.0, 0.0) })
                 .collect();
             let split = |i: usize, a: f64, b: f64| split_at_kink(pieces[i], kinks, a, b);
-            let (r, e, l) = adaptive_worst_first(&GK21, &spans, tol, 3, 3, split, &mut outer);
+            let (r, e, l) = adaptive_worst_first(&GK21, &spans, tol, 3, 3, &mut budget, split, &mut outer);
             value = [r[0], r[1], r[2]];
             error = e + r[3] + r[4];
             limited = l;
         }
     }
-    (value, error, limited, evaluations)
+    let limits = Limits {
+        depth: limited && budget > 0,
+        work: budget == 0,
+    };
+    (value, error, limits, evaluations)
+}
+
+/// Which limits [`polar`] hit.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Limits {
+    /// Some interval reached the depth limit (or, worst-first, the cap on open intervals)
+    /// before its tolerance.
+    pub depth: bool,
+    /// The work limit, [`MAX_PAIRS`]: the intervals left were accepted unresolved.
+    pub work: bool,
+}
+
+impl Limits {
+    pub fn any(&self) -> bool {
+        self.depth || self.work
+    }
 }
 
 /// Where [`Strategy::WorstFirst`] splits the interval `[a, b]` (in `v`) of the piece

@@ -42,6 +42,25 @@ fn bad_input_is_exit_2_with_a_clear_message() {
     );
     assert_input_error(&["render", "--spp", "20000", "--out", "a.exr"], &["--spp", "GiB"]);
     assert_input_error(&["render", "--gps", "0", "--out", "a.exr"], &["--gps"]);
+    // Issue 42.5: a side the reader refuses is refused by the writer, up front (one limit).
+    for (w, h) in [("100000", "1"), ("1", "32769")] {
+        assert_input_error(
+            &[
+                "render",
+                "--integrator",
+                "mc",
+                "--spp",
+                "4",
+                "--width",
+                w,
+                "--height",
+                h,
+                "--out",
+                "a.exr",
+            ],
+            &["--width/--height", "has a side over 32768", "read back"],
+        );
+    }
     // Ring sets need N = J·M with J near √N.
     assert_input_error(
         &[
@@ -519,4 +538,29 @@ fn sd_out_writes_the_sd_image_and_the_coverage() {
     let o = workbench(d, &args);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!d.join("bmc-sd-coverage.png").exists());
+}
+
+/// The largest side `render` accepts is one `--reference` reads back (issue 42.5: the writer and
+/// the reader share the decoder's limit, 32768).
+#[test]
+fn an_image_of_the_largest_side_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "render",
+        "--integrator",
+        "mc",
+        "--spp",
+        "1",
+        "--width",
+        "32768",
+        "--height",
+        "1",
+    ];
+    let o = workbench(dir.path(), &[&args[..], &["--out", "a.exr"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = workbench(
+        dir.path(),
+        &[&args[..], &["--reference", "a.exr", "--out", "b.exr"]].concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }

@@ -168,3 +168,61 @@ fn the_texel_sum_agrees_with_brute_force_on_the_thesis_scene() {
         assert!(checked >= 5, "{checked}");
     }
 }
+
+/// One texel of 3·10¹¹ in an 8×4 map of ones (issue 42.1: `render --integrator exact` never
+/// ended, bisecting rounding noise far above its 1e-6 absolute tolerance): the irradiance ends,
+/// below the work limit, at the value linearity gives (`E = 1 + (3·10¹¹ − 1) E₁`, `E₁` the same
+/// texel alone at 1), within its stated error. That error carries the sums' rounding floor,
+/// which scales with the map, not the value (a prefix sum past the bright texel is 10¹¹: a
+/// difference of two of them is off by 10⁻⁵ even where `E = 1`); it stays within 10⁻¹⁴ of the
+/// bright texel. Both lookups, three normals.
+#[test]
+fn a_very_bright_texel_ends_with_its_rounding_floor_stated() {
+    use workbench::render::texel;
+    let sun = 3e11f32;
+    for lookup in Lookup::ALL {
+        let bright = map(
+            8,
+            4,
+            lookup,
+            |r, c| if (r, c) == (1, 2) { [sun; 3] } else { [1.0; 3] },
+        );
+        let alone = map(
+            8,
+            4,
+            lookup,
+            |r, c| if (r, c) == (1, 2) { [1.0; 3] } else { [0.0; 3] },
+        );
+        let (Environment::Map(mb), Environment::Map(ma)) = (&bright, &alone) else {
+            unreachable!()
+        };
+        for n in [
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.6, 0.0, 0.8),
+            Vec3::new(-0.3, 0.5, -0.8).normalize(),
+        ] {
+            let q = texel::irradiance(n, &bright, mb, 1e-6);
+            let one = texel::irradiance(n, &alone, ma, 1e-13);
+            assert!(!q.work_limited, "{lookup:?} {n:?}: work limit");
+            assert!(
+                q.evaluations < 1 << 20,
+                "{lookup:?} {n:?}: {} nodes",
+                q.evaluations
+            );
+            let want = 1.0 + (sun as f64 - 1.0) * one.value[0];
+            let slack = q.error + (sun as f64) * one.error;
+            assert!(
+                (q.value[0] - want).abs() <= slack,
+                "{lookup:?} {n:?}: {} vs {want} (stated {:.1e} + {:.1e})",
+                q.value[0],
+                q.error,
+                (sun as f64) * one.error
+            );
+            assert!(
+                q.error <= 1e-14 * sun as f64,
+                "{lookup:?} {n:?}: stated {:.2e} of {want:.3e}",
+                q.error
+            );
+        }
+    }
+}
