@@ -11,6 +11,7 @@ pub mod experiment;
 pub mod files;
 pub mod integrand;
 pub mod irradiance;
+pub mod job;
 pub mod plot;
 pub mod provenance;
 pub mod render;

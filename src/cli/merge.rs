@@ -34,7 +34,7 @@ pub struct MergeArgs {
 }
 
 pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
-    let kind = ex::merge::check_kinds(&args.dirs)?;
+    let kind = workbench::job::shard_set::check_kinds(&args.dirs)?;
     if kind == workbench::irradiance::shard::KIND {
         let (plan, report) =
             workbench::irradiance::shard::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
@@ -56,7 +56,7 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    let (plan, merged) = ex::merge::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
+    let (plan, merged) = ex::job::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
     let report = ex::RunReport {
         out_dir: merged.out_dir,
         cells: merged.findings.cells,
@@ -67,7 +67,7 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         wall_seconds: merged.wall_seconds,
         threads: 1,
         warnings: Vec::new(),
-        shard: ex::unit_log::Shard::WHOLE,
+        shard: workbench::job::Shard::WHOLE,
         resumed: 0,
         resumed_row_warnings: 0,
         units: plan.samples.len() * plan.trials,

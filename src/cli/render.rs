@@ -237,10 +237,7 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
     let shard = args
         .shard
         .as_deref()
-        .map(|s| {
-            workbench::experiment::unit_log::Shard::parse(s)
-                .map_err(|m| InputError::new(format!("--shard: {m}")))
-        })
+        .map(|s| workbench::job::Shard::parse(s).map_err(|m| InputError::new(format!("--shard: {m}"))))
         .transpose()?;
     if shard.is_none()
         && let Some(out) = &args.out

@@ -52,7 +52,7 @@ pub struct ReproduceArgs {
 /// Wall-clock seconds each shipped file took on this project's 2-core machine on 2026-11-25
 /// while other builds and render tables shared it (load average 5–10, so they overstate an idle
 /// machine's times), by the name of its output folder and the hash of its plan
-/// ([`ex::unit_log::plan_hash`], [`table::export::plan_hash`]): the estimate for a file whose
+/// ([`ex::job::plan_hash`], [`table::export::plan_hash`]): the estimate for a file whose
 /// output folder holds no timings of an earlier run of the same plan. Only the shipped plan gets
 /// it (issue 30: a file of the same name with other trials or N got "about 1.4 s" for hours); a
 /// test lists the shipped files and fails when one has no estimate, i.e. when its plan (or the
@@ -383,7 +383,7 @@ fn regular_file(path: &Path) -> Result<(), InputError> {
 /// `timings.json`), else the built-in measurement of a shipped file as shipped.
 fn estimate(job: &Job, out: &Path) -> Option<Estimate> {
     let hash = match job {
-        Job::Experiment(p) => ex::unit_log::plan_hash(p),
+        Job::Experiment(p) => ex::job::plan_hash(p),
         Job::Table(p) => table::export::plan_hash(p),
         Job::Irradiance(p) => workbench::irradiance::plan_hash(p),
     };

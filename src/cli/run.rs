@@ -183,8 +183,8 @@ pub fn print_run_warnings(report: &ex::RunReport) {
 }
 
 /// `--shard i/n`, parsed (`None` when not given).
-fn shard_option(arg: Option<&str>) -> Result<Option<ex::unit_log::Shard>, workbench::InputError> {
-    arg.map(ex::unit_log::Shard::parse)
+fn shard_option(arg: Option<&str>) -> Result<Option<workbench::job::Shard>, workbench::InputError> {
+    arg.map(workbench::job::Shard::parse)
         .transpose()
         .map_err(|m| workbench::InputError::new(format!("--shard: {m}")))
 }

@@ -15,10 +15,11 @@
 //! merged shards write these files from the same rows, byte for byte
 //! ([`super::finish::write_stopping`]).
 
+use super::log::for_each_row;
 use super::plan::Plan;
 pub use super::tolerance::ToleranceCheck;
-use super::unit_log::LogSet;
 use crate::bq::stages::{self, Outcome, Tolerance};
+use crate::job::LogSet;
 use std::fmt::Write;
 
 /// Every tolerance estimator's outcome in every unit: `(unit · integrands + integrand) ·
@@ -32,7 +33,7 @@ pub struct Outcomes {
 pub fn read_outcomes(plan: &Plan, logs: &LogSet) -> crate::Result<Outcomes> {
     let (ni, ne) = (plan.integrands.len(), plan.estimators.len());
     let mut outcomes = vec![None; plan.samples.len() * plan.trials * ni * ne];
-    logs.for_each_row(plan, &mut |u, fi, ei, line| {
+    for_each_row(plan, logs, &mut |u, fi, ei, line| {
         if plan.estimators[ei].tolerance.is_some() {
             let o = super::rows::stopping_outcome(line).ok_or_else(|| {
                 crate::error::InputError::new(format!(

@@ -5,7 +5,7 @@
 use super::plan::Plan;
 use super::runner;
 use super::summary::Accumulator;
-use super::unit_log::{LogWriter, Shard};
+use crate::job::{LogWriter, Shard};
 use std::time::Instant;
 
 /// Batches grow while they take less than this (fewer pauses between batches) …

@@ -280,7 +280,7 @@ pub fn legacy_manifest_files(manifest: &serde_json::Value) -> Option<Vec<String>
 
 /// `timings.json`: how long the run took on how many threads (the folder adds the list of
 /// machine-dependent files and the build). Machine-dependent, so it stays out of the manifest and
-/// out of the committed results. `plan_hash` ([`super::unit_log::plan_hash`]) is given only when
+/// out of the committed results. `plan_hash` ([`super::job::plan_hash`]) is given only when
 /// `wall_seconds` is the time of the whole plan (not a shard, a resumed remainder or a merge):
 /// `reproduce` estimates a file's time from an earlier run only with it, and only for the same
 /// plan.

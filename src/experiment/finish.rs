@@ -2,13 +2,14 @@
 //! units were run in one go, resumed, or run as shards and merged, so the files are the same
 //! bytes (the wall-clock `timings*` files and `*-cost.svg` aside).
 
+use super::log::{for_each_row, rows_per_unit};
 use super::plan::Plan;
 use super::rows::{timing_part, trials_header, trials_part};
 use super::summary::{self, Accumulator, CalibrationOutcome, CellSummary, CheckOutcome};
-use super::unit_log::{LogSet, rows_per_unit};
 use super::{adaptive, adaptive_plot, cost_plot, coverage_plot, export, plot};
 use crate::error::Error;
 use crate::files::result_folder::ResultFolder;
+use crate::job::LogSet;
 
 /// What the summary of a finished run found.
 pub struct Findings {
@@ -45,7 +46,7 @@ pub fn write_set(
             let with_model = plan.has_fitted_model();
             writeln!(w, "{}", trials_header(with_model)).map_err(failed)?;
             for pair in 0..rows_per_unit(plan) {
-                logs.for_each_row(plan, &mut |_, fi, ei, line| {
+                for_each_row(plan, logs, &mut |_, fi, ei, line| {
                     if fi * plan.estimators.len() + ei == pair {
                         writeln!(w, "{}", trials_part(line, with_model)).map_err(failed)?;
                     }
@@ -108,7 +109,7 @@ pub fn write_set(
         "integrand evaluations and wall-clock seconds per (integrand, estimator, n, trial), in unit order (machine-dependent; not committed)",
         &mut |w| {
             writeln!(w, "integrand,estimator,n,trial,evaluations,weight_set_seconds,seconds").map_err(failed)?;
-            logs.for_each_row(plan, &mut |_, _, _, line| {
+            for_each_row(plan, logs, &mut |_, _, _, line| {
                 let row = timing_part(line).unwrap_or_default();
                 writeln!(w, "{row}").map_err(failed)
             })

@@ -1,9 +1,10 @@
 //! `workbench run` and `workbench validate`: declarative experiments.
 //!
 //! spec (JSON) → [`plan::Plan`] (validated) → [`drive`] (batches of units in parallel,
-//! [`runner`]) → the unit log ([`unit_log`]) and the [`summary`] → [`finish`] ([`export`] /
-//! [`plot`], pure) → one atomic swap of the results folder. A run may be a shard of the units
-//! ([`unit_log::Shard`]), whose logs [`merge`] turns into the same files.
+//! [`runner`]) → the unit log ([`crate::job::unit_log`]) and the [`summary`] → [`finish`]
+//! ([`export`] / [`plot`], pure) → one atomic swap of the results folder. A run may be a shard
+//! of the units ([`crate::job::Shard`]), whose logs `merge` turns into the same files ([`job`]:
+//! the experiment as a [`crate::job::Job`]).
 
 pub mod adaptive;
 pub mod adaptive_plot;
@@ -14,7 +15,8 @@ pub mod drive;
 pub mod export;
 pub mod finish;
 pub mod fit;
-pub mod merge;
+pub mod job;
+pub mod log;
 pub mod plan;
 pub mod plot;
 pub mod rows;
@@ -24,12 +26,12 @@ pub mod summary;
 pub mod sweep;
 pub mod text;
 pub mod tolerance;
-pub mod unit_log;
 
 pub use text::{describe, format_report};
 
 use crate::error::InputError;
 use crate::files::result_folder::ResultFolder;
+use crate::job::{Job, Shard};
 use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -43,8 +45,8 @@ pub struct Overrides {
     /// The experiment file itself, so that the outputs can never replace it (`run
     /// D/manifest.json --out D`).
     pub spec: Option<PathBuf>,
-    /// Run only this share of the units, into a shard folder for [`merge`] (`--shard i/n`).
-    pub shard: Option<unit_log::Shard>,
+    /// Run only this share of the units, into a shard folder for `merge` (`--shard i/n`).
+    pub shard: Option<Shard>,
     /// Continue the run the folder's unit log holds, without redoing its units (`--resume`).
     pub resume: bool,
 }
@@ -91,7 +93,7 @@ pub struct RunReport {
     pub threads: usize,
     /// Weight sets' numerical warnings of the units run now (not of resumed ones).
     pub warnings: Vec<(String, usize)>,
-    pub shard: unit_log::Shard,
+    pub shard: Shard,
     /// Units found done in the unit log (`--resume`), and units in the run (or shard).
     pub resumed: usize,
     /// Warnings in the trial rows of the resumed units (the `warnings` column; their messages
@@ -113,7 +115,7 @@ pub fn run_plan(
     overrides: &Overrides,
     reporter: &dyn Reporter,
 ) -> crate::Result<RunReport> {
-    let shard = overrides.shard.unwrap_or(unit_log::Shard::WHOLE);
+    let shard = overrides.shard.unwrap_or(Shard::WHOLE);
     let out_dir = overrides.out.clone().unwrap_or_else(|| {
         let name = if overrides.shard.is_some() {
             format!("{}-shard-{}-of-{}", plan.name, shard.index, shard.count)
@@ -149,22 +151,18 @@ pub fn run_plan(
 
     let pool = crate::util::threads::pool(overrides.threads)?;
     let threads = pool.current_num_threads();
-    let identity = unit_log::Identity::new(plan, shard);
+    let identity = plan.identity(shard);
     let mut summary = overrides.shard.is_none().then(|| summary::Accumulator::new(plan));
-    let log_path = folder.partial_path(unit_log::PARTIAL_LOG)?;
+    let log_path = folder.partial_path(job::PARTIAL_LOG)?;
     let mut resumed_row_warnings = 0u64;
-    let (mut log, resumed) = unit_log::open(
-        &log_path,
-        plan,
-        &identity,
-        overrides.resume,
-        &mut |_, fi, ei, ni, v| {
+    let ne = plan.estimators.len();
+    let (mut log, resumed) =
+        crate::job::open_log(plan, &log_path, shard, overrides.resume, &mut |u, k, v| {
             resumed_row_warnings += u64::from(v.warnings);
             if let Some(s) = summary.as_mut() {
-                s.push(fi, ei, ni, v);
+                s.push(k / ne, k % ne, u / plan.trials, &v);
             }
-        },
-    )?;
+        })?;
     let units = shard.len(plan.samples.len() * plan.trials);
     reporter.start("trials×N", units as u64);
     reporter.advance(resumed as u64);
@@ -177,7 +175,7 @@ pub fn run_plan(
         // run is kept, the unit log included.
         Err(e @ crate::Error::Integrand(_)) => {
             drop(log);
-            folder.discard_partial(unit_log::PARTIAL_LOG);
+            folder.discard_partial(job::PARTIAL_LOG);
             return Err(e);
         }
         other => other?,
@@ -188,9 +186,7 @@ pub fn run_plan(
 
     let (findings, stopping, tolerance_checks, manifest) = match (summary, shard_spec) {
         (Some(summary), _) => {
-            let logs = unit_log::LogSet {
-                paths: vec![log_path],
-            };
+            let logs = crate::job::log_set(plan, vec![log_path]);
             let findings = finish::write_set(plan, &mut folder, &summary, &logs)?;
             // Tolerance estimators' stopping outputs, from the same log.
             let (stopping, checks) = finish::write_stopping(plan, &mut folder, &logs)?;
@@ -198,15 +194,15 @@ pub fn run_plan(
             (Some(findings), stopping, checks, manifest)
         }
         (None, Some(spec)) => {
-            merge::write_shard(&spec, &identity, &mut folder, &log_path)?;
-            let manifest = merge::shard_manifest(plan, &identity);
+            job::write_shard(&spec, &identity, &mut folder, &log_path)?;
+            let manifest = job::shard_manifest(plan, &identity);
             let manifest = serde_json::from_slice(&manifest).expect("the manifest is JSON");
             (None, Vec::new(), Vec::new(), manifest)
         }
         (None, None) => unreachable!("a shard has its spec"),
     };
     // The whole plan's time only: a shard's or a resumed remainder's would understate it.
-    let whole = (overrides.shard.is_none() && !overrides.resume).then(|| unit_log::plan_hash(plan));
+    let whole = (overrides.shard.is_none() && !overrides.resume).then(|| job::plan_hash(plan));
     folder.commit(manifest, export::timings_json(threads, wall_seconds, whole))?;
     let findings = findings.unwrap_or(finish::Findings {
         cells: Vec::new(),

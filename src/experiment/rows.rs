@@ -1,5 +1,5 @@
 //! The rows of `trials.csv`, one per (integrand, estimator, N, trial), and the cost columns a
-//! unit log adds to them ([`super::unit_log`]).
+//! unit log adds to them ([`super::job`]).
 //!
 //! A row is written once, as text, when its unit finishes; everything downstream (the summary,
 //! `trials.csv`, a resumed run, a merge of shards) reads these values back. Floats are written

@@ -532,14 +532,9 @@ pub fn run(
     let log = folder.partial_path(shard::PARTIAL_LOG)?;
     let mut totals = Totals::new(plan);
     let resumed = pool.install(|| {
-        shard::compute(
-            plan,
-            &shard::identity(plan, crate::experiment::unit_log::Shard::WHOLE),
-            &log,
-            resume,
-            reporter,
-            &mut |v| totals.push(v),
-        )
+        shard::compute(plan, crate::job::Shard::WHOLE, &log, resume, reporter, &mut |v| {
+            totals.push(v)
+        })
     })?;
     let (exact, rows) = totals.finish(plan);
     let wall_seconds = start.elapsed().as_secs_f64();

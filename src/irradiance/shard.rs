@@ -1,5 +1,5 @@
-//! The irradiance protocol sharded, merged and resumed (issue 31): the same [`Shard`] split,
-//! [`Identity`], unit log and set checks as an experiment's ([`crate::experiment::merge`]).
+//! The irradiance protocol as a [`Job`] (issue 31): sharded, merged and resumed with the same
+//! [`Shard`] split, [`Identity`], unit log and set checks as every job ([`crate::job`]).
 //!
 //! The **units** are the rows of the grid of normals: unit `u` holds the normals
 //! `k = u·W … u·W + W − 1`, and shard `i` of `n` computes the units with `u mod n = i − 1`. A
@@ -12,15 +12,16 @@
 //!
 //! The log: the identity line, the column line, then one line per normal,
 //! `k,exact_r,exact_g,exact_b,error,` and the three channels of every (N, estimator) in
-//! (N, estimator) order. A run writes it as `irradiance.partial.csv` in its folder while it
+//! (N, estimator) order, and the row's digest ([`crate::job::unit_log`]). Read back, every
+//! number must be finite, the exact irradiance and its error estimate at least 0, and the row
+//! its digest's. A run writes it as `irradiance.partial.csv` in its folder while it
 //! runs (the one `--resume` continues); a shard's folder keeps it as `units.csv`, beside
 //! `shard.json` (`"kind": "irradiance"`, the identity, the file's path and text).
 
 use super::{IrradiancePlan, NormalValues, Totals};
-use crate::error::{Error, InputError};
-use crate::experiment::merge::{self as shards, SHARD_FILE};
-use crate::experiment::unit_log::{self, Identity, LogSet, SHARD_UNITS, Shard};
+use crate::error::InputError;
 use crate::files::result_folder::ResultFolder;
+use crate::job::{Identity, Job, LogSet, Shard, ShardFolder, shard_set};
 use crate::provenance::Build;
 use crate::util::report::Reporter;
 use std::fmt::Write as _;
@@ -41,34 +42,9 @@ fn fnv(text: &str) -> String {
     crate::util::hash::fnv1a_hex(text.bytes())
 }
 
-/// What a log and a shard record say they are: the plan ([`super::plan_hash`]) and the map's
-/// content ([`IrradiancePlan::map_key`]) hashed together; `trials` holds the number of units.
-pub fn identity(plan: &IrradiancePlan, shard: Shard) -> Identity {
-    Identity {
-        plan_hash: fnv(&format!("{} {}", super::plan_hash(plan), plan.map_key())),
-        seed: plan.seed,
-        trials: plan.height,
-        build: Build::current(),
-        shard,
-    }
-}
-
 /// Where `run FILE --shard i/n` writes without `--out`: `results/<name>-shard-<i>-of-<n>/`.
 pub fn default_out(results: &Path, plan: &IrradiancePlan, shard: Shard) -> PathBuf {
     results.join(format!("{}-shard-{}-of-{}", plan.name, shard.index, shard.count))
-}
-
-/// The log's column line.
-fn columns(plan: &IrradiancePlan) -> String {
-    let mut s = String::from("k,exact_r,exact_g,exact_b,error");
-    for n in &plan.n {
-        for e in &plan.estimators {
-            for c in ["r", "g", "b"] {
-                let _ = write!(s, ",{}@{n}_{c}", e.name);
-            }
-        }
-    }
-    s
 }
 
 /// One log line (with its newline).
@@ -84,7 +60,8 @@ fn line(k: usize, v: &NormalValues, out: &mut String) {
     out.push('\n');
 }
 
-/// Reads a line written by [`line`] for normal `k`; the error says what is wrong.
+/// Reads a line written by [`line`] for normal `k`, checked as it was written: every number
+/// finite, the exact irradiance and its error estimate at least 0. The error says what is wrong.
 fn parse(plan: &IrradiancePlan, k: usize, text: &str) -> Result<NormalValues, String> {
     let rules = plan.n.len() * plan.estimators.len();
     let fields: Vec<&str> = text.split(',').collect();
@@ -94,47 +71,166 @@ fn parse(plan: &IrradiancePlan, k: usize, text: &str) -> Result<NormalValues, St
     if fields[0] != k.to_string() {
         return Err(format!("is normal {:?} where normal {k} was expected", fields[0]));
     }
+    let names = column_names(plan);
     let num = |i: usize| -> Result<f64, String> {
-        fields[i]
-            .parse::<f64>()
-            .map_err(|_| format!("has {:?} in field {}, not a number", fields[i], i + 1))
+        match fields[i].parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(format!(
+                "has {} {:?} (field {}), not a finite number",
+                names[i],
+                fields[i],
+                i + 1
+            )),
+        }
+    };
+    let non_negative = |i: usize| -> Result<f64, String> {
+        let v = num(i)?;
+        if v < 0.0 {
+            return Err(format!("has {} {v:?} (field {}), below 0", names[i], i + 1));
+        }
+        Ok(v)
     };
     let three = |i: usize| -> Result<[f64; 3], String> { Ok([num(i)?, num(i + 1)?, num(i + 2)?]) };
     Ok(NormalValues {
-        exact: three(1)?,
-        error: num(4)?,
+        exact: [non_negative(1)?, non_negative(2)?, non_negative(3)?],
+        error: non_negative(4)?,
         estimates: (0..rules).map(|r| three(5 + 3 * r)).collect::<Result<_, _>>()?,
     })
 }
 
-/// Computes the units of `identity`'s shard, appending each batch's lines to the log at `path`,
-/// and hands every normal's values to `each` in grid order. With `resume` and a log there
-/// (checked to be this run's, [`unit_log::open_lines`]), the units it holds are read back
-/// instead. Returns how many units were read back.
+/// The log's column names, in order.
+fn column_names(plan: &IrradiancePlan) -> Vec<String> {
+    let mut names: Vec<String> = ["k", "exact_r", "exact_g", "exact_b", "error"]
+        .map(String::from)
+        .to_vec();
+    for n in &plan.n {
+        for e in &plan.estimators {
+            for c in ["r", "g", "b"] {
+                names.push(format!("{}@{n}_{c}", e.name));
+            }
+        }
+    }
+    names
+}
+
+impl Job for IrradiancePlan {
+    const KIND: &'static str = KIND;
+    const UNIT_NAME: &'static str = "rows of normals";
+    type Row = NormalValues;
+    type Gathered = (Totals, Instant);
+    type Merged = (IrradiancePlan, super::Report);
+
+    /// The plan ([`super::plan_hash`]) and the map's content ([`IrradiancePlan::map_key`])
+    /// hashed together.
+    fn identity(&self, shard: Shard) -> Identity {
+        Identity {
+            plan_hash: fnv(&format!("{} {}", super::plan_hash(self), self.map_key())),
+            seed: self.seed,
+            units: self.height,
+            build: Build::current(),
+            shard,
+        }
+    }
+
+    /// The rows of the grid.
+    fn units(&self) -> usize {
+        self.height
+    }
+
+    fn rows_per_unit(&self) -> usize {
+        self.width
+    }
+
+    fn columns(&self) -> String {
+        column_names(self).join(",")
+    }
+
+    fn parse_row(&self, unit: usize, k: usize, line: &str) -> Result<NormalValues, String> {
+        parse(self, unit * self.width + k, line)
+    }
+
+    /// The file is read back from the first shard's record and resolved again (its map must be
+    /// readable, and be the one the shards ran under).
+    fn from_record(first: &ShardFolder) -> Result<IrradiancePlan, InputError> {
+        let at = first.record();
+        let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
+        let text = first
+            .spec
+            .get("text")
+            .and_then(|t| t.as_str())
+            .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
+        let spec: super::IrradianceSpec = crate::files::spec_json::parse(text, "the irradiance file")
+            .map_err(|m| bad(format!("\"job\": {m}")))?;
+        let plan = super::resolve(&spec).map_err(|m| bad(format!("\"job\": {m}")))?;
+        if plan.identity(Shard::WHOLE).plan_hash != first.identity.plan_hash {
+            return Err(bad(format!(
+                "the file resolves to another plan than the one its shards ran (its map, {}, changed?)",
+                plan.env_name
+            )));
+        }
+        Ok(plan)
+    }
+
+    fn gather(&self) -> Self::Gathered {
+        (Totals::new(self), Instant::now())
+    }
+
+    fn push(&self, gathered: &mut Self::Gathered, _unit: usize, _k: usize, row: NormalValues) {
+        gathered.0.push(&row);
+    }
+
+    /// The files one run writes, byte for byte (`timings.json` aside).
+    fn write_merged(
+        self,
+        out: &Path,
+        set: &[ShardFolder],
+        _logs: &LogSet,
+        (totals, start): Self::Gathered,
+        _reporter: &dyn Reporter,
+    ) -> crate::Result<(IrradiancePlan, super::Report)> {
+        let plan = self;
+        let (exact, rows) = totals.finish(&plan);
+        let mut folder = ResultFolder::prepare_merge(
+            out,
+            set.iter().map(|s| s.dir.as_path()),
+            super::export::legacy_manifest_files,
+        )?;
+        super::export::write(&mut folder, &plan, &exact, &rows)?;
+        let wall_seconds = start.elapsed().as_secs_f64();
+        // The merge's own seconds, without the plan hash: `reproduce` does not take them for the
+        // protocol's time.
+        folder.commit(
+            super::export::manifest(&plan, &exact, &rows),
+            serde_json::json!({ "merge_seconds": wall_seconds }),
+        )?;
+        Ok((
+            plan,
+            super::Report {
+                out_dir: out.to_path_buf(),
+                rows,
+                wall_seconds,
+                threads: 1,
+                resumed: 0,
+            },
+        ))
+    }
+}
+
+/// Computes the units of `shard`, appending each batch's lines to the log at `path`, and hands
+/// every normal's values to `each` in grid order. With `resume` and a log there (checked to be
+/// this run's and read back row by row, [`crate::job::open_log`]), the units it holds are read
+/// back instead. Returns how many units were read back.
 pub fn compute(
     plan: &IrradiancePlan,
-    identity: &Identity,
+    shard: Shard,
     path: &Path,
     resume: bool,
     reporter: &dyn Reporter,
     each: &mut dyn FnMut(&NormalValues),
 ) -> crate::Result<usize> {
     let w = plan.width;
-    let mine: Vec<usize> = identity.shard.units(plan.height).collect();
-    let (mut log, done) = unit_log::open_lines(
-        path,
-        identity,
-        &columns(plan),
-        &mine,
-        w,
-        resume,
-        &mut |u, lines| {
-            for (i, l) in lines.iter().enumerate() {
-                each(&parse(plan, u * w + i, l).map_err(|m| format!("the row {m}"))?);
-            }
-            Ok(())
-        },
-    )?;
+    let mine: Vec<usize> = shard.units(plan.height).collect();
+    let (mut log, done) = crate::job::open_log(plan, path, shard, resume, &mut |_, _, v| each(&v))?;
     let rules = plan.rules()?;
     let tolerance = plan.exact_tolerance();
     let todo = &mine[done..];
@@ -184,19 +280,10 @@ pub fn run_shard(
     )?;
     let spec_text = crate::files::spec_json::read_spec(spec_path)?;
     let pool = crate::util::threads::pool(threads)?;
-    let identity = identity(plan, shard);
+    let identity = plan.identity(shard);
     let start = Instant::now();
     let log = folder.partial_path(PARTIAL_LOG)?;
-    let resumed = pool.install(|| compute(plan, &identity, &log, resume, reporter, &mut |_| {}))?;
-    folder.write_stream(
-        SHARD_UNITS,
-        "this shard's normals in grid order: k, the exact irradiance, its error estimate, every (N, estimator)'s estimate",
-        &mut |w| {
-            let mut file = unit_log::bounded_open(&log)?;
-            std::io::copy(&mut file, w).map_err(|e| Error::io(format!("copying {}", log.display()), e))?;
-            Ok(())
-        },
-    )?;
+    let resumed = pool.install(|| compute(plan, shard, &log, resume, reporter, &mut |_| {}))?;
     let job = serde_json::json!({
         "kind": KIND,
         "job": {
@@ -204,9 +291,11 @@ pub fn run_shard(
             "text": spec_text,
         },
     });
-    crate::experiment::merge::write_shard_record(
+    shard_set::write_shard(
         &mut folder,
         &identity,
+        &log,
+        "this shard's normals in grid order: k, the exact irradiance, its error estimate, every (N, estimator)'s estimate, and each row's digest",
         job,
         "which shard this is, of which irradiance protocol, and the file as run (for workbench merge)",
     )?;
@@ -224,82 +313,15 @@ pub fn run_shard(
     })
 }
 
-/// Merges the shard folders `dirs` of one irradiance protocol into `out`, the files one run
-/// writes, byte for byte (`timings.json` aside). The file is read back from the first shard's
-/// record and resolved again (its map must be readable, and be the one the shards ran under);
-/// every check is made before `out` is touched.
+/// Merges the shard folders `dirs` of one irradiance protocol into `out` ([`crate::job::merge`]):
+/// the files one run writes, byte for byte (`timings.json` aside); every check is made before
+/// `out` is touched.
 pub fn merge(
     out: &Path,
     dirs: &[PathBuf],
     reporter: &dyn Reporter,
 ) -> crate::Result<(IrradiancePlan, super::Report)> {
-    let set = shards::read_shards(dirs)?;
-    let set = shards::check_set(set)?;
-    shards::check_build(&set)?;
-    let at = set[0].dir.join(SHARD_FILE);
-    let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
-    let text = set[0]
-        .spec
-        .get("text")
-        .and_then(|t| t.as_str())
-        .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
-    let spec: super::IrradianceSpec = crate::files::spec_json::parse(text, "the irradiance file")
-        .map_err(|m| bad(format!("\"job\": {m}")))?;
-    let plan = super::resolve(&spec).map_err(|m| bad(format!("\"job\": {m}")))?;
-    if identity(&plan, Shard::WHOLE).plan_hash != set[0].identity.plan_hash {
-        return Err(bad(format!(
-            "the file resolves to another plan than the one its shards ran (its map, {}, changed?)",
-            plan.env_name
-        ))
-        .into());
-    }
-    // Every row is read (and checked) before the folder is prepared: nothing is written for a
-    // damaged shard.
-    let logs = LogSet {
-        paths: set.iter().map(|s| s.dir.join(SHARD_UNITS)).collect(),
-    };
-    let start = Instant::now();
-    let w = plan.width;
-    let count = set.len();
-    let mut totals = Totals::new(&plan);
-    reporter.start("normals", plan.normals() as u64);
-    logs.for_each_line(plan.height, w, &mut |u, i, l| {
-        let v = parse(&plan, u * w + i, l).map_err(|m| {
-            InputError::new(format!(
-                "merge: {}: line {}: the row {m}; this shard is damaged, run it again",
-                logs.paths[u % count].display(),
-                3 + (u / count) * w + i
-            ))
-        })?;
-        totals.push(&v);
-        reporter.advance(1);
-        Ok(())
-    })?;
-    reporter.finish();
-    let (exact, rows) = totals.finish(&plan);
-    let mut folder = ResultFolder::prepare_merge(
-        out,
-        set.iter().map(|s| s.dir.as_path()),
-        super::export::legacy_manifest_files,
-    )?;
-    super::export::write(&mut folder, &plan, &exact, &rows)?;
-    let wall_seconds = start.elapsed().as_secs_f64();
-    // The merge's own seconds, without the plan hash: `reproduce` does not take them for the
-    // protocol's time.
-    folder.commit(
-        super::export::manifest(&plan, &exact, &rows),
-        serde_json::json!({ "merge_seconds": wall_seconds }),
-    )?;
-    Ok((
-        plan,
-        super::Report {
-            out_dir: out.to_path_buf(),
-            rows,
-            wall_seconds,
-            threads: 1,
-            resumed: 0,
-        },
-    ))
+    crate::job::merge::<IrradiancePlan>(out, dirs, reporter)
 }
 
 #[cfg(test)]

@@ -98,7 +98,7 @@ pub fn run(
         // The reference is written there after it is rendered: fail now, not then.
         crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
     }
-    let rounds = shard::Rounds::open(plan, &folder, crate::experiment::unit_log::Shard::WHOLE, resume)?;
+    let rounds = shard::Rounds::open(plan, &folder, crate::job::Shard::WHOLE, resume)?;
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
 
     let reference = reference::reference(plan, &renderer, results, reporter)?;

@@ -1,5 +1,6 @@
-//! Shards of a render table (fixed spp and adaptive) and their merge (issue 31): the same
-//! [`Shard`] split, [`Identity`] and checks as an experiment's ([`crate::experiment::merge`]).
+//! A render table (fixed spp and adaptive) as a [`Job`]: its shards, `--resume` and merge
+//! (issue 31), with the same [`Shard`] split, [`Identity`], unit log and set checks as every job
+//! ([`crate::job`]).
 //!
 //! A table's **units** are its rounds: every variant at one spp (or target sd) and repetition,
 //! numbered in the order one run renders them (spp or target, then repetition), `u = 0 … Σ
@@ -7,8 +8,11 @@
 //! grain because every output is a function of its rows and of each cell's first render (its
 //! repetition 0), which the unit renders whole.
 //!
-//! `render SPEC --shard i/n --out DIR` writes a shard folder: `units.csv` (the identity line,
-//! then the `rmse.csv` columns and `seconds`, one row per render in unit order), the first
+//! `render SPEC --shard i/n --out DIR` writes a shard folder: `units.csv` (its rounds' log: the
+//! identity line, then the `rmse.csv` columns, `seconds` and the row's digest, one row per
+//! render in unit order; read back, every number must be finite or empty where `rmse.csv` leaves
+//! it empty, RMSEs and seconds at least 0, shares — coverage, `share_met`, `within` — in [0, 1],
+//! the seed the unit's, and the row its digest's), the first
 //! renders' PNGs of its units (named and described as in the table's folder), `reference.exr`
 //! (the reference its renders were measured against, read from or written to the cache under
 //! `--results-dir`), `shard.json` (`"kind": "render-table"`, the identity, the spec's path and
@@ -23,10 +27,11 @@ use super::plan::TablePlan;
 use super::runner::{Row, render_seed};
 use super::{FileSink, TableReport, export, reference};
 use crate::error::{Error, InputError};
-use crate::experiment::merge::{self as shards, SHARD_FILE, ShardFolder};
-use crate::experiment::unit_log::{self, Identity, SHARD_UNITS, Shard};
 use crate::files::read::FileKind;
 use crate::files::result_folder::{MANIFEST, ResultFolder};
+use crate::job::shard_set::{SHARD_FILE, ShardFolder};
+use crate::job::unit_log::SHARD_UNITS;
+use crate::job::{Identity, Job, LogSet, LogWriter, Shard};
 use crate::provenance::Build;
 use crate::render::image::Image;
 use crate::render::renderer::Renderer;
@@ -42,17 +47,6 @@ const REFERENCE_COPY: &str = "reference.exr";
 /// The table's units: its rounds, `Σ repetitions`.
 pub fn units(plan: &TablePlan) -> usize {
     plan.repetitions.iter().sum()
-}
-
-/// What a shard's log and record say it is (`trials` holds the number of units).
-pub fn identity(plan: &TablePlan, shard: Shard) -> Identity {
-    Identity {
-        plan_hash: export::plan_hash(plan),
-        seed: plan.seed,
-        trials: units(plan),
-        build: Build::current(),
-        shard,
-    }
 }
 
 /// Where `render SPEC --shard i/n` writes without `--out`: `<results>/<name>-shard-<i>-of-<n>/`.
@@ -126,13 +120,10 @@ pub fn run_shard(
         "the reference this shard's renders were measured against (for workbench merge)",
         &reference.to_exr()?,
     )?;
-    let rendered = rounds.render(plan, &renderer, &reference, &mut folder, reporter)?;
-    let (rows, renders) = (rendered.lines, rendered.renders);
-    folder.write(
-        SHARD_UNITS,
-        "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds",
-        format!("{}\n{}\n{rows}", identity.header(), columns(plan)).as_bytes(),
-    )?;
+    let log = rounds.log_path.clone();
+    let renders = rounds
+        .render(plan, &renderer, &reference, &mut folder, reporter)?
+        .renders;
     let job = serde_json::json!({
         "kind": KIND,
         "job": {
@@ -142,9 +133,11 @@ pub fn run_shard(
             "text": spec_text,
         },
     });
-    crate::experiment::merge::write_shard_record(
+    crate::job::shard_set::write_shard(
         &mut folder,
         &identity,
+        &log,
+        "this shard's renders in unit order: the rmse.csv columns, then wall-clock seconds, and each row's digest",
         job,
         "which shard this is, of which render table, and the table file as run (for workbench merge)",
     )?;
@@ -175,17 +168,15 @@ pub struct Rounds {
     identity: Identity,
     /// The run's rounds, in order.
     mine: Vec<usize>,
-    log: unit_log::LogWriter,
+    log: LogWriter,
     log_path: PathBuf,
-    /// The rows of the rounds done before (`variants` per round).
-    done_rows: Vec<String>,
+    /// The rows of the rounds done before (`variants` per round), read back and checked.
+    done_rows: Vec<RowOf>,
 }
 
-/// What [`Rounds::render`] produced: every round's rows in round order, as rows and as the
-/// log's lines (`rmse.csv` columns and `seconds`, each with its newline).
+/// What [`Rounds::render`] produced: every round's rows in round order.
 pub struct Rendered {
     pub rows: Rows,
-    pub lines: String,
     /// Renders made now.
     pub renders: usize,
     /// Rounds read back from the log.
@@ -194,17 +185,22 @@ pub struct Rendered {
 
 impl Rounds {
     /// Opens `folder`'s [`ROUNDS_LOG`] for `shard` of the table: fresh, or with `resume` (and a
-    /// log there) checked and read ([`open_log`]).
+    /// log there) checked and read as the merge reads it ([`crate::job::open_log`]): it must be
+    /// this run's, the rows of its complete rounds are checked and kept, and a half-written last
+    /// round is cut off.
     pub fn open(
         plan: &TablePlan,
         folder: &ResultFolder,
         shard: Shard,
         resume: bool,
     ) -> crate::Result<Rounds> {
-        let identity = identity(plan, shard);
+        let identity = plan.identity(shard);
         let mine: Vec<usize> = shard.units(units(plan)).collect();
         let log_path = folder.partial_path(ROUNDS_LOG)?;
-        let (log, done_rows) = open_log(plan, &log_path, &identity, &mine, resume)?;
+        let mut done_rows = Vec::new();
+        let (log, _) = crate::job::open_log(plan, &log_path, shard, resume, &mut |_, _, row| {
+            done_rows.push(row)
+        })?;
         Ok(Rounds {
             identity,
             mine,
@@ -245,39 +241,33 @@ impl Rounds {
             first_new,
             nv,
         };
-        let (new, new_text) = match &plan.adaptive {
-            Some(a) => {
-                let rows =
-                    super::adaptive::runner::run(plan, a, renderer, reference, &mut sink, reporter, &keep)?;
-                let text = log_rows(
-                    &super::adaptive::export::rmse_csv(plan, &rows),
-                    rows.iter().map(|r| r.seconds),
-                );
-                (Rows::Adaptive(rows), text)
-            }
+        let new = match &plan.adaptive {
+            Some(a) => Rows::Adaptive(super::adaptive::runner::run(
+                plan, a, renderer, reference, &mut sink, reporter, &keep,
+            )?),
             None => {
                 let geometry = renderer.geometry();
                 let edges =
                     crate::render::integrator::neighbours::edge_mask(&geometry, plan.width, plan.height);
-                let rows = super::runner::run(plan, renderer, reference, &edges, &mut sink, reporter, &keep)?;
-                let text = log_rows(&export::rmse_csv(plan, &rows), rows.iter().map(|r| r.seconds));
-                (Rows::Fixed(rows), text)
+                Rows::Fixed(super::runner::run(
+                    plan, renderer, reference, &edges, &mut sink, reporter, &keep,
+                )?)
             }
         };
         drop(sink);
         // Every round of the run in order: the one rendered now, or the log's.
-        let mut new_lines = new_text.lines();
         let mut next_new = 0;
-        let mut lines = String::new();
         let mut rows = match &new {
             Rows::Fixed(_) => Rows::Fixed(Vec::new()),
             Rows::Adaptive(_) => Rows::Adaptive(Vec::new()),
         };
         let mut renders = 0;
-        for (k, &u) in self.mine.iter().enumerate() {
-            for v in 0..nv {
+        let mut done_rows = self.done_rows.into_iter();
+        for &u in &self.mine {
+            for _ in 0..nv {
+                // A kept round's rows are the new render's (also for a done repetition-0 one).
+                let old = if u < first_new { done_rows.next() } else { None };
                 if keep(u) {
-                    lines.push_str(new_lines.next().expect("a row per kept render"));
                     match (&mut rows, &new) {
                         (Rows::Fixed(r), Rows::Fixed(n)) => r.push(n[next_new].clone()),
                         (Rows::Adaptive(r), Rows::Adaptive(n)) => r.push(n[next_new].clone()),
@@ -285,19 +275,12 @@ impl Rounds {
                     }
                     next_new += 1;
                 } else {
-                    let line = self.done_rows[k * nv + v].as_str();
-                    lines.push_str(line);
-                    // Checked when the log was opened.
-                    let row = parse_row(plan, u, v, line).map_err(|m| {
-                        InputError::new(format!("--resume: {}: the row {m}", self.log_path.display()))
-                    })?;
-                    match (&mut rows, row) {
+                    match (&mut rows, old.expect("a done round's rows are in the log")) {
                         (Rows::Fixed(r), RowOf::Fixed(x)) => r.push(x),
                         (Rows::Adaptive(r), RowOf::Adaptive(x)) => r.push(x),
                         _ => unreachable!("the plan decides the kind of row"),
                     }
                 }
-                lines.push('\n');
             }
             if keep(u) {
                 renders += nv;
@@ -311,7 +294,6 @@ impl Rounds {
         }
         Ok(Rendered {
             rows,
-            lines,
             renders,
             resumed: done,
         })
@@ -330,42 +312,11 @@ fn repetition(plan: &TablePlan, u: usize) -> usize {
     rep
 }
 
-/// Opens the rounds' log at `path` ([`unit_log::open_lines`], as an experiment's or an
-/// irradiance protocol's): fresh (no `resume`, or no log) it gets its identity and column
-/// lines; resuming, it must be this run's, the rows of its complete rounds are checked as the
-/// merge checks them and returned, and a half-written last round is cut off.
-fn open_log(
-    plan: &TablePlan,
-    path: &Path,
-    identity: &Identity,
-    mine: &[usize],
-    resume: bool,
-) -> crate::Result<(unit_log::LogWriter, Vec<String>)> {
-    let mut rows = Vec::new();
-    let nv = plan.variants.len();
-    let (log, _) = unit_log::open_lines(
-        path,
-        identity,
-        &columns(plan),
-        mine,
-        nv,
-        resume,
-        &mut |u, lines| {
-            for (v, line) in lines.iter().enumerate() {
-                parse_row(plan, u, v, line).map_err(|m| format!("variant {}: the row {m}", v + 1))?;
-                rows.push(line.to_string());
-            }
-            Ok(())
-        },
-    )?;
-    Ok((log, rows))
-}
-
 /// Saves each cell's first render (through the table's own sink) and appends every new round's
 /// rows to the rounds' log as it finishes.
 struct LogSink<'a, 'b> {
     inner: FileSink<'a>,
-    log: unit_log::LogWriter,
+    log: LogWriter,
     /// The units rendered, in order: the `next`-th round to finish is `kept[next]`.
     kept: &'b [usize],
     next: usize,
@@ -430,19 +381,34 @@ pub enum Rows {
     Adaptive(Vec<AdaptiveRow>),
 }
 
-/// Parses a field written by [`export::num`] (empty: not finite).
-fn number(s: &str, column: &str) -> Result<f64, String> {
+/// Parses a field written by [`export::num`] (empty: not finite), checked to lie in
+/// `[low, high]`.
+fn number_in(s: &str, column: &str, low: f64, high: f64) -> Result<f64, String> {
     if s.is_empty() {
         return Ok(f64::NAN);
     }
     match s.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) if v.is_finite() && (low..=high).contains(&v) => Ok(v),
+        Ok(v) if v.is_finite() && high == f64::INFINITY => Err(format!("has {column} {s:?}, below {low}")),
+        Ok(v) if v.is_finite() => Err(format!("has {column} {s:?}, outside [{low}, {high}]")),
         _ => Err(format!("has {column} {s:?}, not a finite number")),
     }
 }
 
-/// Reads one log row of unit `u` and variant `v`, checking that it is the row that unit
-/// renders (variant, spp or target, repetition, seed) and that every number is one.
+/// A field that is at least 0 (an RMSE, a mean, seconds).
+fn non_negative(s: &str, column: &str) -> Result<f64, String> {
+    number_in(s, column, 0.0, f64::INFINITY)
+}
+
+/// A share, in `[0, 1]`.
+fn share(s: &str, column: &str) -> Result<f64, String> {
+    number_in(s, column, 0.0, 1.0)
+}
+
+/// Reads one log row of unit `u` and variant `v` as it was written: the row that unit renders
+/// (variant, spp or target, repetition, seed), every number finite (or empty, as
+/// [`export::num`] writes a number that is not), RMSEs, means and seconds at least 0, shares in
+/// [0, 1].
 fn parse_row(plan: &TablePlan, u: usize, v: usize, line: &str) -> Result<RowOf, String> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
@@ -493,16 +459,16 @@ fn parse_row(plan: &TablePlan, u: usize, v: usize, line: &str) -> Result<RowOf, 
                 spp,
                 repetition: rep,
                 seed,
-                rmse: number(f[7], "rmse")?,
-                rmse_edges: number(f[8], "rmse_edges")?,
-                coverage95: number(f[9], "coverage95")?,
-                coverage95_edges: number(f[10], "coverage95_edges")?,
-                seconds: number(f[n - 1], "seconds")?,
+                rmse: non_negative(f[7], "rmse")?,
+                rmse_edges: non_negative(f[8], "rmse_edges")?,
+                coverage95: share(f[9], "coverage95")?,
+                coverage95_edges: share(f[10], "coverage95_edges")?,
+                seconds: non_negative(f[n - 1], "seconds")?,
                 external: if external {
                     Some(ExternalMeasures {
-                        rmse_theirs: number(f[11], "rmse_theirs")?,
-                        mean_l2_theirs: number(f[12], "mean_l2_theirs")?,
-                        mean_l2_ours: number(f[13], "mean_l2")?,
+                        rmse_theirs: non_negative(f[11], "rmse_theirs")?,
+                        mean_l2_theirs: non_negative(f[12], "mean_l2_theirs")?,
+                        mean_l2_ours: non_negative(f[13], "mean_l2")?,
                     })
                 } else {
                     None
@@ -529,234 +495,252 @@ fn parse_row(plan: &TablePlan, u: usize, v: usize, line: &str) -> Result<RowOf, 
                 target,
                 repetition: rep,
                 seed,
-                rmse: number(f[7], "rmse")?,
-                mean_spp: number(f[8], "mean_spp")?,
-                share_met: number(f[9], "share_met")?,
-                within: number(f[10], "within")?,
-                seconds: number(f[11], "seconds")?,
+                rmse: non_negative(f[7], "rmse")?,
+                mean_spp: non_negative(f[8], "mean_spp")?,
+                share_met: share(f[9], "share_met")?,
+                within: share(f[10], "within")?,
+                seconds: non_negative(f[11], "seconds")?,
             }))
         }
     }
 }
 
-enum RowOf {
+/// One log row of either kind of table.
+pub enum RowOf {
     Fixed(Row),
     Adaptive(AdaptiveRow),
 }
 
-/// One shard's log rows (after the two header lines), checked to hold exactly its units.
-fn read_log(plan: &TablePlan, s: &ShardFolder) -> Result<Vec<String>, InputError> {
-    let path = s.dir.join(SHARD_UNITS);
-    let text = crate::files::read::read_text(&path, FileKind::UnitLog)
-        .map_err(|e| InputError::new(format!("merge: {e}")))?;
-    let mut lines = text.split_inclusive('\n');
-    lines.next();
-    if lines.next().map(str::trim_end) != Some(columns(plan).as_str()) {
-        return Err(InputError::new(format!(
-            "merge: {}: its column line is not this table's",
-            path.display()
-        )));
-    }
-    let rows: Vec<String> = lines.map(String::from).collect();
-    let want = s.identity.shard.len(units(plan)) * plan.variants.len();
-    let complete = rows.iter().filter(|l| l.ends_with('\n')).count();
-    if complete != want || rows.len() != want {
-        return Err(InputError::new(format!(
-            "merge: {}: holds {complete} complete rows of the shard's {want}; this shard is half-written, run it again",
-            path.display()
-        )));
-    }
-    Ok(rows.into_iter().map(|l| l.trim_end().to_string()).collect())
-}
+impl Job for TablePlan {
+    const KIND: &'static str = KIND;
+    const UNIT_NAME: &'static str = "rounds";
+    type Row = RowOf;
+    type Gathered = Rows;
+    type Merged = TableReport;
 
-/// Merges the shard folders `dirs` of a render table into `out` (the table's folder; its parent
-/// is the results folder whose `cache/` the manifest names, as `--results-dir` is for one run).
-/// Every check is made before `out` is touched.
-pub fn merge(out: &Path, dirs: &[PathBuf]) -> crate::Result<TableReport> {
-    let set = shards::read_shards(dirs)?;
-    // Another map or scene is another plan too; say which, before the plan hashes.
-    for field in ["scene", "env"] {
-        let of = |s: &ShardFolder| {
-            s.spec
-                .get(field)
-                .and_then(|v| v.as_str())
-                .unwrap_or_default()
-                .to_string()
-        };
-        if let Some(other) = set.iter().find(|s| of(s) != of(&set[0])) {
+    fn identity(&self, shard: Shard) -> Identity {
+        Identity {
+            plan_hash: export::plan_hash(self),
+            seed: self.seed,
+            units: units(self),
+            build: Build::current(),
+            shard,
+        }
+    }
+
+    fn units(&self) -> usize {
+        units(self)
+    }
+
+    fn rows_per_unit(&self) -> usize {
+        self.variants.len()
+    }
+
+    fn columns(&self) -> String {
+        columns(self)
+    }
+
+    fn parse_row(&self, unit: usize, k: usize, line: &str) -> Result<RowOf, String> {
+        parse_row(self, unit, k, line)
+    }
+
+    /// Another map or scene is another plan too; say which, before the plan hashes.
+    fn check_records(set: &[ShardFolder]) -> Result<(), InputError> {
+        for field in ["scene", "env"] {
+            let of = |s: &ShardFolder| {
+                s.spec
+                    .get(field)
+                    .and_then(|v| v.as_str())
+                    .unwrap_or_default()
+                    .to_string()
+            };
+            if let Some(other) = set.iter().find(|s| of(s) != of(&set[0])) {
+                return Err(InputError::new(format!(
+                    "merge: {} and {} are shards of different render tables ({} {:?} and {:?}); merge the shards of one run",
+                    set[0].dir.display(),
+                    other.dir.display(),
+                    if field == "env" { "maps" } else { "scenes" },
+                    of(&set[0]),
+                    of(other)
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The table as run, from the first shard's record; the other shards have its plan hash.
+    fn from_record(first: &ShardFolder) -> Result<TablePlan, InputError> {
+        let at = first.record();
+        let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
+        let text = first
+            .spec
+            .get("text")
+            .and_then(|t| t.as_str())
+            .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
+        let spec = first
+            .spec
+            .get("spec")
+            .and_then(|t| t.as_str())
+            .ok_or_else(|| bad("\"job\" has no \"spec\"".into()))?;
+        let plan = super::plan::parse(text, Path::new(spec)).map_err(|e| bad(e.0))?;
+        if export::plan_hash(&plan) != first.identity.plan_hash {
+            return Err(bad(format!(
+                "the table resolves to another plan than the one its shards ran (a file it reads, {}, changed?)",
+                plan.env_arg
+            )));
+        }
+        Ok(plan)
+    }
+
+    fn gather(&self) -> Rows {
+        match self.adaptive {
+            Some(_) => Rows::Adaptive(Vec::new()),
+            None => Rows::Fixed(Vec::new()),
+        }
+    }
+
+    fn push(&self, rows: &mut Rows, _unit: usize, _k: usize, row: RowOf) {
+        match (rows, row) {
+            (Rows::Fixed(r), RowOf::Fixed(x)) => r.push(x),
+            (Rows::Adaptive(r), RowOf::Adaptive(x)) => r.push(x),
+            _ => unreachable!("the plan decides the kind of row"),
+        }
+    }
+
+    /// `out` is the table's folder; its parent is the results folder whose `cache/` the manifest
+    /// names, as `--results-dir` is for one run. The shards' references and first renders are
+    /// read and checked before `out` is touched.
+    fn write_merged(
+        self,
+        out: &Path,
+        set: &[ShardFolder],
+        _logs: &LogSet,
+        rows: Rows,
+        _reporter: &dyn Reporter,
+    ) -> crate::Result<TableReport> {
+        let plan = self;
+        let start = Instant::now();
+        let count = set.len();
+        // One reference for all: the shards' copies, byte for byte.
+        let reference_bytes: Vec<Vec<u8>> = set
+            .iter()
+            .map(|s| {
+                crate::files::read::read(&s.dir.join(REFERENCE_COPY), FileKind::Image).map_err(|e| {
+                    InputError::new(format!("merge: {e}; this shard is half-written, run it again"))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        if let Some(i) = (1..count).find(|&i| reference_bytes[i] != reference_bytes[0]) {
             return Err(InputError::new(format!(
-                "merge: {} and {} are shards of different render tables ({} {:?} and {:?}); merge the shards of one run",
+                "merge: {} and {} were measured against different references (another results/cache entry?); \
+                 run the shards against one reference",
                 set[0].dir.display(),
-                other.dir.display(),
-                if field == "env" { "maps" } else { "scenes" },
-                of(&set[0]),
-                of(other)
+                set[i].dir.display()
             ))
             .into());
         }
-    }
-    let set = shards::check_set(set)?;
-    shards::check_build(&set)?;
-    let start = Instant::now();
-    // The table as run, from the first shard's record; the other shards have its plan hash.
-    let record = &set[0].spec;
-    let at = set[0].dir.join(SHARD_FILE);
-    let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
-    let text = record
-        .get("text")
-        .and_then(|t| t.as_str())
-        .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
-    let spec = record
-        .get("spec")
-        .and_then(|t| t.as_str())
-        .ok_or_else(|| bad("\"job\" has no \"spec\"".into()))?;
-    let plan = super::plan::parse(text, Path::new(spec)).map_err(|e| bad(e.0))?;
-    if export::plan_hash(&plan) != set[0].identity.plan_hash {
-        return Err(bad(format!(
-            "the table resolves to another plan than the one its shards ran (a file it reads, {}, changed?)",
-            plan.env_arg
-        ))
-        .into());
-    }
-    // Every shard's rows, in unit order.
-    let logs: Vec<Vec<String>> = set.iter().map(|s| read_log(&plan, s)).collect::<Result<_, _>>()?;
-    let count = set.len();
-    let nv = plan.variants.len();
-    let mut rows = match plan.adaptive {
-        Some(_) => Rows::Adaptive(Vec::new()),
-        None => Rows::Fixed(Vec::new()),
-    };
-    for u in 0..units(&plan) {
-        let s = u % count;
-        for v in 0..nv {
-            let k = (u / count) * nv + v;
-            let row = parse_row(&plan, u, v, &logs[s][k]).map_err(|m| {
-                InputError::new(format!(
-                    "merge: {}: line {}: the row {m}; this shard is damaged, run it again",
-                    set[s].dir.join(SHARD_UNITS).display(),
-                    k + 3
-                ))
-            })?;
-            match (&mut rows, row) {
-                (Rows::Fixed(r), RowOf::Fixed(x)) => r.push(x),
-                (Rows::Adaptive(r), RowOf::Adaptive(x)) => r.push(x),
-                _ => unreachable!("the plan decides the kind of row"),
+        let reference = Image::read(&set[0].dir.join(REFERENCE_COPY), "the shard's reference")?;
+        if (reference.width, reference.height) != (plan.width, plan.height) {
+            return Err(InputError::new(format!(
+                "merge: {}: {REFERENCE_COPY} is {}×{}, not the table's {}×{}",
+                set[0].dir.display(),
+                reference.width,
+                reference.height,
+                plan.width,
+                plan.height
+            ))
+            .into());
+        }
+        // The first renders' images each shard wrote, as its manifest lists them.
+        let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
+        for s in set {
+            let path = s.dir.join(MANIFEST);
+            let manifest: serde_json::Value = crate::files::read::read_text(&path, FileKind::Record)
+                .ok()
+                .and_then(|t| serde_json::from_str(&t).ok())
+                .ok_or_else(|| InputError::new(format!("merge: {}: missing or not JSON", path.display())))?;
+            let files = manifest
+                .get("files")
+                .and_then(|f| f.as_object())
+                .ok_or_else(|| InputError::new(format!("merge: {}: lists no files", path.display())))?;
+            for (name, what) in files {
+                if [MANIFEST, SHARD_FILE, SHARD_UNITS, REFERENCE_COPY].contains(&name.as_str()) {
+                    continue;
+                }
+                if !name.ends_with(".png") || name.contains('/') || name.starts_with('.') {
+                    return Err(InputError::new(format!(
+                        "merge: {}: lists {name:?}, not a render of the table",
+                        path.display()
+                    ))
+                    .into());
+                }
+                if images.iter().any(|(n, _, _)| n == name) {
+                    return Err(InputError::new(format!(
+                        "merge: {name} is in more than one shard; give each shard once"
+                    ))
+                    .into());
+                }
+                let bytes = crate::files::read::read(&s.dir.join(name), FileKind::Image).map_err(|e| {
+                    InputError::new(format!("merge: {e}; this shard is half-written, run it again"))
+                })?;
+                images.push((name.clone(), what.as_str().unwrap_or_default().to_string(), bytes));
             }
         }
-    }
-    // One reference for all: the shards' copies, byte for byte.
-    let reference_bytes: Vec<Vec<u8>> = set
-        .iter()
-        .map(|s| {
-            crate::files::read::read(&s.dir.join(REFERENCE_COPY), FileKind::Image)
-                .map_err(|e| InputError::new(format!("merge: {e}; this shard is half-written, run it again")))
-        })
-        .collect::<Result<_, _>>()?;
-    if let Some(i) = (1..count).find(|&i| reference_bytes[i] != reference_bytes[0]) {
-        return Err(InputError::new(format!(
-            "merge: {} and {} were measured against different references (another results/cache entry?); \
-             run the shards against one reference",
-            set[0].dir.display(),
-            set[i].dir.display()
-        ))
-        .into());
-    }
-    let reference = Image::read(&set[0].dir.join(REFERENCE_COPY), "the shard's reference")?;
-    if (reference.width, reference.height) != (plan.width, plan.height) {
-        return Err(InputError::new(format!(
-            "merge: {}: {REFERENCE_COPY} is {}×{}, not the table's {}×{}",
-            set[0].dir.display(),
-            reference.width,
-            reference.height,
-            plan.width,
-            plan.height
-        ))
-        .into());
-    }
-    // The first renders' images each shard wrote, as its manifest lists them.
-    let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
-    for s in &set {
-        let path = s.dir.join(MANIFEST);
-        let manifest: serde_json::Value = crate::files::read::read_text(&path, FileKind::Record)
-            .ok()
-            .and_then(|t| serde_json::from_str(&t).ok())
-            .ok_or_else(|| InputError::new(format!("merge: {}: missing or not JSON", path.display())))?;
-        let files = manifest
-            .get("files")
-            .and_then(|f| f.as_object())
-            .ok_or_else(|| InputError::new(format!("merge: {}: lists no files", path.display())))?;
-        for (name, what) in files {
-            if [MANIFEST, SHARD_FILE, SHARD_UNITS, REFERENCE_COPY].contains(&name.as_str()) {
-                continue;
-            }
-            if !name.ends_with(".png") || name.contains('/') || name.starts_with('.') {
-                return Err(InputError::new(format!(
-                    "merge: {}: lists {name:?}, not a render of the table",
-                    path.display()
-                ))
-                .into());
-            }
-            if images.iter().any(|(n, _, _)| n == name) {
-                return Err(InputError::new(format!(
-                    "merge: {name} is in more than one shard; give each shard once"
-                ))
-                .into());
-            }
-            let bytes = crate::files::read::read(&s.dir.join(name), FileKind::Image).map_err(|e| {
-                InputError::new(format!("merge: {e}; this shard is half-written, run it again"))
-            })?;
-            images.push((name.clone(), what.as_str().unwrap_or_default().to_string(), bytes));
-        }
-    }
-    let results = out.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut folder = ResultFolder::prepare_merge(
-        out,
-        set.iter().map(|s| s.dir.as_path()),
-        export::legacy_manifest_files,
-    )?;
-    folder.write(
-        "reference.png",
-        "the reference image, tone-mapped",
-        &reference.to_png()?,
-    )?;
-    for (name, what, bytes) in &images {
-        folder.write(name, what, bytes)?;
-    }
-    let (cells, adaptive_cells, table_md, times_md) = match (&rows, &plan.adaptive) {
-        (Rows::Fixed(rows), _) => {
-            let (cells, md, times) = super::write_outputs(&plan, &mut folder, &reference, rows)?;
-            (cells, Vec::new(), md, times)
-        }
-        (Rows::Adaptive(rows), Some(a)) => {
-            let report = super::adaptive::write_outputs(&plan, a, &mut folder, rows)?;
-            (Vec::new(), report.cells, report.table_md, report.times_md)
-        }
-        (Rows::Adaptive(_), None) => unreachable!("adaptive rows come from an adaptive plan"),
-    };
-    // The cache the manifest names holds the reference, as after one run.
-    let cache = reference::cache_path(&plan, &results);
-    if !cache.exists() {
-        let dir = cache.parent().unwrap_or(&results);
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
-        crate::files::atomic::write_atomic(&cache, &reference_bytes[0])?;
-        crate::files::atomic::write_atomic(
-            &cache.with_extension("json"),
-            reference::reference_key(&plan).1.as_bytes(),
+        let results = out.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut folder = ResultFolder::prepare_merge(
+            out,
+            set.iter().map(|s| s.dir.as_path()),
+            export::legacy_manifest_files,
         )?;
+        folder.write(
+            "reference.png",
+            "the reference image, tone-mapped",
+            &reference.to_png()?,
+        )?;
+        for (name, what, bytes) in &images {
+            folder.write(name, what, bytes)?;
+        }
+        let (cells, adaptive_cells, table_md, times_md) = match (&rows, &plan.adaptive) {
+            (Rows::Fixed(rows), _) => {
+                let (cells, md, times) = super::write_outputs(&plan, &mut folder, &reference, rows)?;
+                (cells, Vec::new(), md, times)
+            }
+            (Rows::Adaptive(rows), Some(a)) => {
+                let report = super::adaptive::write_outputs(&plan, a, &mut folder, rows)?;
+                (Vec::new(), report.cells, report.table_md, report.times_md)
+            }
+            (Rows::Adaptive(_), None) => unreachable!("adaptive rows come from an adaptive plan"),
+        };
+        // The cache the manifest names holds the reference, as after one run.
+        let cache = reference::cache_path(&plan, &results);
+        if !cache.exists() {
+            let dir = cache.parent().unwrap_or(&results);
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
+            crate::files::atomic::write_atomic(&cache, &reference_bytes[0])?;
+            crate::files::atomic::write_atomic(
+                &cache.with_extension("json"),
+                reference::reference_key(&plan).1.as_bytes(),
+            )?;
+        }
+        let manifest: serde_json::Value =
+            serde_json::from_slice(&export::manifest(&plan, &results)).expect("the manifest is JSON");
+        // The merge's own seconds, without the plan hash: `reproduce` does not take them for the
+        // table's time.
+        folder.commit(
+            manifest,
+            serde_json::json!({ "merge_seconds": start.elapsed().as_secs_f64() }),
+        )?;
+        Ok(TableReport {
+            out_dir: out.to_path_buf(),
+            cells,
+            adaptive_cells,
+            table_md,
+            times_md,
+        })
     }
-    let manifest: serde_json::Value =
-        serde_json::from_slice(&export::manifest(&plan, &results)).expect("the manifest is JSON");
-    // The merge's own seconds, without the plan hash: `reproduce` does not take them for the
-    // table's time.
-    folder.commit(
-        manifest,
-        serde_json::json!({ "merge_seconds": start.elapsed().as_secs_f64() }),
-    )?;
-    Ok(TableReport {
-        out_dir: out.to_path_buf(),
-        cells,
-        adaptive_cells,
-        table_md,
-        times_md,
-    })
+}
+
+/// Merges the shard folders `dirs` of a render table into `out` ([`crate::job::merge`]).
+pub fn merge(out: &Path, dirs: &[PathBuf]) -> crate::Result<TableReport> {
+    crate::job::merge::<TablePlan>(out, dirs, &crate::util::report::Silent)
 }

@@ -8,5 +8,6 @@ mod irradiance;
 mod irradiance_shard;
 mod outputs;
 mod plots;
+mod read_back;
 mod scale;
 mod schema;

@@ -670,7 +670,7 @@ fn half_replaced_result_set_table_failing_at_the_end_keeps_its_rows_apart() {
     assert_eq!(
         partial.lines().nth(1),
         Some(
-            "variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,coverage95_edges,seconds"
+            "variant,integrator,gps,rotate,spp,repetition,seed,rmse,rmse_edges,coverage95,coverage95_edges,seconds,digest"
         )
     );
     assert_eq!(listing(&d.join("out")), ["cache", "t"]);

@@ -166,7 +166,7 @@ fn merge_refuses_shards_of_other_runs_and_incomplete_sets_before_writing() {
         workbench(d, &args)
     };
     refused(&merge(&["a1", "a2", "seed"]), "seeds 5 and 6");
-    refused(&merge(&["a1", "a2", "trials"]), "trials 13 and 12");
+    refused(&merge(&["a1", "a2", "trials"]), "units 39 and 36");
     refused(&merge(&["a1", "a2", "other"]), "different runs (experiment plans");
     refused(&merge(&["a1", "a2", "two"]), "shard counts 1/3 and 2/2");
     refused(&merge(&["a1", "a3"]), "shard 2/3 missing");
@@ -686,7 +686,8 @@ fn merge_refuses_damaged_stopping_columns() {
     assert!(lines[2].starts_with("cos,MC,mc,") && lines[3].starts_with("cos,MC tol,mc,"));
     let with = |row: &str, from_end: usize, value: &str| -> String {
         let mut cols: Vec<String> = row.split(',').map(String::from).collect();
-        let at = cols.len() - 1 - from_end;
+        // The last column is the row's digest.
+        let at = cols.len() - 2 - from_end;
         cols[at] = value.to_string();
         cols.join(",")
     };
