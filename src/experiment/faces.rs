@@ -56,10 +56,29 @@ fn is_default_kernel(k: &serde_json::Value) -> bool {
 }
 
 /// The faces of `estimators`, in their order (see the module docs).
+///
+/// A light-aware estimator (`mc-light`, `mis`, …) is a Monte Carlo method (dashed) whose
+/// identity — its method and options — takes a colour of its own, as another kernel would.
 pub fn faces(estimators: &[PlannedEstimator]) -> Vec<SeriesStyle> {
+    let light: Vec<Option<serde_json::Value>> = estimators
+        .iter()
+        .map(|e| {
+            e.light.map(|l| {
+                serde_json::json!({
+                    "method": l.method.name(),
+                    "heuristic": l.heuristic.name(),
+                    "compensation": l.compensation,
+                })
+            })
+        })
+        .collect();
     let identities: Vec<(Method, Option<&serde_json::Value>, Design)> = estimators
         .iter()
-        .map(|e| (e.method, e.settings.kernel.as_ref(), e.design))
+        .zip(&light)
+        .map(|(e, l)| match (e.method.points(), l) {
+            (Some(m), _) => (m, e.settings.kernel.as_ref(), e.design),
+            (None, l) => (Method::Mc, l.as_ref(), e.design),
+        })
         .collect();
     faces_of(&identities)
 }
