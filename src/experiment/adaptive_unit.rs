@@ -97,7 +97,10 @@ pub fn run_unit(
                     let e = &plan.estimators[ei];
                     stages::Walker {
                         estimator: stages::WeightedEstimator {
-                            method: e.method,
+                            method: e
+                                .method
+                                .points()
+                                .expect("tolerance estimators are point-set methods"),
                             scale: e.scale.unwrap_or(Scale::Unit),
                         },
                         priors: plan

@@ -2,7 +2,8 @@
 //! one-line error naming the file, the JSON path and the value.
 
 use super::spec::*;
-use crate::bq::estimator::Method;
+use crate::bq::estimator::MethodName;
+use crate::bq::estimator::mis::{LightEstimator, LightMethod};
 use crate::bq::model::BmcModel;
 use crate::bq::model::ResolvedModel;
 use crate::bq::rule::MAX_POINTS;
@@ -167,8 +168,12 @@ impl Prior {
 #[derive(Debug, Clone)]
 pub struct PlannedEstimator {
     pub label: String,
-    pub method: Method,
+    pub method: MethodName,
+    /// The design of its points; for a light-aware estimator, the design its primary samples
+    /// follow (`uniform` or `sobol`, its `sampler`), never drawn as a hemisphere set.
     pub design: Design,
+    /// A light-aware estimator's options (math.md §11); None for the others.
+    pub light: Option<LightEstimator>,
     /// Index into [`Plan::models`] (methods that need weights).
     pub model: Option<usize>,
     /// The prior mean (methods that use one).
@@ -184,8 +189,14 @@ pub struct PlannedEstimator {
 /// The settings of an estimator with defaults filled in.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResolvedSettings {
-    pub method: Method,
+    pub method: MethodName,
     pub design: Design,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampler: Option<Sampler>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heuristic: Option<Heuristic>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compensation: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kernel: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -279,8 +290,10 @@ pub fn resolve_with(spec: &ExperimentSpec, external: &mut ExternalResolver<'_>) 
         estimators,
         models,
         designs,
+        paths,
     } = resolve_estimators(spec)?;
     check_limits(spec, &integrands, &estimators, &designs)?;
+    check_lights(&integrands, &estimators, &paths)?;
     let mut checks = Vec::new();
     let mut calibration_checks = Vec::new();
     let mut tolerance_checks = Vec::new();
@@ -396,11 +409,62 @@ fn check_counts(spec: &ExperimentSpec) -> Result<(), String> {
     Ok(())
 }
 
-/// The planned estimators with the distinct models and designs they use.
+/// The planned estimators with the distinct models and designs they use, and the JSON path of
+/// each (a swept one names its values).
 struct Estimators {
     estimators: Vec<PlannedEstimator>,
     models: Vec<Arc<BmcModel>>,
     designs: Vec<Design>,
+    paths: Vec<String>,
+}
+
+/// A light-aware estimator needs every integrand to expose its light ([`Integrand::lit`]), a
+/// light with power to sample, and with `compensation` a light that is not constant.
+fn check_lights(
+    integrands: &[Integrand],
+    estimators: &[PlannedEstimator],
+    paths: &[String],
+) -> Result<(), String> {
+    for (e, path) in estimators.iter().zip(paths) {
+        let Some(light) = e.light else { continue };
+        for (j, f) in integrands.iter().enumerate() {
+            let lit = f.lit().map_err(|m| {
+                err(
+                    format!("{path}.method"),
+                    format!(
+                        "{:?} needs an integrand that knows its light, but integrands[{j}]: {m}",
+                        e.method.name()
+                    ),
+                )
+            })?;
+            let l = lit.light();
+            let samples_light = light.method != LightMethod::McBsdf;
+            if samples_light && l.is_black() {
+                return Err(err(
+                    format!("{path}.method"),
+                    format!(
+                        "{:?} samples the light, but the light of integrands[{j}] ({:?}) is black (no texel has luminance)",
+                        e.method.name(),
+                        f.name()
+                    ),
+                ));
+            }
+            if light.compensation && !l.has_compensation() {
+                return Err(err(
+                    format!("{path}.compensation"),
+                    format!(
+                        "true, but the light of integrands[{j}] ({:?}) is constant (mean luminance {}, least {}: \
+                         within {}% of the mean), so compensation has nothing to remove",
+                        f.name(),
+                        crate::util::shown::shown(l.mean()),
+                        crate::util::shown::shown(l.min()),
+                        crate::sampling::light::COMPENSATION_THRESHOLD * 100.0
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Every estimator (sweeps expanded), validated; estimators with the same model and design share
@@ -428,14 +492,18 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
         }
         paths.push(path.clone());
         let (mut planned, model) = resolve_estimator(e, &at)?;
-        planned.tolerance = super::tolerance::resolve_tolerance(
-            e,
-            planned.method,
-            planned.design,
-            &spec.samples,
-            MAX_UNIT_POINTS,
-            &at,
-        )?;
+        planned.tolerance = match planned.method.points() {
+            Some(method) => super::tolerance::resolve_tolerance(
+                e,
+                method,
+                planned.design,
+                &spec.samples,
+                MAX_UNIT_POINTS,
+                &at,
+            )?,
+            // Refused by resolve_light_estimator.
+            None => None,
+        };
         planned.settings.tolerance = planned.tolerance;
         if let Some(model) = model {
             let key = (model.clone(), planned.design);
@@ -449,7 +517,8 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
             };
             planned.model = Some(index);
         }
-        if !designs.contains(&planned.design) {
+        // A light-aware estimator draws its own directions, not a design's set.
+        if planned.light.is_none() && !designs.contains(&planned.design) {
             designs.push(planned.design);
         }
         estimators.push(planned);
@@ -458,6 +527,7 @@ fn resolve_estimators(spec: &ExperimentSpec) -> Result<Estimators, String> {
         estimators,
         models,
         designs,
+        paths,
     })
 }
 
@@ -470,9 +540,16 @@ fn check_limits(
     designs: &[Design],
 ) -> Result<(), String> {
     let max_n = *spec.samples.iter().max().expect("samples is not empty");
-    // Some designs take only some counts (the rings need N = J·M, sampling::rings).
+    // Some designs take only some counts (the rings need N = J·M, sampling::rings), and `mis`
+    // splits N in halves.
     for e in estimators {
         for (i, &n) in spec.samples.iter().enumerate() {
+            if let Some(Err(m)) = e.light.map(|l| l.method.check_count(n as usize)) {
+                return Err(err(
+                    format!("samples[{i}]"),
+                    format!("estimator {:?}: {m}", e.label),
+                ));
+            }
             if let Err(m) = e.design.check_count(n as usize) {
                 return Err(err(
                     format!("samples[{i}]"),
@@ -827,6 +904,24 @@ fn resolve_estimator(
     e: &EstimatorSpec,
     at: &dyn Fn(&str) -> String,
 ) -> Result<(PlannedEstimator, Option<ResolvedModel>), String> {
+    if let MethodName::Light(method) = e.method {
+        return resolve_light_estimator(e, method, at).map(|p| (p, None));
+    }
+    for (field, given) in [
+        ("sampler", e.sampler.map(|s| format!("{:?}", s.name()))),
+        ("heuristic", e.heuristic.map(|h| format!("{:?}", h.name()))),
+        ("compensation", e.compensation.map(|c| c.to_string())),
+    ] {
+        if let Some(value) = given {
+            return Err(err(
+                at(field),
+                format!(
+                    "{value} is not used by method {} (only by the light-aware mc-light, mc-bsdf, mis)",
+                    e.method
+                ),
+            ));
+        }
+    }
     let design = e.design.unwrap_or(Design::Iid(Density::Uniform));
     let unused =
         |field: &str, value: String| err(at(field), format!("{value} is not used by method {}", e.method));
@@ -880,6 +975,9 @@ fn resolve_estimator(
         scale,
         method: e.method,
         design,
+        sampler: None,
+        heuristic: None,
+        compensation: None,
         kernel: model.as_ref().map(|m| m.to_json()["kernel"].clone()),
         noise: model.as_ref().filter(|m| !m.is_fitted()).map(|m| m.noise),
         kernel_mean: model.as_ref().map(|m| m.kernel_mean),
@@ -895,6 +993,7 @@ fn resolve_estimator(
             label: e.label.clone(),
             method: e.method,
             design,
+            light: None,
             model: None,
             prior,
             scale,
@@ -903,4 +1002,96 @@ fn resolve_estimator(
         },
         model,
     ))
+}
+
+/// A light-aware estimator's options (math.md §11): `sampler` for every one, `heuristic` and
+/// `compensation` for `mis` alone (the compensated density misses the light below the mean, so
+/// light sampling alone on it would be biased); the options of point-set methods are errors.
+fn resolve_light_estimator(
+    e: &EstimatorSpec,
+    method: LightMethod,
+    at: &dyn Fn(&str) -> String,
+) -> Result<PlannedEstimator, String> {
+    let unused = |field: &str, value: String, why: &str| {
+        err(
+            at(field),
+            format!("{value} is not used by method {}{why}", e.method),
+        )
+    };
+    if let Some(d) = e.design {
+        return Err(unused(
+            "design",
+            format!("{:?}", d.name()),
+            " (it draws from the integrand's light and BSDF; its primary samples are chosen by \"sampler\")",
+        ));
+    }
+    if let Some((field, value)) = e.model().given_fields().into_iter().next() {
+        return Err(unused(field.json(), value, ""));
+    }
+    if let Some(p) = &e.prior {
+        return Err(unused(
+            "prior",
+            serde_json::to_string(p).expect("spec values serialize"),
+            "",
+        ));
+    }
+    if let Some(sc) = e.scale {
+        return Err(unused("scale", format!("{:?}", sc.name()), ""));
+    }
+    if let Some(t) = &e.tolerance {
+        return Err(unused(
+            "tolerance",
+            serde_json::to_string(t).expect("spec values serialize"),
+            "",
+        ));
+    }
+    if method != LightMethod::Mis {
+        if let Some(h) = e.heuristic {
+            return Err(unused("heuristic", format!("{:?}", h.name()), " (only by mis)"));
+        }
+        if let Some(c) = e.compensation {
+            return Err(unused(
+                "compensation",
+                c.to_string(),
+                " (only by mis: the compensated density misses the light below the mean, which only the BSDF technique covers)",
+            ));
+        }
+    }
+    let sampler = e.sampler.unwrap_or(Sampler::Uniform);
+    let heuristic = e.heuristic.unwrap_or_default();
+    let compensation = e.compensation.unwrap_or(false);
+    let design = match sampler {
+        Sampler::Uniform => Design::Iid(Density::Uniform),
+        Sampler::Sobol => Design::Sobol,
+    };
+    let is_mis = method == LightMethod::Mis;
+    Ok(PlannedEstimator {
+        label: e.label.clone(),
+        method: e.method,
+        design,
+        light: Some(LightEstimator {
+            method,
+            heuristic,
+            compensation,
+            sampler,
+        }),
+        model: None,
+        prior: None,
+        scale: None,
+        tolerance: None,
+        settings: ResolvedSettings {
+            method: e.method,
+            design,
+            sampler: Some(sampler),
+            heuristic: is_mis.then_some(heuristic),
+            compensation: is_mis.then_some(compensation),
+            kernel: None,
+            noise: None,
+            kernel_mean: None,
+            kernel_mean_samples: None,
+            prior: None,
+            scale: None,
+            tolerance: None,
+        },
+    })
 }

@@ -390,14 +390,30 @@ fn subtitle(name: &str, truth: f64, trials: usize) -> String {
 
 /// The faces of an experiment's `estimators`, in their order: each estimator's method, kernel
 /// and design through [`crate::plot::faces::faces_of`] (the rule of [`crate::plot::faces`]).
+///
+/// A light-aware estimator (`mc-light`, `mis`, …) is a Monte Carlo method (dashed) whose
+/// identity — its method and options — takes a colour of its own, as another kernel would.
 pub fn faces(estimators: &[super::plan::PlannedEstimator]) -> Vec<SeriesStyle> {
-    let identities: Vec<(
-        crate::bq::estimator::Method,
-        Option<&serde_json::Value>,
-        crate::sampling::Design,
-    )> = estimators
+    use crate::bq::estimator::Method;
+    let light: Vec<Option<serde_json::Value>> = estimators
         .iter()
-        .map(|e| (e.method, e.settings.kernel.as_ref(), e.design))
+        .map(|e| {
+            e.light.map(|l| {
+                serde_json::json!({
+                    "method": l.method.name(),
+                    "heuristic": l.heuristic.name(),
+                    "compensation": l.compensation,
+                })
+            })
+        })
+        .collect();
+    let identities: Vec<(Method, Option<&serde_json::Value>, Design)> = estimators
+        .iter()
+        .zip(&light)
+        .map(|(e, l)| match (e.method.points(), l) {
+            (Some(m), _) => (m, e.settings.kernel.as_ref(), e.design),
+            (None, l) => (Method::Mc, l.as_ref(), e.design),
+        })
         .collect();
     crate::plot::faces::faces_of(&identities)
 }

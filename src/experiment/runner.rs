@@ -18,6 +18,7 @@ use std::time::Instant;
 /// Stream identifiers under the experiment's seed.
 const SAMPLES_STREAM: u64 = 1;
 const KERNEL_MEAN_STREAM: u64 = 2;
+const PRIMARY_STREAM: u64 = 3;
 
 /// What one (N, trial) unit produced.
 #[derive(Debug, Clone)]
@@ -134,6 +135,31 @@ fn trial_stream(seed: u64, design: Design, n: usize, trial: usize) -> crate::uti
         seed,
         &[SAMPLES_STREAM, design.stream_id(), n as u64, trial as u64],
     )
+}
+
+/// The `count` primary samples of a light-aware estimator's technique (`technique`: a stream id
+/// of [`crate::bq::estimator::mis`]) in trial `trial` at `n`: every estimator with the same
+/// sampler sees the same ones (their first `count`), so `mc-light`, `mis` and its variants are
+/// compared on the same primary samples.
+pub fn primary_samples(
+    seed: u64,
+    sampler: crate::sampling::primary::Sampler,
+    technique: u64,
+    count: usize,
+    n: usize,
+    trial: usize,
+) -> Vec<[f64; 2]> {
+    let mut rng = stream(
+        seed,
+        &[
+            PRIMARY_STREAM,
+            sampler.stream_id(),
+            technique,
+            n as u64,
+            trial as u64,
+        ],
+    );
+    sampler.points(count, &mut rng)
 }
 
 /// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`.
@@ -292,7 +318,9 @@ pub fn run_unit(
                 .iter()
                 .map(|c| {
                     crate::bq::fitted::log_marginal_likelihood(
-                        e.method,
+                        e.method
+                            .points()
+                            .expect("an estimator with weights is a point-set method"),
                         y,
                         &c.solves.values[fi],
                         &c.weights,
@@ -345,6 +373,26 @@ pub fn run_unit(
                 costs.push(adaptive_seconds);
                 continue;
             }
+            if let Some(light) = &e.light {
+                // Draws its own directions from the integrand's techniques (math.md §11).
+                let clock = Instant::now();
+                let lit = f
+                    .lit()
+                    .expect("the plan checks that every integrand knows its light");
+                let (n_light, n_bsdf) = light.method.counts(n);
+                use crate::bq::estimator::mis::{BSDF_TECHNIQUE, LIGHT_TECHNIQUE};
+                let primary =
+                    |technique, count| primary_samples(plan.seed, light.sampler, technique, count, n, trial);
+                let (value, sd) = light.estimate(
+                    lit,
+                    &primary(LIGHT_TECHNIQUE, n_light),
+                    &primary(BSDF_TECHNIQUE, n_bsdf),
+                );
+                row.push(value);
+                sds.push(sd);
+                costs.push(clock.elapsed().as_secs_f64());
+                continue;
+            }
             let clock = Instant::now();
             let d = design_index(e.design);
             let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
@@ -359,7 +407,11 @@ pub fn run_unit(
                 y: &values[d],
                 solved: solves.and_then(|s| s.values.get(fi)).map(|v| Solved::Full(v)),
             };
-            let estimate = rule.estimate(e.method, values, prior, e.scale.unwrap_or(Scale::Unit));
+            let method = e
+                .method
+                .points()
+                .expect("light-aware estimators are handled above");
+            let estimate = rule.estimate(method, values, prior, e.scale.unwrap_or(Scale::Unit));
             amplitudes[fi][ei] = estimate.fitted_amplitude;
             row.push(estimate.value);
             sds.push(estimate.uncertainty);

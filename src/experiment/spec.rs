@@ -2,11 +2,13 @@
 //!
 //! Nothing here is validated beyond types; [`super::plan`] turns a spec into a plan.
 
-use crate::bq::estimator::Method;
+use crate::bq::estimator::MethodName;
+pub use crate::bq::estimator::mis::Heuristic;
 pub use crate::bq::model::{KernelMeanName, KernelSpec, ModelSpec};
 pub use crate::integrand::external::ExternalSpec;
 pub use crate::integrand::family::FamilySpec;
 use crate::sampling::Design;
+pub use crate::sampling::primary::Sampler;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -104,11 +106,23 @@ impl<'de> Deserialize<'de> for BandsSpec {
 pub struct EstimatorSpec {
     /// Unique name in outputs and checks.
     pub label: String,
-    /// The estimator's method by name (see `Method`).
-    pub method: Method,
-    /// Sampling design by name; default `uniform`.
+    /// The estimator's method by name: `mc`, `bmc`, `bmcp`, `bsq` (values on a design's points)
+    /// or the light-aware `mc-light`, `mc-bsdf`, `mis` (math.md §11; envmap integrands only).
+    pub method: MethodName,
+    /// Sampling design by name; default `uniform` (not for the light-aware methods: `sampler`).
     #[serde(default)]
     pub design: Option<Design>,
+    /// Light-aware methods: how every technique's primary samples are drawn, `uniform`
+    /// (independent, default) or `sobol` (Owen-scrambled afresh per trial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampler: Option<Sampler>,
+    /// `mis` only: the MIS heuristic, `power` (default) or `balance`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heuristic: Option<Heuristic>,
+    /// `mis` only: light samples from the compensated density `∝ max(0, Y − Ȳ)` (Karlík et al.
+    /// 2019); default false. Refused on a map that is constant.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compensation: Option<bool>,
     /// BMC/BMCP only; default Sobolev with s = 1.4.
     #[serde(default)]
     pub kernel: Option<KernelSpec>,

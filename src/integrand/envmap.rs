@@ -23,8 +23,11 @@
 //! `truth_error_estimate`). A map is read once per process and per lookup (its cell table, the
 //! prefix sums, is built once and shared by every integrand under it).
 
+use super::lit::Lit;
 use crate::render::env::{Environment, Lookup};
 use crate::render::texel;
+use crate::sampling::bsdf::BsdfSampler;
+use crate::sampling::light::LightDistribution;
 use crate::util::geometry::{Frame, Vec3};
 use crate::util::shown::shown;
 use schemars::JsonSchema;
@@ -49,7 +52,7 @@ pub const MAX_EXPONENT: f64 = 1e6;
 pub const CHANNELS: [&str; 4] = ["r", "g", "b", "luminance"];
 
 /// Rec. 709 luminance weights of linear RGB.
-pub const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
+pub const LUMINANCE: [f64; 3] = crate::sampling::light::LUMINANCE;
 
 /// The BRDF of an `envmap` integrand.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -207,25 +210,10 @@ impl EnvmapIntegrand {
         })
     }
 
-    /// `f(ω)` at the local direction `w` (normal `+z`).
+    /// `f(ω)` at the local direction `w` (normal `+z`): `L_c f_r ω_z` ([`Lit::integrand`]).
     #[inline]
     pub fn value(&self, w: &Vec3) -> f64 {
-        if w.z <= 0.0 {
-            return 0.0;
-        }
-        let l = self.env.radiance(&self.frame.to_world(w));
-        let l = self.weights[0] * l[0] + self.weights[1] * l[1] + self.weights[2] * l[2];
-        let fr = match self.brdf {
-            Brdf::Lambert => FRAC_1_PI,
-            Brdf::Phong { exponent, axis } => {
-                let c = w.dot(&axis);
-                if c <= 0.0 {
-                    return 0.0;
-                }
-                (exponent + 1.0) / TAU * c.powf(exponent)
-            }
-        };
-        l * fr * w.z
+        self.integrand(w)
     }
 
     /// `I = ∫_H f dω` by the texel sum.
@@ -307,6 +295,50 @@ impl EnvmapIntegrand {
             "{} seen by {brdf}, normal θ {t}°, ψ {p}°, {}",
             self.env_name, self.channel
         )
+    }
+}
+
+/// The map is the light, the BRDF the integrand's, and nothing occludes (`V = 1`).
+impl Lit for EnvmapIntegrand {
+    #[inline]
+    fn radiance(&self, w: &Vec3) -> f64 {
+        let l = self.env.radiance(&self.frame.to_world(w));
+        self.weights[0] * l[0] + self.weights[1] * l[1] + self.weights[2] * l[2]
+    }
+
+    #[inline]
+    fn brdf(&self, w: &Vec3) -> f64 {
+        match self.brdf {
+            Brdf::Lambert => FRAC_1_PI,
+            Brdf::Phong { exponent, axis } => {
+                let c = w.dot(&axis);
+                if c <= 0.0 {
+                    return 0.0;
+                }
+                (exponent + 1.0) / TAU * c.powf(exponent)
+            }
+        }
+    }
+
+    #[inline]
+    fn visibility(&self, _: &Vec3) -> f64 {
+        1.0
+    }
+
+    fn light(&self) -> &LightDistribution {
+        self.env.light()
+    }
+
+    fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// Cosine for Lambert, the lobe itself for Phong.
+    fn bsdf_sampler(&self) -> BsdfSampler {
+        match self.brdf {
+            Brdf::Lambert => BsdfSampler::Cosine,
+            Brdf::Phong { exponent, axis } => BsdfSampler::Phong { exponent, axis },
+        }
     }
 }
 

@@ -6,6 +6,7 @@
 pub mod envmap;
 pub mod external;
 pub mod family;
+pub mod lit;
 pub mod pixel;
 
 use crate::util::geometry::Vec3;
@@ -91,6 +92,23 @@ impl Integrand {
                 self.name()
             ))
         })
+    }
+
+    /// The integrand's factors and techniques ([`lit::Lit`]) for the light-aware estimators, or
+    /// why it has none (a sentence naming the integrand).
+    pub fn lit(&self) -> Result<&dyn lit::Lit, String> {
+        match self {
+            Integrand::Envmap { f, .. } => Ok(f.as_ref()),
+            Integrand::Cos(_) | Integrand::Axis { .. } | Integrand::External(_) => Err(format!(
+                "integrand {:?} has no light (only envmap integrands expose their light and BRDF)",
+                self.name()
+            )),
+            Integrand::Pixel { .. } => Err(format!(
+                "integrand {:?} is a scene pixel, whose light and visibility the light-aware estimators \
+                 do not sample yet (only envmap integrands)",
+                self.name()
+            )),
+        }
     }
 
     /// `I = ∫_H f dω`.

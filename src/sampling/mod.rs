@@ -1,5 +1,9 @@
-//! Sampling the hemisphere around `+z` (math.md §2).
+//! Sampling the hemisphere around `+z` (math.md §2); light and BSDF sampling and primary
+//! samples for the renderer's techniques (math.md §11: [`light`], [`bsdf`], [`primary`]).
 
+pub mod bsdf;
+pub mod light;
+pub mod primary;
 pub mod rings;
 pub mod sobol;
 pub mod stratified;
@@ -216,19 +220,10 @@ impl Design {
                     })
                     .collect()
             }
-            Design::Sobol => {
-                let (s1, s2): (u32, u32) = (rng.random(), rng.random());
-                // Below the 32 scrambled bits, uniform random bits make each coordinate
-                // uniform on [0, 1) rather than on a 2^−32 grid.
-                let unit = |bits: u32, rng: &mut R| (bits as f64 + rng.random::<f64>()) * 2f64.powi(-32);
-                (0..n as u32)
-                    .map(|i| {
-                        let u1 = unit(sobol::owen_scramble(sobol::sobol(i, 0), s1), rng);
-                        let u2 = unit(sobol::owen_scramble(sobol::sobol(i, 1), s2), rng);
-                        Density::Uniform.map(u1, u2)
-                    })
-                    .collect()
-            }
+            Design::Sobol => primary::sobol_points(n, rng)
+                .into_iter()
+                .map(|[u1, u2]| Density::Uniform.map(u1, u2))
+                .collect(),
             Design::Rings => rings::sample_set(n, rng),
         }
     }

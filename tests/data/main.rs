@@ -15,6 +15,9 @@
 mod brute_force;
 mod catalog;
 mod envmap;
+mod light;
+#[path = "../support/light_baselines.rs"]
+mod light_baselines;
 mod thesis;
 
 use libtest_mimic::{Arguments, Completion, Failed, Trial};
@@ -54,6 +57,7 @@ pub type Test = (&'static str, fn(&Data));
 const TOPICS: &[(&str, &[Test])] = &[
     ("catalog", catalog::TESTS),
     ("envmap", envmap::TESTS),
+    ("light", light::TESTS),
     ("thesis", thesis::TESTS),
 ];
 

@@ -11,4 +11,6 @@ mod brute_force;
 mod cli;
 mod common;
 mod experiment;
+#[path = "../support/light_baselines.rs"]
+mod light_baselines;
 mod render;

@@ -8,11 +8,16 @@
 //! BMC weights or a prior, how it estimates, its posterior). Experiments (`"method": "<name>"`)
 //! and the renderer (`--integrator <name>`) then accept it, and the conformance tests in
 //! `tests/it/bq/estimators.rs` walk [`Method::ALL`].
+//!
+//! The light-aware estimators ([`mis`]: `mc-light`, `mc-bsdf`, `mis`) do not take values on a
+//! given point set: they draw their own directions from the integrand's techniques
+//! ([`crate::integrand::lit`]). An experiment names either kind by [`MethodName`].
 
 pub mod bmc;
 pub mod bmcp;
 pub mod bsq;
 pub mod mc;
+pub mod mis;
 
 use crate::bq::weights::{BmcWeights, Diagnostics, Scale, Solved};
 use crate::sampling::Density;
@@ -274,6 +279,127 @@ impl Method {
                 })
             }
         }
+    }
+}
+
+/// An estimator's method as experiment files name it: an estimator of values on a point set
+/// ([`Method`]) or a light-aware one ([`mis::LightMethod`]). The questions the experiment runner
+/// asks of a method are answered for both; a light-aware estimator is a Monte Carlo average
+/// without weights, prior or posterior.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum MethodName {
+    Points(Method),
+    Light(mis::LightMethod),
+}
+
+impl MethodName {
+    /// The names of every method, for messages.
+    pub fn names() -> String {
+        Method::ALL
+            .map(|m| m.name())
+            .into_iter()
+            .chain(mis::LightMethod::ALL.map(|m| m.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// Parses a name of [`Method`] or [`mis::LightMethod`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Method::from_name(name)
+            .map(MethodName::Points)
+            .or_else(|| mis::LightMethod::from_name(name).map(MethodName::Light))
+    }
+
+    /// The name in files and CSVs.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodName::Points(m) => m.name(),
+            MethodName::Light(m) => m.name(),
+        }
+    }
+
+    /// The estimator of values on a point set, if it is one.
+    pub fn points(self) -> Option<Method> {
+        match self {
+            MethodName::Points(m) => Some(m),
+            MethodName::Light(_) => None,
+        }
+    }
+
+    /// The light-aware estimator, if it is one.
+    pub fn light(self) -> Option<mis::LightMethod> {
+        match self {
+            MethodName::Points(_) => None,
+            MethodName::Light(m) => Some(m),
+        }
+    }
+
+    /// [`Method::needs_weights`]; light-aware estimators have none.
+    pub fn needs_weights(self) -> bool {
+        self.points().is_some_and(Method::needs_weights)
+    }
+
+    /// [`Method::uses_prior`]; light-aware estimators have none.
+    pub fn uses_prior(self) -> bool {
+        self.points().is_some_and(Method::uses_prior)
+    }
+
+    /// [`Method::min_points`]; `mis` needs one sample of each technique.
+    pub fn min_points(self) -> usize {
+        match self {
+            MethodName::Points(m) => m.min_points(),
+            MethodName::Light(mis::LightMethod::Mis) => 2,
+            MethodName::Light(_) => 1,
+        }
+    }
+
+    /// [`Method::has_interval`]; [`mis::LightMethod::has_interval`].
+    pub fn has_interval(self, n: usize) -> bool {
+        match self {
+            MethodName::Points(m) => m.has_interval(n),
+            MethodName::Light(m) => m.has_interval(n),
+        }
+    }
+
+    /// [`Method::is_monte_carlo`]; light-aware estimators are Monte Carlo averages.
+    pub fn is_monte_carlo(self) -> bool {
+        self.points().is_none_or(Method::is_monte_carlo)
+    }
+
+    /// [`Method::states_own_unit_variance`]; false for light-aware estimators.
+    pub fn states_own_unit_variance(self) -> bool {
+        self.points().is_some_and(Method::states_own_unit_variance)
+    }
+
+    /// [`Method::diagnostics`]; None for light-aware estimators.
+    pub fn diagnostics(self, weights: Option<&BmcWeights>) -> Option<Diagnostics> {
+        self.points().and_then(|m| m.diagnostics(weights))
+    }
+}
+
+impl<'de> Deserialize<'de> for MethodName {
+    /// By name, with every name in the error.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        MethodName::from_name(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "unknown method {name:?}; expected one of {}",
+                MethodName::names()
+            ))
+        })
+    }
+}
+
+impl std::fmt::Display for MethodName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl From<Method> for MethodName {
+    fn from(m: Method) -> Self {
+        MethodName::Points(m)
     }
 }
 

@@ -4,11 +4,12 @@
 use super::scene::Rgb;
 use crate::error::InputError;
 use crate::files::read::FileKind;
+use crate::sampling::light::{self, LightDistribution};
 use crate::util::geometry::Vec3;
 use cells::CellTable;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, LazyLock, OnceLock};
 
 pub mod cells;
 
@@ -71,6 +72,26 @@ impl Environment {
                 lookup.name(),
                 other.key()
             ))),
+        }
+    }
+
+    /// The light's luminance distribution for light sampling (math.md §11), built once: a map's
+    /// ([`EnvMap::light`]), the sky's tabulated on a 512×256 lat-long grid (positive everywhere),
+    /// the uniform one for `white`.
+    pub fn light(&self) -> &LightDistribution {
+        static SKY: LazyLock<LightDistribution> = LazyLock::new(|| {
+            let grid = light::Grid {
+                rows: 256,
+                cols: 512,
+                psi_start: -PI,
+            };
+            LightDistribution::tabulate(grid, |d| light::luminance(sky(d)))
+        });
+        static WHITE: LazyLock<LightDistribution> = LazyLock::new(LightDistribution::uniform);
+        match self {
+            Environment::Sky => &SKY,
+            Environment::White => &WHITE,
+            Environment::Map(m) => m.light(),
         }
     }
 
@@ -160,6 +181,8 @@ pub struct EnvMap {
     lookup: Lookup,
     /// The map's cells under `lookup`, built on first use by the texel sum.
     cells: OnceLock<Arc<CellTable>>,
+    /// The map's luminance distribution under `lookup`, built on first use by light sampling.
+    light: OnceLock<Arc<LightDistribution>>,
 }
 
 impl EnvMap {
@@ -204,6 +227,7 @@ impl EnvMap {
             texels,
             lookup: Lookup::Mitsuba,
             cells: OnceLock::new(),
+            light: OnceLock::new(),
         })
     }
 
@@ -226,6 +250,7 @@ impl EnvMap {
             hash: 0,
             lookup: Lookup::Mitsuba,
             cells: OnceLock::new(),
+            light: OnceLock::new(),
         }
     }
 
@@ -234,6 +259,7 @@ impl EnvMap {
         EnvMap {
             lookup,
             cells: OnceLock::new(),
+            light: OnceLock::new(),
             ..self
         }
     }
@@ -248,6 +274,7 @@ impl EnvMap {
             hash: texel_hash(self.width, self.height, &texels),
             texels,
             cells: OnceLock::new(),
+            light: OnceLock::new(),
             ..self
         }
     }
@@ -270,6 +297,48 @@ impl EnvMap {
             Arc::new(match self.lookup {
                 Lookup::Mitsuba => CellTable::bilinear(self.width, self.height, texel),
                 Lookup::Thesis => CellTable::constant(self.width, self.height, texel),
+            })
+        })
+    }
+
+    /// The map's luminance distribution for light sampling (math.md §11) on the cells of its
+    /// lookup (§10): under `thesis` the `(H − 1) × (W − 1)` constant cells with their texel's
+    /// luminance (so `p_L ∝ Y` exactly); under `mitsuba` the `(H − 1) × W` bilinear cells with
+    /// the mean luminance of their four corner texels (positive wherever the bilinear radiance
+    /// is). Built once and shared by clones made after that.
+    pub fn light(&self) -> &LightDistribution {
+        self.light.get_or_init(|| {
+            let y = |r: usize, c: usize| light::luminance(self.texel(r, c).map(f64::from));
+            let (w, h) = (self.width, self.height);
+            Arc::new(match self.lookup {
+                Lookup::Thesis => {
+                    let cols = (w - 1).max(1);
+                    let values = (0..h - 1)
+                        .flat_map(|r| (0..cols).map(move |c| (r, c)))
+                        .map(|(r, c)| y(r, c))
+                        .collect();
+                    let grid = light::Grid {
+                        rows: h - 1,
+                        cols,
+                        psi_start: -PI,
+                    };
+                    LightDistribution::new(grid, values)
+                }
+                Lookup::Mitsuba => {
+                    let values = (0..h - 1)
+                        .flat_map(|r| (0..w).map(move |c| (r, c)))
+                        .map(|(r, c)| {
+                            let c1 = (c + 1) % w;
+                            0.25 * (y(r, c) + y(r, c1) + y(r + 1, c) + y(r + 1, c1))
+                        })
+                        .collect();
+                    let grid = light::Grid {
+                        rows: h - 1,
+                        cols: w,
+                        psi_start: PI / w as f64,
+                    };
+                    LightDistribution::new(grid, values)
+                }
             })
         })
     }

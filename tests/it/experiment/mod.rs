@@ -6,6 +6,7 @@ mod golden;
 mod inputs;
 mod irradiance;
 mod irradiance_shard;
+mod light;
 mod outputs;
 mod plots;
 mod read_back;

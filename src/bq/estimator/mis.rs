@@ -1,0 +1,239 @@
+//! The renderer's baselines (math.md §11): light sampling (`mc-light`), BSDF sampling
+//! (`mc-bsdf`) and multiple importance sampling of both (`mis`, Veach & Guibas 1995), on an
+//! integrand that knows its light ([`crate::integrand::lit::Lit`]).
+//!
+//! With `n_L` light and `n_B` BSDF samples,
+//!
+//! `Î = Σ_i w_L(x_i) f(x_i)/(n_L p_L(x_i)) + Σ_j w_B(y_j) f(y_j)/(n_B p_B(y_j))`,
+//!
+//! balance heuristic `w_t = n_t p_t / Σ_s n_s p_s`, power heuristic (β = 2)
+//! `w_t = (n_t p_t)² / Σ_s (n_s p_s)²`. `mc-light` is `n_B = 0` (`w_L = 1`), `mc-bsdf` is `n_L = 0`,
+//! `mis` is `n_L = n_B = N/2` (N even), so that `Î` is the mean of the `N/2` independent pair terms
+//! `τ_i = w_L(x_i) f(x_i)/p_L(x_i) + w_B(y_i) f(y_i)/p_B(y_i)` (weights with `n_L = n_B`): its
+//! standard error is `s_τ/√(N/2)`, Student-t with `N/2 − 1` degrees of freedom (for `mc-light` and
+//! `mc-bsdf`, `s/√N` of their `N` terms, as MC's). Unbiased wherever `Σ_t p_t > 0` on the support
+//! of `f`: light sampling covers every direction of `L > 0`, BSDF sampling every direction of
+//! `f_r > 0`. The *compensated* light density ([`crate::sampling::light`], Karlík et al. 2019)
+//! covers only `Y > Ȳ`, so it is offered with `mis` alone.
+//!
+//! Each technique warps its own primary samples ([`crate::sampling::primary`]): independent, or
+//! an Owen-scrambled Sobol set, a fresh scramble per technique and trial.
+
+use super::Uncertainty;
+use crate::integrand::lit::{Lit, Technique};
+use crate::sampling::primary::Sampler;
+use serde::{Deserialize, Serialize};
+
+/// A light-aware estimator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize, schemars::JsonSchema)]
+pub enum LightMethod {
+    /// Light sampling alone: `Î = (1/N) Σ f/p_L`.
+    #[serde(rename = "mc-light")]
+    McLight,
+    /// BSDF sampling alone: `Î = (1/N) Σ f/p_B` (cosine for Lambert, the lobe for Phong).
+    #[serde(rename = "mc-bsdf")]
+    McBsdf,
+    /// `N/2` light and `N/2` BSDF samples with MIS weights.
+    #[serde(rename = "mis")]
+    Mis,
+}
+
+impl LightMethod {
+    /// Every light-aware estimator, in the order of the docs.
+    pub const ALL: [LightMethod; 3] = [LightMethod::McLight, LightMethod::McBsdf, LightMethod::Mis];
+
+    /// The name in experiment files and CSVs.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightMethod::McLight => "mc-light",
+            LightMethod::McBsdf => "mc-bsdf",
+            LightMethod::Mis => "mis",
+        }
+    }
+
+    /// Parses [`LightMethod::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// `(n_L, n_B)` at `N` samples (`mis`: `N` even).
+    pub fn counts(self, n: usize) -> (usize, usize) {
+        match self {
+            LightMethod::McLight => (n, 0),
+            LightMethod::McBsdf => (0, n),
+            LightMethod::Mis => (n / 2, n / 2),
+        }
+    }
+
+    /// Whether `N` samples can be split as the estimator splits them (the message says why not).
+    pub fn check_count(self, n: usize) -> Result<(), String> {
+        match self {
+            LightMethod::Mis if n < 2 || n % 2 == 1 => Err(format!(
+                "N = {n}: mis draws N/2 light and N/2 BSDF samples, so N must be even and at least 2"
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The independent terms whose mean is `Î` at `N` samples ([`LightMethod::counts`]).
+    fn terms(self, n: usize) -> usize {
+        match self {
+            LightMethod::McLight | LightMethod::McBsdf => n,
+            LightMethod::Mis => n / 2,
+        }
+    }
+
+    /// Whether the estimator states an interval at `N`: two terms or more.
+    pub fn has_interval(self, n: usize) -> bool {
+        self.check_count(n).is_ok() && self.terms(n) >= 2
+    }
+}
+
+/// The MIS weighting heuristic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, Deserialize, Serialize, schemars::JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Heuristic {
+    /// `w_t = (n_t p_t)² / Σ_s (n_s p_s)²` (β = 2), Mitsuba's `direct`.
+    #[default]
+    Power,
+    /// `w_t = n_t p_t / Σ_s n_s p_s`.
+    Balance,
+}
+
+impl Heuristic {
+    /// The name in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Heuristic::Power => "power",
+            Heuristic::Balance => "balance",
+        }
+    }
+
+    /// The weight of the technique of density `p` against the other's `q` (equal counts).
+    #[inline]
+    pub fn weight(self, p: f64, q: f64) -> f64 {
+        match self {
+            Heuristic::Balance => p / (p + q),
+            Heuristic::Power => {
+                let (p2, q2) = (p * p, q * q);
+                p2 / (p2 + q2)
+            }
+        }
+    }
+}
+
+/// A light-aware estimator with its options.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LightEstimator {
+    pub method: LightMethod,
+    /// The MIS heuristic (`mis` only; [`Heuristic::Power`] otherwise, unused).
+    pub heuristic: Heuristic,
+    /// Light samples from the compensated density (`mis` only).
+    pub compensation: bool,
+    /// How every technique's primary samples are drawn.
+    pub sampler: Sampler,
+}
+
+/// Stream identifiers of the two techniques' primary samples.
+pub const LIGHT_TECHNIQUE: u64 = 0;
+pub const BSDF_TECHNIQUE: u64 = 1;
+
+impl LightEstimator {
+    /// The light technique (plain or compensated).
+    pub fn light_technique(&self) -> Technique {
+        Technique::Light {
+            compensated: self.compensation,
+        }
+    }
+
+    /// `Î` and its standard error from the light technique's primary samples `light_u` and the
+    /// BSDF technique's `bsdf_u` (their lengths [`LightMethod::counts`]); the integrand's values
+    /// are `N` evaluations of `f` (one ray each where there is visibility).
+    pub fn estimate(
+        &self,
+        f: &dyn Lit,
+        light_u: &[[f64; 2]],
+        bsdf_u: &[[f64; 2]],
+    ) -> (f64, Option<Uncertainty>) {
+        let light = self.light_technique();
+        let terms: Vec<f64> = match self.method {
+            LightMethod::McLight => light_u
+                .iter()
+                .map(|&u| {
+                    let (w, p) = f.sample(light, u);
+                    f.integrand(&w) / p
+                })
+                .collect(),
+            LightMethod::McBsdf => bsdf_u
+                .iter()
+                .map(|&u| {
+                    let (w, p) = f.sample(Technique::Bsdf, u);
+                    f.integrand(&w) / p
+                })
+                .collect(),
+            LightMethod::Mis => {
+                assert_eq!(light_u.len(), bsdf_u.len(), "mis pairs its samples");
+                light_u
+                    .iter()
+                    .zip(bsdf_u)
+                    .map(|(&a, &b)| {
+                        let mut tau = 0.0;
+                        let (x, p_l) = f.sample(light, a);
+                        let fx = f.integrand(&x);
+                        if fx != 0.0 {
+                            let w = self.heuristic.weight(p_l, f.pdf(Technique::Bsdf, &x));
+                            tau += w * fx / p_l;
+                        }
+                        let (y, p_b) = f.sample(Technique::Bsdf, b);
+                        let fy = f.integrand(&y);
+                        if fy != 0.0 {
+                            let w = self.heuristic.weight(p_b, f.pdf(light, &y));
+                            tau += w * fy / p_b;
+                        }
+                        tau
+                    })
+                    .collect()
+            }
+        };
+        let m = terms.len();
+        let value = terms.iter().sum::<f64>() / m as f64;
+        let uncertainty = (m >= 2).then(|| Uncertainty {
+            sd: crate::util::stats::sample_sd(&terms) / (m as f64).sqrt(),
+            dof: Some(m - 1),
+            amplitude: None,
+        });
+        (value, uncertainty)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The heuristics' weights of the two techniques add up to 1, and balance is `p/(p + q)`.
+    #[test]
+    fn the_weights_of_two_techniques_add_up_to_one() {
+        for (p, q) in [(1.0, 1.0), (0.3, 7.0), (1e6, 1e-3), (2.0, 0.0)] {
+            for h in [Heuristic::Power, Heuristic::Balance] {
+                assert!(
+                    (h.weight(p, q) + h.weight(q, p) - 1.0).abs() < 1e-15,
+                    "{h:?} {p} {q}"
+                );
+            }
+        }
+        assert_eq!(Heuristic::Balance.weight(1.0, 3.0), 0.25);
+        assert_eq!(Heuristic::Power.weight(1.0, 3.0), 0.1);
+    }
+
+    #[test]
+    fn names_round_trip_and_mis_needs_an_even_count() {
+        for m in LightMethod::ALL {
+            assert_eq!(LightMethod::from_name(m.name()), Some(m));
+        }
+        assert!(LightMethod::Mis.check_count(3).is_err());
+        assert!(LightMethod::Mis.check_count(0).is_err());
+        assert!(LightMethod::Mis.check_count(2).is_ok());
+        assert!(!LightMethod::Mis.has_interval(2) && LightMethod::Mis.has_interval(4));
+        assert!(LightMethod::McLight.has_interval(2) && !LightMethod::McLight.has_interval(1));
+    }
+}

@@ -1,0 +1,60 @@
+//! The renderer's baselines (math.md §11) checked for bias, shared by the test binaries (`it`
+//! and `data`, each includes this file by path).
+
+use workbench::bq::estimator::mis::{
+    BSDF_TECHNIQUE, Heuristic, LIGHT_TECHNIQUE, LightEstimator, LightMethod,
+};
+use workbench::experiment::runner::primary_samples;
+use workbench::integrand::Integrand;
+use workbench::sampling::primary::Sampler;
+
+/// Every baseline of the issue (names for messages).
+pub fn baselines() -> Vec<(&'static str, LightEstimator)> {
+    let e = |method, heuristic, compensation, sampler| LightEstimator {
+        method,
+        heuristic,
+        compensation,
+        sampler,
+    };
+    use Heuristic::*;
+    use LightMethod::*;
+    use Sampler::{Sobol, Uniform};
+    vec![
+        ("mc-light", e(McLight, Power, false, Uniform)),
+        ("mc-bsdf", e(McBsdf, Power, false, Uniform)),
+        ("mis", e(Mis, Power, false, Uniform)),
+        ("mis balance", e(Mis, Balance, false, Uniform)),
+        ("mis compensation", e(Mis, Power, true, Uniform)),
+        ("mis sobol", e(Mis, Power, false, Sobol)),
+        ("mc-light sobol", e(McLight, Power, false, Sobol)),
+        ("mis balance compensation sobol", e(Mis, Balance, true, Sobol)),
+    ]
+}
+
+/// The mean and its standard error over `trials` trials of `N = n` (the runner's primary
+/// samples, trial by trial), checked to lie within 4 SE of the truth; the SE must be positive
+/// (a test that cannot fail would pass on a constant).
+pub fn check_unbiased(f: &Integrand, n: usize, trials: usize, seed: u64) {
+    let lit = f.lit().unwrap();
+    let truth = f.integral();
+    for (name, e) in baselines() {
+        let (nl, nb) = e.method.counts(n);
+        let estimates: Vec<f64> = (0..trials)
+            .map(|t| {
+                let light = primary_samples(seed, e.sampler, LIGHT_TECHNIQUE, nl, n, t);
+                let bsdf = primary_samples(seed, e.sampler, BSDF_TECHNIQUE, nb, n, t);
+                e.estimate(lit, &light, &bsdf).0
+            })
+            .collect();
+        let mean = estimates.iter().sum::<f64>() / trials as f64;
+        let var = estimates.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (trials - 1) as f64;
+        let se = (var / trials as f64).sqrt();
+        assert!(se > 0.0, "{name} on {}: no spread", f.name());
+        assert!(
+            (mean - truth).abs() < 4.0 * se,
+            "{name} on {}: mean {mean} vs truth {truth} (SE {se}, {:.1} SE)",
+            f.name(),
+            (mean - truth).abs() / se
+        );
+    }
+}
