@@ -32,12 +32,12 @@ pub mod external;
 pub mod plan;
 pub mod plot;
 pub mod reference;
+#[cfg(test)]
+mod replot;
 pub mod runner;
 pub mod shard;
 pub mod spec;
 pub mod summary;
-#[cfg(test)]
-mod replot;
 
 pub use plan::{TablePlan, VariantPlan, coverage_png_name, error_png_name, load, png_name, sd_png_name};
 pub use reference::{SCENE_VERSION, reference_key};

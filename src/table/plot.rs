@@ -6,7 +6,7 @@
 //! ([`merge_heads`]); a variant that lies on an earlier one along part of the range only is drawn
 //! over it, the earlier one wider, and named in the caption. A table of one spp has no rate
 //! to draw: it is a dot chart instead ([`draw_dots`]), one row per variant, its mean RMSE as a
-//! dot on a log axis with its interval as a bar.
+//! dot on a linear axis from 0 with its interval as a bar.
 
 use super::plan::{ReferencePlan, TablePlan};
 use super::summary::Cell;
@@ -324,7 +324,7 @@ const DOT_ROW: u32 = 34;
 
 /// A table of one spp: a dot chart (Cleveland's), one row per variant in the table's order
 /// top to bottom, labelled on the left with the variant's name; its mean RMSE a marker in its
-/// face on a log axis, its 95% interval a bar in its colour. A chart against spp would be a
+/// face on a linear axis from 0, its 95% interval a bar in its colour. A chart against spp would be a
 /// single column of points, one on another.
 fn draw_dots(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Figure> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -342,8 +342,18 @@ fn draw_dots(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Fig
         })
         .filter(|&y| ok(y))
         .collect();
-    let (x0, x1) = style::padded_log_range(&values, 1.04);
-    let x = Axis::log_values((x0, x1), RMSE_AXIS);
+    // A linear axis from 0, so that the bars' lengths compare as ratios (a log axis over the
+    // narrow range of one spp holds one tick label or none).
+    let x1 = 1.06 * values.iter().copied().fold(0.0, f64::max);
+    let x1 = if x1 > 0.0 { x1 } else { 1.0 };
+    let x0 = 0.0;
+    let decimals = (-(x1 / 5.0).log10().floor()).max(0.0) as usize;
+    let x = Axis {
+        range: (x0, x1),
+        ticks: style::Ticks::default(),
+        desc: RMSE_AXIS.into(),
+        labels: style::Labels::Fixed(decimals),
+    };
     let faces = variant_faces(plan);
     let labels: Vec<&str> = plan.variants.iter().map(|v| v.label.as_str()).collect();
     let label_area = labels
@@ -358,7 +368,7 @@ fn draw_dots(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Fig
     let caption = [format!(
         "One spp ({spp}), so a dot chart rather than a line against spp: one row per variant, in the table's order \
              top to bottom; the marker (in the variant's face) at its mean RMSE over the repetitions ({}), the bar its \
-             95% Student-t interval. The RMSE axis is logarithmic.",
+             95% Student-t interval. The RMSE axis is linear from 0, so lengths compare as ratios.",
         repetitions_text(plan)
     )];
     style::svg_figure(
@@ -374,7 +384,7 @@ fn draw_dots(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Fig
                 .margin_top(8)
                 .x_label_area_size(52)
                 .y_label_area_size(label_area)
-                .build_cartesian_2d(x.log_coord(), -0.5..rows as f64 - 0.5)?;
+                .build_cartesian_2d(x.linear_coord(), -0.5..rows as f64 - 0.5)?;
             let x_format = |v: &f64| x.labels.format(*v);
             chart
                 .configure_mesh()
@@ -388,7 +398,6 @@ fn draw_dots(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Fig
                 .disable_y_mesh()
                 .y_labels(0)
                 .draw()?;
-            style::chart_minor_ticks(root, &chart, &x.ticks.minor, &[], (x0, -0.5))?;
             let font = (style::FONT, style::TICK_FONT)
                 .into_font()
                 .color(&BLACK)

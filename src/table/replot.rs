@@ -19,7 +19,11 @@ use std::path::Path;
 fn fixed_rows(plan: &TablePlan, text: &str) -> Vec<Row> {
     let mut reader = csv::Reader::from_reader(text.as_bytes());
     let head: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
-    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let col = |name: &str| {
+        head.iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("{name}"))
+    };
     reader
         .records()
         .map(|r| {
@@ -57,7 +61,10 @@ fn adaptive_rows(plan: &TablePlan, targets: &[f64], text: &str) -> Vec<AdaptiveR
             let target = f(4);
             AdaptiveRow {
                 variant: variant_of(plan, &r[0]),
-                column: targets.iter().position(|&t| t == target).expect("a target of the plan"),
+                column: targets
+                    .iter()
+                    .position(|&t| t == target)
+                    .expect("a target of the plan"),
                 target,
                 repetition: r[5].parse().unwrap(),
                 seed: r[6].parse().unwrap(),
