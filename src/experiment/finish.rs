@@ -69,11 +69,18 @@ pub fn write_set(
     // With only tolerance estimators every cell sits at its first stage, so error and coverage
     // against N say nothing; `<integrand>-tolerance.svg` replaces them.
     let only_tolerance = plan.estimators.iter().all(|e| e.tolerance.is_some());
+    // Beside other estimators, a tolerance estimator is drawn at the N it used: its stopping
+    // cells (computed again by `write_stopping`, which writes them).
+    let used = if only_tolerance || plan.estimators.iter().all(|e| e.tolerance.is_none()) {
+        Vec::new()
+    } else {
+        adaptive::summarize(plan, &adaptive::read_outcomes(plan, logs)?)
+    };
     for (fi, f) in plan.integrands.iter().enumerate() {
         if only_tolerance {
             continue;
         }
-        let figure = plot::error_plot_svg(plan, &cells, fi)?;
+        let figure = plot::error_plot_svg(plan, &cells, &used, fi)?;
         crate::plot::write_figure(
             folder,
             &format!("{}.svg", f.name()),
@@ -81,7 +88,7 @@ pub fn write_set(
             &figure,
         )?;
         if cells.iter().any(|c| c.integrand == fi && c.coverage.is_some()) {
-            let figure = coverage_plot::coverage_plot_svg(plan, &cells, fi)?;
+            let figure = coverage_plot::coverage_plot_svg(plan, &cells, &used, fi)?;
             crate::plot::write_figure(
                 folder,
                 &format!("{}-coverage.svg", f.name()),

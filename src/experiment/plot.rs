@@ -5,7 +5,10 @@
 //! fill, dashed edges); the legend gives its slope fitted over the stated range ([`super::fit`]),
 //! or says that it is exact; a dashed N^(−1/2) guide goes through the MC series. A series that
 //! lies on an earlier one is drawn over it, the earlier one wider, and the caption says where.
+//! A tolerance estimator's points stand at the mean N its stopping rule used from each first
+//! stage N₀ ([`drawn_n`]), not at N₀, and get no slope.
 
+use super::adaptive::Cell as AdaptiveCell;
 use super::fit::{PLATEAU_SLOPE, SeriesFit, SlopeFlag, fit_series, is_fittable};
 use super::plan::Plan;
 use super::summary::CellSummary;
@@ -16,15 +19,78 @@ use plotters::prelude::*;
 /// Height of the chart (axes and plotting area), between the title block and the legend.
 const CHART_HEIGHT: u32 = 560;
 
-/// The figure (SVG and caption) for integrand `fi`.
-pub fn error_plot_svg(plan: &Plan, cells: &[CellSummary], fi: usize) -> crate::Result<style::Figure> {
-    draw(plan, cells, fi).map_err(|e| crate::Error::Encode(format!("drawing the error plot: {e}")))
+/// The figure (SVG and caption) for integrand `fi`; `used` holds the tolerance estimators'
+/// stopping cells (empty without them), which say where their points stand ([`drawn_n`]).
+pub fn error_plot_svg(
+    plan: &Plan,
+    cells: &[CellSummary],
+    used: &[AdaptiveCell],
+    fi: usize,
+) -> crate::Result<style::Figure> {
+    draw(plan, cells, used, fi).map_err(|e| crate::Error::Encode(format!("drawing the error plot: {e}")))
+}
+
+/// Where cell `c` stands on an N axis: at its N, or, for a tolerance estimator, at the mean
+/// number of points its stopping rule used from first stage N₀ = `c.n` (`mean_n_used` of
+/// `stopping_summary.csv`): the N it actually spent (issue 43 item 5).
+pub fn drawn_n(used: &[AdaptiveCell], c: &CellSummary) -> f64 {
+    used.iter()
+        .find(|u| u.integrand == c.integrand && u.estimator == c.estimator && u.first_n == c.n)
+        .map_or(c.n as f64, |u| u.mean_n_used)
+}
+
+/// The N axis over `range` of a plot whose points may stand beyond the N grid `samples`
+/// (tolerance estimators at the N they used), ticked as [`Axis::counts`] at the grid and, for
+/// a grid of powers of two, at the powers of two of the range beyond it.
+pub fn n_axis(samples: &[usize], range: (f64, f64)) -> Axis {
+    let mut grid = samples.to_vec();
+    let (lo, hi) = (grid.iter().min().copied(), grid.iter().max().copied());
+    if let (Some(lo), Some(hi)) = (lo, hi)
+        && grid.iter().all(|n| n.is_power_of_two())
+    {
+        // The largest power of two ≤ the range's top, the smallest ≥ its bottom.
+        let top = 1usize << (range.1.max(1.0).log2().floor() as u32);
+        let bottom = (range.0.max(1.0).ceil() as usize).next_power_of_two();
+        if top > hi {
+            grid.push(top);
+        }
+        if bottom < lo {
+            grid.push(bottom);
+        }
+    }
+    Axis::counts(&grid, range, "number of samples N")
+}
+
+/// The caption's sentence on tolerance estimators, when the figure has any.
+pub fn tolerance_note(plan: &Plan, shown: impl Fn(usize) -> bool) -> Option<String> {
+    let names: Vec<&str> = plan
+        .estimators
+        .iter()
+        .enumerate()
+        .filter(|(ei, e)| e.tolerance.is_some() && shown(*ei))
+        .map(|(_, e)| e.label.as_str())
+        .collect();
+    (!names.is_empty()).then(|| {
+        format!(
+            "{} {} at a tolerance: each point stands at the mean N the stopping rule used from a first stage N₀ \
+             (mean_n_used in stopping_summary.csv), not at N₀, and no slope is fitted to {}.",
+            names.join(", "),
+            if names.len() == 1 { "stops" } else { "stop" },
+            if names.len() == 1 { "it" } else { "them" }
+        )
+    })
 }
 
 /// The estimator the N^(−1/2) guide goes through: the first `mc` estimator on uniform i.i.d.
-/// points (the rate's textbook case), else the first `mc` one; `None` without MC.
+/// points (the rate's textbook case), else the first `mc` one; tolerance estimators (which
+/// stand at the N they used) only when no other is MC; `None` without MC.
 pub fn guide_estimator(plan: &Plan) -> Option<usize> {
-    let mc = |e: &&super::plan::PlannedEstimator| e.method.is_monte_carlo();
+    let fixed = plan
+        .estimators
+        .iter()
+        .any(|e| e.method.is_monte_carlo() && e.tolerance.is_none());
+    let mc =
+        |e: &&super::plan::PlannedEstimator| e.method.is_monte_carlo() && (e.tolerance.is_none() || !fixed);
     plan.estimators
         .iter()
         .position(|e| mc(&e) && e.design == Design::Iid(Density::Uniform))
@@ -115,12 +181,19 @@ fn runs(len: usize, keep: impl Fn(usize) -> bool) -> Vec<std::ops::Range<usize>>
     out
 }
 
-fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<style::Figure> {
+fn draw(
+    plan: &Plan,
+    cells: &[CellSummary],
+    used: &[AdaptiveCell],
+    fi: usize,
+) -> style::FigureResult<style::Figure> {
     let integrand = &plan.integrands[fi];
     let name = integrand.display_name();
     let truth = integrand.integral();
     let ok = |e: f64| is_fittable(e, truth);
     let from_n = plan.fit_from_n;
+    let xn = |c: &CellSummary| drawn_n(used, c);
+    let tolerance = |ei: usize| plan.estimators[ei].tolerance.is_some();
 
     // Each estimator's cells in N order, and what its points say about its rate.
     let series: Vec<Vec<&CellSummary>> = (0..plan.estimators.len())
@@ -129,7 +202,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                 .iter()
                 .filter(|c| c.integrand == fi && c.estimator == ei)
                 .collect();
-            s.sort_by_key(|c| c.n);
+            s.sort_by(|a, b| xn(a).total_cmp(&xn(b)));
             s
         })
         .collect();
@@ -158,10 +231,15 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
 
     let n_min = *plan.samples.iter().min().expect("samples") as f64;
     let n_max = *plan.samples.iter().max().expect("samples") as f64;
+    // The N the points stand at: the grid's, and the tolerance estimators' N used.
+    let xs: Vec<f64> = [n_min, n_max]
+        .into_iter()
+        .chain(series.iter().flatten().map(|c| xn(c)))
+        .collect();
     // The guide ∝ N^(−1/2) through the MC series' mean error at its first N (with an error).
     let guide = guide_estimator(plan).and_then(|ei| {
         let c = series[ei].iter().find(|c| ok(c.mean_abs_error))?;
-        let a = c.mean_abs_error * (c.n as f64).sqrt();
+        let a = c.mean_abs_error * xn(c).sqrt();
         Some((ei, a, vec![(n_min, a / n_min.sqrt()), (n_max, a / n_max.sqrt())]))
     });
 
@@ -182,8 +260,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         .chain(guide.iter().flat_map(|g| g.2.iter().map(|p| p.1)))
         .collect();
     let (y0, y1) = style::padded_log_range(&drawn, 1.5);
-    let (x0, x1) = style::padded_log_range(&[n_min, n_max], 1.25);
-    let x = Axis::counts(&plan.samples, (x0, x1), "number of samples N");
+    let x = n_axis(&plan.samples, style::padded_log_range(&xs, 1.25));
     let y = Axis::log_values((y0, y1), error_axis_label("absolute error |Î − I|"));
 
     // Series that lie on an earlier one are drawn over it, the earlier wider (and said so).
@@ -192,7 +269,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         .map(|s| {
             s.iter()
                 .filter(|c| ok(c.mean_abs_error))
-                .map(|c| (c.n as f64, c.mean_abs_error))
+                .map(|c| (xn(c), c.mean_abs_error))
                 .collect()
         })
         .collect();
@@ -218,7 +295,14 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
         .iter()
         .zip(&fits)
         .enumerate()
-        .map(|(ei, (e, fit))| LegendEntry::key(Swatch::Styled(styles[ei]), fit_label(&e.label, fit)))
+        .map(|(ei, (e, fit))| {
+            let text = if tolerance(ei) {
+                format!("{}: at the mean N used", e.label)
+            } else {
+                fit_label(&e.label, fit)
+            };
+            LegendEntry::key(Swatch::Styled(styles[ei]), text)
+        })
         .collect();
     if let Some((ei, _, _)) = &guide {
         legend.push(LegendEntry::key(
@@ -261,14 +345,19 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
     } else {
         format!("No quantile bands are drawn ({rule}); the 10–90% quantiles of |Î − I| are in summary.csv.")
     });
-    let any_exact = fits.iter().any(|f| match f {
+    let fitted = || {
+        fits.iter()
+            .enumerate()
+            .filter(|(ei, _)| !tolerance(*ei))
+            .map(|p| p.1)
+    };
+    let any_exact = fitted().any(|f| match f {
         SeriesFit::Exact => true,
         SeriesFit::Slope { exact_at, .. } | SeriesFit::TooFew { exact_at, .. } => !exact_at.is_empty(),
     });
     // The reasons for "n/a" that this figure uses, each explained.
     let flagged = |flag: SlopeFlag| {
-        fits.iter()
-            .any(|f| matches!(f, SeriesFit::Slope { fit, .. } if fit.flag == Some(flag)))
+        fitted().any(|f| matches!(f, SeriesFit::Slope { fit, .. } if fit.flag == Some(flag)))
     };
     let mut reasons = Vec::new();
     if flagged(SlopeFlag::Plateau) {
@@ -307,6 +396,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
             labels[*ei]
         ));
     }
+    caption.extend(tolerance_note(plan, |_| true));
     caption.extend(coincident);
 
     style::svg_figure(
@@ -328,15 +418,13 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                     let run = &s[r];
                     // A lower quantile of 0 (some trials exact) reaches below the axis: clamp to it.
                     let lower = |c: &CellSummary| if ok(c.q10_abs_error) { c.q10_abs_error } else { y0 };
-                    let mut band: Vec<(f64, f64)> =
-                        run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
-                    band.extend(run.iter().rev().map(|c| (c.n as f64, lower(c))));
+                    let mut band: Vec<(f64, f64)> = run.iter().map(|c| (xn(c), c.q90_abs_error)).collect();
+                    band.extend(run.iter().rev().map(|c| (xn(c), lower(c))));
                     chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.06).filled())))?;
-                    let upper: Vec<(f64, f64)> = run.iter().map(|c| (c.n as f64, c.q90_abs_error)).collect();
+                    let upper: Vec<(f64, f64)> = run.iter().map(|c| (xn(c), c.q90_abs_error)).collect();
                     chart.draw_series(DashedLineSeries::new(upper, 5, 4, edge))?;
                     for lr in runs(run.len(), |i| ok(run[i].q10_abs_error)) {
-                        let low: Vec<(f64, f64)> =
-                            run[lr].iter().map(|c| (c.n as f64, c.q10_abs_error)).collect();
+                        let low: Vec<(f64, f64)> = run[lr].iter().map(|c| (xn(c), c.q10_abs_error)).collect();
                         chart.draw_series(DashedLineSeries::new(low, 5, 4, edge))?;
                     }
                 }
@@ -346,7 +434,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
                 let colour = style::colour(style.colour);
                 // Exact (or non-finite) means are gaps in the line, not points at an axis floor.
                 for r in runs(s.len(), |i| ok(s[i].mean_abs_error)) {
-                    let line: Vec<(f64, f64)> = s[r].iter().map(|c| (c.n as f64, c.mean_abs_error)).collect();
+                    let line: Vec<(f64, f64)> = s[r].iter().map(|c| (xn(c), c.mean_abs_error)).collect();
                     let stroke = colour.stroke_width(style.line_width());
                     if style.dashed {
                         chart.draw_series(DashedLineSeries::new(line, 8, 5, stroke))?;
@@ -361,7 +449,7 @@ fn draw(plan: &Plan, cells: &[CellSummary], fi: usize) -> style::FigureResult<st
             }
             for (ei, s) in series.iter().enumerate() {
                 for c in s.iter().filter(|c| ok(c.mean_abs_error)) {
-                    let at = chart.backend_coord(&(c.n as f64, c.mean_abs_error));
+                    let at = chart.backend_coord(&(xn(c), c.mean_abs_error));
                     style::draw_styled_marker(root, styles[ei], at)?;
                 }
             }
@@ -548,7 +636,8 @@ mod face_tests {
     }
 
     /// The same estimator has the same face whatever else the run compares, and the first
-    /// four methods are told apart by colour, the designs by marker, MC by its dashed line.
+    /// four methods are told apart by colour, their other variants by colours of their own, the
+    /// designs by marker, MC by its dashed line.
     #[test]
     fn an_estimator_keeps_its_face_across_runs() {
         let a = plan_of(r#"[{"label": "MC", "method": "mc"}, {"label": "BMC", "method": "bmc"}]"#);
@@ -561,7 +650,9 @@ mod face_tests {
         assert_eq!(fa[0], fb[3]);
         assert_eq!(fa[1], fb[1]);
         assert!(fa[0].dashed && !fa[1].dashed);
-        assert_eq!((fb[2].colour, fb[1].colour), (1, 1));
+        // BMC on Sobol points: a colour of its own (not BMC's), Sobol's marker.
+        assert_eq!(fb[1].colour, 1);
+        assert_ne!(fb[2].colour, fb[1].colour);
         assert_ne!(fb[2].marker, fb[1].marker);
         // MC, BMC, BMCP, BSQ.
         let colours: Vec<usize> = [3, 1, 4, 0].map(|i| fb[i].colour).to_vec();

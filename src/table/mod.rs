@@ -32,6 +32,8 @@ pub mod external;
 pub mod plan;
 pub mod plot;
 pub mod reference;
+#[cfg(test)]
+mod replot;
 pub mod runner;
 pub mod shard;
 pub mod spec;
@@ -163,13 +165,8 @@ pub fn write_outputs(
             "the external reference, tone-mapped",
             &e.reference.to_png()?,
         )?;
-        write_error_png(
-            folder,
-            "reference-vs-theirs-error.png",
-            " (the external reference against this table's)",
-            &e.reference,
-            reference,
-        )?;
+        let (png, description) = reference_error_png(&e.reference, reference)?;
+        folder.write("reference-vs-theirs-error.png", &description, &png)?;
         for i in &e.images {
             let name = plan::slug(&i.label);
             folder.write(
@@ -297,6 +294,30 @@ fn write_error_png(
     )
 }
 
+/// `reference-vs-theirs-error.png` and its description: the external reference's error
+/// against this table's, per pixel, on a *normalised* scale — 0 to its own largest error, the
+/// colour bar's top — with that largest error stated in the description. Two references differ
+/// by far less than a render's error, so on the renders' fixed scale
+/// ([`crate::render::image::DEFAULT_ERROR_MAX`]) the image is all one dark colour
+/// (issue 43 item 5); the renders' error images keep the fixed scale, to compare with each other.
+pub fn reference_error_png(theirs: &Image, ours: &Image) -> crate::Result<(Vec<u8>, String)> {
+    use crate::render::image::{ColourMap, DEFAULT_ERROR_MAX, ErrorScale, short_number};
+    let error = theirs.error_png(
+        ours,
+        ErrorScale::Normalised,
+        DEFAULT_ERROR_MAX,
+        ColourMap::Viridis,
+    )?;
+    let (x, y) = error.max_at;
+    let description = format!(
+        "its error image: ‖their reference − this table's‖₂ per pixel on a normalised scale, 0 to its largest error \
+         {} (at pixel ({x}, {y}); the colour bar's top), not the renders' fixed 0–{DEFAULT_ERROR_MAX}: the two references \
+         differ by far less than a render's error",
+        short_number(error.max_error)
+    );
+    Ok((error.png, description))
+}
+
 /// A human-readable account of a table plan (for `validate`), followed by the resolved JSON.
 pub fn describe(plan: &TablePlan) -> String {
     let renders: usize = plan.repetitions.iter().sum::<usize>() * plan.variants.len();
@@ -325,4 +346,37 @@ pub fn describe(plan: &TablePlan) -> String {
     s += &serde_json::to_string_pretty(&json).expect("serialisable");
     s.push('\n');
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::image::viridis;
+
+    /// Issue 43 item 5: two references 0.004 apart at most gave an image all of one dark colour
+    /// on the renders' fixed 0–0.25 scale; normalised, the largest difference is the bar's top
+    /// colour and the description states the scale and the largest error.
+    #[test]
+    fn the_reference_comparison_is_on_a_normalised_stated_scale() {
+        let (w, h) = (8, 4);
+        let ours = Image {
+            width: w,
+            height: h,
+            data: vec![[0.5; 3]; w * h],
+        };
+        let mut theirs = ours.clone();
+        for (i, p) in theirs.data.iter_mut().enumerate() {
+            p[0] += 0.001 * (i % w) as f64 / (w - 1) as f64;
+        }
+        theirs.data[3 * w + 5][1] += 0.004;
+        let (png, description) = reference_error_png(&theirs, &ours).unwrap();
+        let img = ::image::load_from_memory(&png).unwrap().to_rgb8();
+        assert_eq!(img.get_pixel(5, 3).0, viridis(1.0));
+        assert_eq!(img.get_pixel(0, 0).0, viridis(0.0));
+        assert!(
+            description.contains("normalised scale, 0 to its largest error 0.00406"),
+            "{description}"
+        );
+        assert!(description.contains("at pixel (5, 3)"), "{description}");
+    }
 }

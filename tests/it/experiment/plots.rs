@@ -361,3 +361,46 @@ fn error_images_have_a_colour_bar_and_report_their_scale() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("the image's own maximum"), "{}", stderr(&o));
 }
+
+/// Issue 43 item 5: beside fixed-N estimators, a tolerance estimator is drawn at the mean N its
+/// stopping rule used (stopping_summary.csv), not at its first stage: the N axis reaches those
+/// N, the legend gives it no slope, and both captions say where its points stand.
+#[test]
+fn tolerance_estimators_stand_at_the_n_they_used() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("t.json"),
+        r#"{ "name": "t", "integrands": ["cos3"],
+             "estimators": [ { "label": "MC", "method": "mc" },
+                             { "label": "MC tol", "method": "mc", "tolerance": { "abs": 0.05, "max_n": 4096, "min_n": 16 } } ],
+             "samples": [16, 64], "trials": 20, "seed": 5 }"#,
+    )
+    .unwrap();
+    let o = workbench(dir.path(), &["run", "t.json", "-q", "--out", "t"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("t");
+    let (head, rows) = read_csv(&out.join("stopping_summary.csv"));
+    let col = head.iter().position(|h| h == "mean_n_used").unwrap();
+    let used: Vec<f64> = rows.iter().map(|r| r[col].parse().unwrap()).collect();
+    // The claim rests on the rule spending far more than the first stages 16 and 64.
+    assert!(used.iter().all(|&n| n >= 512.0), "{used:?}");
+    for name in ["t.svg", "t-coverage.svg"] {
+        let name = name.replacen('t', "cos3", 1);
+        let texts = svg_texts(&out.join(&name));
+        let ticks: Vec<f64> = texts
+            .iter()
+            .filter_map(|t| t.text.parse::<u64>().ok())
+            .map(|n| n as f64)
+            .collect();
+        let top = ticks.iter().copied().fold(0.0, f64::max);
+        let far = used.iter().copied().fold(0.0, f64::max);
+        assert!(2.0 * top > far, "{name}: N ticks {ticks:?} stop short of {far}");
+        let caption = std::fs::read_to_string(out.join(name.replace(".svg", ".caption.txt"))).unwrap();
+        assert!(
+            caption.contains("MC tol stops at a tolerance: each point stands at the mean N"),
+            "{caption}"
+        );
+    }
+    let texts = svg_texts(&out.join("cos3.svg"));
+    assert!(has(&texts, "MC tol: at the mean N used") && !has(&texts, "MC tol: slope"));
+}
