@@ -92,13 +92,13 @@ pub fn faces_of(series: &[(Method, Option<&serde_json::Value>, Design)]) -> Vec<
         // A colour used again: the design's marker if its pair with this colour is free, else
         // the next marker whose pair is.
         let taken = |m: usize| out.iter().any(|f| (f.colour, f.marker) == (colour, m));
-        if round > 0 && taken(face.marker) {
-            if let Some(m) = (1..super::MARKERS)
+        if round > 0
+            && taken(face.marker)
+            && let Some(m) = (1..super::MARKERS)
                 .map(|k| (face.marker + k) % super::MARKERS)
                 .find(|&m| !taken(m))
-            {
-                face.marker = m;
-            }
+        {
+            face.marker = m;
         }
         out.push(face);
     }
