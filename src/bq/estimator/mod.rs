@@ -294,15 +294,9 @@ pub enum MethodName {
 }
 
 impl MethodName {
-    /// The names of every method, for messages.
-    pub fn names() -> String {
-        Method::ALL
-            .map(|m| m.name())
-            .into_iter()
-            .chain(mis::LightMethod::ALL.map(|m| m.name()))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
+    /// The names of every method: [`Method::ALL`]'s, then [`mis::LightMethod::ALL`]'s (a test
+    /// keeps them so), for messages.
+    pub const NAMES: [&'static str; 7] = ["mc", "bmc", "bmcp", "bsq", "mc-light", "mc-bsdf", "mis"];
 
     /// Parses a name of [`Method`] or [`mis::LightMethod`].
     pub fn from_name(name: &str) -> Option<Self> {
@@ -382,12 +376,8 @@ impl<'de> Deserialize<'de> for MethodName {
     /// By name, with every name in the error.
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let name = String::deserialize(d)?;
-        MethodName::from_name(&name).ok_or_else(|| {
-            serde::de::Error::custom(format!(
-                "unknown method {name:?}; expected one of {}",
-                MethodName::names()
-            ))
-        })
+        MethodName::from_name(&name)
+            .ok_or_else(|| serde::de::Error::unknown_variant(&name, &MethodName::NAMES))
     }
 }
 
@@ -425,5 +415,24 @@ impl Uncertainty {
 impl std::fmt::Display for Method {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`MethodName::NAMES`] lists every method in order, and each parses back.
+    #[test]
+    fn method_names_list_every_method() {
+        let names: Vec<&str> = Method::ALL
+            .map(|m| m.name())
+            .into_iter()
+            .chain(mis::LightMethod::ALL.map(|m| m.name()))
+            .collect();
+        assert_eq!(names, MethodName::NAMES);
+        for n in MethodName::NAMES {
+            assert_eq!(MethodName::from_name(n).map(MethodName::name), Some(n));
+        }
     }
 }

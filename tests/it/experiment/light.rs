@@ -244,7 +244,11 @@ fn bad_light_estimator_input_is_one_line() {
         ),
         (
             spec(up, r#"{"label": "X", "method": "mis-light"}"#, "[4]"),
-            vec!["estimators[0].method", "mis-light", "mc-light, mc-bsdf, mis"],
+            vec![
+                "estimators[0].method",
+                "mis-light",
+                "`mc-light`, `mc-bsdf`, `mis`",
+            ],
         ),
     ];
     for (i, (text, wants)) in cases.iter().enumerate() {
@@ -308,13 +312,19 @@ fn every_light_distribution_integrates_to_one_and_covers_its_light() {
                     }
                 }
             }
-            assert!((sum - 1.0).abs() < 1e-9, "{name} compensated {compensated}: {sum}");
+            assert!(
+                (sum - 1.0).abs() < 1e-9,
+                "{name} compensated {compensated}: {sum}"
+            );
         }
         for _ in 0..20_000 {
             let mu: f64 = 2.0 * rng.random::<f64>() - 1.0;
             let d = workbench::sampling::light::direction(mu, TAU * rng.random::<f64>());
             let y = workbench::sampling::light::luminance(env.radiance(&d));
-            assert!(y <= 0.0 || light.pdf(&d, false) > 0.0, "{name}: light without density at {d:?}");
+            assert!(
+                y <= 0.0 || light.pdf(&d, false) > 0.0,
+                "{name}: light without density at {d:?}"
+            );
         }
     }
 }
