@@ -131,7 +131,7 @@ pub struct RenderArgs {
     pub results_dir: Option<PathBuf>,
     /// Tables only: render only shard i of n (1 <= i <= n) of the table's rounds (every variant
     /// at one spp or target and repetition), into a shard folder for `workbench merge`.
-    #[arg(long, value_name = "i/n", requires = "spec")]
+    #[arg(long, value_name = "i/n", requires = "spec", allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// Tables only: continue an interrupted table (or, with --shard, shard) from the rounds its
     /// folder's rounds.partial.csv holds; the same files as an uninterrupted run.

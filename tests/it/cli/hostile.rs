@@ -1,0 +1,116 @@
+//! Issue 42 through the binary, by class: negative values of numeric flags, numbers printed
+//! short in messages and names, clap's refusals in one line, sub-fields named in spec errors,
+//! and irradiance files held to the experiment files' checks.
+
+use crate::common::*;
+use std::path::Path;
+use std::process::Output;
+
+/// Exit 2 with one line holding every needle, and nothing written into `dir` but `keep`.
+fn refused_in_one_line(o: &Output, needles: &[&str], case: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{case}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{case}: one line: {err}");
+    assert!(err.starts_with("Error: "), "{case}: {err}");
+    assert!(!err.contains("--help"), "{case}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{case}: {n:?} not in {err}");
+    }
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+const EXPERIMENT: &str = r#"{"name": "x", "integrands": ["cos3"], "estimators": [{"label": "MC", "method": "mc"}],
+    "samples": [4], "trials": 2, "seed": 1}"#;
+
+/// `--spp -4`, `--tolerance -1e-6`, `--shard -1/3` and the rest were clap's four lines of
+/// "unexpected argument '-4' found", naming neither the flag nor the value. Every numeric flag of
+/// every command, written `--flag -x` and `--flag=-x`, is now refused by the flag's parser or the
+/// project's check: one line naming the flag and the value, exit 2, nothing written.
+#[test]
+fn negative_values_of_numeric_flags_are_refused_in_one_line_naming_flag_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("x.json"), EXPERIMENT).unwrap();
+    let before = files_in(d);
+    let render = ["render", "--out", "o.exr"];
+    let exact = ["render", "--integrator", "exact", "--out", "o.exr"];
+    let se = ["render", "--kernel", "se", "--out", "o.exr"];
+    let run = ["run", "x.json", "-q"];
+    // (command, flag, value): the message names the flag (a kernel parameter as the kernel's
+    // message does: `--kernel sobolev: sobolev kernel: s must be …`) and the value.
+    let cases: &[(&[&str], &str, &str)] = &[
+        (&render, "--spp", "-4"),
+        // `-1e-3`: clap's own test for a negative number knows no negative exponent.
+        (&exact, "--tolerance", "-1e-3"),
+        (&render, "--gps", "-1"),
+        (&render, "--width", "-1"),
+        (&render, "--height", "-3"),
+        (&render, "--seed", "-1"),
+        (&["render", "--out", "o.exr", "--reference", "r.exr"], "--error-max", "-0.5"),
+        (&["render", "--out", "o.exr", "--max-spp", "256"], "--target-sd", "-0.01"),
+        (&["render", "--out", "o.exr", "--target-sd", "0.01"], "--max-spp", "-64"),
+        (&render, "--s", "-1.5"),
+        (&se, "--sigma", "-1"),
+        (&se, "--length", "-0.5"),
+        (&render, "--noise", "-0.01"),
+        (&["render", "--out", "o.exr", "--kernel-mean", "mc"], "--kernel-mean-samples", "-5"),
+        (&["render", "experiments/t.json"], "--shard", "-1/3"),
+        (&run, "--trials", "-2"),
+        (&run, "--threads", "-1"),
+        (&run, "--shard", "-1/3"),
+        (&["rule"], "--n", "-64"),
+        (&["rule"], "--seed", "-7"),
+        (&["reproduce", "--list"], "--threads", "-2"),
+    ];
+    for &(command, flag, value) in cases {
+        for joined in [false, true] {
+            let mut args: Vec<String> = command.iter().map(|s| s.to_string()).collect();
+            if joined {
+                args.push(format!("{flag}={value}"));
+            } else {
+                args.extend([flag.to_string(), value.to_string()]);
+            }
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            let o = workbench(d, &args);
+            let case = args.join(" ");
+            let named = match flag {
+                "--s" => "sobolev kernel: s must be",
+                "--sigma" => "se kernel: sigma must be",
+                "--length" => "se kernel: length must be",
+                _ => flag,
+            };
+            refused_in_one_line(&o, &[named, value], &case);
+            assert_eq!(files_in(d), before, "{case}: nothing written");
+        }
+    }
+}
+
+/// clap's refusals ended with a usage block and "For more information, try '--help'." after an
+/// otherwise clear first line: they are one line, like every other bad input.
+#[test]
+fn usage_errors_are_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (args, needles) in [
+        (&["run", "x.json", "--outt", "d"][..], &["unexpected argument '--outt'"][..]),
+        (&["render", "--integrator", "nope", "--out", "o.exr"], &["--integrator", "\"nope\""]),
+        (&["rule", "--design", "nope"], &["--design", "\"nope\"", "uniform"]),
+        (&["render", "--spp", "many", "--out", "o.exr"], &["--spp", "many"]),
+        (&["render"], &["--out"]),
+        (&["frobnicate"], &["frobnicate"]),
+    ] {
+        let o = workbench(d, args);
+        refused_in_one_line(&o, needles, &args.join(" "));
+    }
+    // --help and --version still print in full, on stdout, exit 0.
+    let o = workbench(d, &["run", "--help"]);
+    assert!(o.status.success() && stdout(&o).contains("Usage:"), "{}", stderr(&o));
+}
