@@ -20,6 +20,7 @@ use workbench::render::{Environment, Integrator, Renderer, SceneKind, check_size
 /// `--spp` when none is given.
 const DEFAULT_SPP: usize = 40;
 use workbench::util::report::Reporter;
+use workbench::util::shown::shown;
 
 /// Options of `workbench render`.
 #[derive(clap::Args, Debug)]
@@ -563,7 +564,8 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
         RenderIntegrator::Estimator(kind) => {
             if let Some(t) = args.tolerance {
                 return Err(InputError::new(format!(
-                    "--tolerance {t}: applies to --integrator exact, not {kind}"
+                    "--tolerance {}: applies to --integrator exact, not {kind}",
+                    shown(t)
                 ))
                 .into());
             }
@@ -587,8 +589,9 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
             let t = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
             if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
                 return Err(InputError::new(format!(
-                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {t}",
-                    exact::MIN_TOLERANCE
+                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {}",
+                    exact::MIN_TOLERANCE,
+                    shown(t)
                 ))
                 .into());
             }

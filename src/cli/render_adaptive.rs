@@ -57,7 +57,10 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         }
     };
     if !(target_sd.is_finite() && target_sd > 0.0) {
-        return Err(InputError::new(format!("--target-sd: must be finite and > 0, got {target_sd}")).into());
+        return Err(InputError::new(format!(
+            "--target-sd: must be finite and > 0, got {}",
+            workbench::util::shown::shown(target_sd)
+        )).into());
     }
     let kind = match &args.integrator {
         Ok(k) if k.adaptive() => *k,

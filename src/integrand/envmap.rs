@@ -263,7 +263,8 @@ impl EnvmapIntegrand {
     fn brdf_name(&self) -> String {
         match self.brdf {
             Brdf::Lambert => "lambert".into(),
-            Brdf::Phong { exponent, .. } => format!("phong{exponent}"),
+            // Short, as in messages: `phong1e-300`, not 300 digits in a file name (issue 42).
+            Brdf::Phong { exponent, .. } => format!("phong{}", shown(exponent)),
         }
     }
 
@@ -290,7 +291,8 @@ impl EnvmapIntegrand {
         let brdf = match self.brdf {
             Brdf::Lambert => "a Lambertian surface".to_string(),
             Brdf::Phong { exponent, axis } => format!(
-                "a Phong lobe e = {exponent}, tilt {:.0}°",
+                "a Phong lobe e = {}, tilt {:.0}°",
+                shown(exponent),
                 axis.z.clamp(-1.0, 1.0).acos().to_degrees()
             ),
         };

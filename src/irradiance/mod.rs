@@ -223,7 +223,10 @@ pub fn resolve(spec: &IrradianceSpec) -> Result<IrradiancePlan, String> {
         if let Some(v) = v
             && !(v.is_finite() && v > 0.0)
         {
-            return Err(format!("published.{field}: must be a positive number, got {v}"));
+            return Err(format!(
+                "published.{field}: must be a positive number, got {}",
+                crate::util::shown::shown(v)
+            ));
         }
     }
     Ok(IrradiancePlan {

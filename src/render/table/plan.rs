@@ -429,8 +429,9 @@ fn resolve_reference(spec: &TableSpec, seed: u64, env: &Environment) -> Result<R
             return Err(err(
                 "reference.tolerance",
                 format!(
-                    "must be in [{:e}, 1e-2] (absolute error per pixel and channel), got {tolerance}",
-                    crate::render::exact::MIN_TOLERANCE
+                    "must be in [{:e}, 1e-2] (absolute error per pixel and channel), got {}",
+                    crate::render::exact::MIN_TOLERANCE,
+                    crate::util::shown::shown(tolerance)
                 ),
             ));
         }
@@ -439,7 +440,10 @@ fn resolve_reference(spec: &TableSpec, seed: u64, env: &Environment) -> Result<R
     if let Some(t) = r.tolerance {
         return Err(err(
             "reference.tolerance",
-            format!("{t}: applies to \"method\": \"exact\", not \"mc\""),
+            format!(
+                "{}: applies to \"method\": \"exact\", not \"mc\"",
+                crate::util::shown::shown(t)
+            ),
         ));
     }
     let spp = r.spp.unwrap_or(DEFAULT_REFERENCE_SPP as u64);

@@ -93,6 +93,48 @@ fn negative_values_of_numeric_flags_are_refused_in_one_line_naming_flag_and_valu
     }
 }
 
+/// `--tolerance 1e-300` printed the number with 300 digits, and a Phong exponent of 1e-300 gave
+/// a 430-character default name that failed after the work: numbers in messages and names are
+/// printed by one short form (`1e-300`).
+#[test]
+fn numbers_in_messages_and_default_names_are_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["render", "--integrator", "exact", "--tolerance", "1e-300", "--out", "o.exr"][..],
+        &["render", "--integrator", "exact", "--tolerance=-1e-300", "--out", "o.exr"],
+        &["render", "--integrator", "exact", "--tolerance", "-1e-6", "--out", "o.exr"],
+        &["render", "--integrator", "mc", "--tolerance", "1e-300", "--out", "o.exr"],
+        &["render", "--target-sd", "-1e-300", "--max-spp", "256", "--out", "o.exr"],
+        &["render", "--error-max", "-1e-300", "--reference", "r.exr", "--out", "o.exr"],
+    ] {
+        let o = workbench(d, args);
+        let case = args.join(" ");
+        refused_in_one_line(&o, &["e-"], &case);
+        assert!(!stderr(&o).contains("0.0000"), "{case}: {}", stderr(&o));
+        assert!(stderr(&o).len() < 200, "{case}: {}", stderr(&o));
+    }
+    // A constant 16×8 map of 1 (RGBE 128,128,128,129 is 1.0).
+    let mut hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n".to_vec();
+    hdr.extend([128u8, 128, 128, 129].repeat(128));
+    std::fs::write(d.join("white.hdr"), hdr).unwrap();
+    std::fs::write(
+        d.join("p.json"),
+        r#"{"name": "p", "integrands": [{"type": "envmap", "env": "white.hdr", "normal": [0, 1, 0],
+            "brdf": {"phong": 1e-300, "axis": [0, 0, 1]}}],
+            "estimators": [{"label": "MC", "method": "mc"}], "samples": [4], "trials": 1, "seed": 1}"#,
+    )
+    .unwrap();
+    let o = workbench(d, &["run", "p.json", "--out", "p", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let names = files_in(&d.join("p"));
+    assert!(
+        names.iter().any(|n| n.contains("phong1e-300")),
+        "{names:?}"
+    );
+    assert!(names.iter().all(|n| n.len() < 100), "{names:?}");
+}
+
 /// clap's refusals ended with a usage block and "For more information, try '--help'." after an
 /// otherwise clear first line: they are one line, like every other bad input.
 #[test]

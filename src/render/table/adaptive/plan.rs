@@ -60,7 +60,7 @@ pub fn resolve(a: &AdaptiveSpec, spp_given: Option<&[u64]>) -> Result<AdaptivePl
         if !(t.is_finite() && t > 0.0) {
             return Err(err(
                 format!("adaptive.target_sd[{k}]"),
-                format!("must be finite and > 0, got {t}"),
+                format!("must be finite and > 0, got {}", crate::util::shown::shown(t)),
             ));
         }
         if targets.contains(&t) {
