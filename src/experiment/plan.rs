@@ -251,8 +251,9 @@ pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
     crate::files::spec_json::parse(text, "the experiment")
 }
 
+/// `path: message`, sub-fields continuing the path ([`crate::files::spec_json::at`]).
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
-    format!("{path}: {message}")
+    crate::files::spec_json::at(&path.to_string(), &message.to_string())
 }
 
 /// Checks every value and fills in defaults. An integrand of `"type": "python"` is refused: it

@@ -48,15 +48,54 @@ pub fn parse<T: DeserializeOwned>(text: &str, what: &str) -> Result<T, String> {
             kind(&value)
         ));
     }
+    from_value(value)
+}
+
+/// `value` as `T`, with an error `path: message` naming the innermost field that failed
+/// (`axis[1]: invalid type: …`): what a hand-written `Deserialize` that reads a [`Value`] first
+/// (to say which forms a field accepts) uses for the object inside, so that the path goes on
+/// past it (`integrands[0].brdf.axis[1]`, not `integrands[0]`; issue 42).
+pub fn from_value<T: DeserializeOwned>(value: Value) -> Result<T, String> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         let inner = explain_type_error(&e.into_inner().to_string());
-        if path == "." {
-            inner
-        } else {
-            format!("{path}: {inner}")
-        }
+        if path == "." { inner } else { at(&path, &inner) }
     })
+}
+
+/// `path: message`, the one form of a spec error, where a message that starts with a field path
+/// of its own (`brdf.phong: must be …`, `normal[0]: invalid type …`, from the value inside)
+/// continues `path` instead: `integrands[0].brdf.phong: must be …`. Every spec reader builds its
+/// paths with it, so a sub-field is named however deep it is.
+pub fn at(path: &str, message: &str) -> String {
+    match message.split_once(": ") {
+        Some((sub, rest)) if is_field_path(sub) => {
+            let dot = if sub.starts_with('[') { "" } else { "." };
+            format!("{path}{dot}{sub}: {rest}")
+        }
+        _ => format!("{path}: {message}"),
+    }
+}
+
+/// Whether `s` is a JSON field path as the messages write it: keys (letters, digits, `_`, `$`)
+/// joined by `.`, each optionally followed by indices `[3]`, or indices alone (`[1]`).
+fn is_field_path(s: &str) -> bool {
+    let key = |k: &str| {
+        let name_end = k.find('[').unwrap_or(k.len());
+        let (name, mut indices) = k.split_at(name_end);
+        let name_ok = name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '$'));
+        while let Some(rest) = indices.strip_prefix('[') {
+            let Some((digits, after)) = rest.split_once(']') else {
+                return false;
+            };
+            if digits.is_empty() || !digits.chars().all(|c| c.is_ascii_digit()) {
+                return false;
+            }
+            indices = after;
+        }
+        name_ok && indices.is_empty() && !k.is_empty()
+    };
+    !s.is_empty() && s.split('.').all(key)
 }
 
 fn is_json_whitespace(c: char) -> bool {
@@ -337,6 +376,20 @@ mod tests {
 
     fn error(text: &str) -> String {
         parse::<Spec>(text, "the spec").unwrap_err()
+    }
+
+    /// Issue 42: a message that names a sub-field continues the path (`brdf.phong`,
+    /// `normal[0]`) instead of standing after it.
+    #[test]
+    fn sub_fields_continue_the_path() {
+        assert_eq!(at("integrands[0]", "brdf.phong: must be in (0, 1e6]"), "integrands[0].brdf.phong: must be in (0, 1e6]");
+        assert_eq!(at("integrands[0]", "normal[0]: invalid type"), "integrands[0].normal[0]: invalid type");
+        assert_eq!(at("integrands[0].brdf", "axis[1]: invalid type"), "integrands[0].brdf.axis[1]: invalid type");
+        assert_eq!(at("n", "[1]: listed twice"), "n[1]: listed twice");
+        // Prose is not a path: it stands after the path as before.
+        assert_eq!(at("estimators[2].kernel", "sobolev kernel: s must be"), "estimators[2].kernel: sobolev kernel: s must be");
+        assert_eq!(at("samples[1]", "N must be at least 1, got 0"), "samples[1]: N must be at least 1, got 0");
+        assert_eq!(at("x", "a[b]: c"), "x: a[b]: c");
     }
 
     #[test]

@@ -148,9 +148,9 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
     resolve(&spec, path).map_err(in_file)
 }
 
-/// `path: value: message`.
+/// `path: message`, sub-fields continuing the path ([`crate::files::spec_json::at`]).
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
-    format!("{path}: {message}")
+    crate::files::spec_json::at(&path.to_string(), &message.to_string())
 }
 
 /// Checks every value and fills in defaults.

@@ -156,3 +156,55 @@ fn usage_errors_are_one_line() {
     let o = workbench(d, &["run", "--help"]);
     assert!(o.status.success() && stdout(&o).contains("Usage:"), "{}", stderr(&o));
 }
+
+/// Errors inside an integrand stopped at `integrands[0]` or `brdf`: the path goes on to the
+/// sub-field (`integrands[0].brdf.phong`, `integrands[0].brdf.axis[1]`, `integrands[0].normal[0]`),
+/// for serde's type errors and for the checks of values alike.
+#[test]
+fn spec_errors_name_the_sub_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = |integrand: &str| {
+        format!(
+            r#"{{"name": "s", "integrands": [{integrand}], "estimators": [{{"label": "MC", "method": "mc"}}],
+                "samples": [4], "trials": 2, "seed": 1}}"#
+        )
+    };
+    for (integrand, needle) in [
+        (
+            r#"{"type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": {"phong": "x", "axis": [0, 0, 1]}}"#,
+            "s.json: integrands[0].brdf.phong: invalid type: string \"x\", expected f64",
+        ),
+        (
+            r#"{"type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": {"phong": 8, "axis": [0, "a", 1]}}"#,
+            "s.json: integrands[0].brdf.axis[1]: invalid type: string \"a\", expected f64",
+        ),
+        (
+            r#"{"type": "envmap", "env": "c.exr", "normal": ["x", 1, 0]}"#,
+            "s.json: integrands[0].normal[0]: invalid type: string \"x\", expected f64",
+        ),
+        (
+            r#"{"type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": {"phong": 2e6, "axis": [0, 0, 1]}}"#,
+            "s.json: integrands[0].brdf.phong: the exponent must be in (0, 1e6], got 2000000",
+        ),
+        (
+            r#"{"type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": {"phong": 8, "axis": [0, 0, 0]}}"#,
+            "s.json: integrands[0].brdf.axis: must be a non-zero finite vector, got [0, 0, 0]",
+        ),
+        (
+            r#"{"type": "lobe", "axis": [0, 0, 1, 5], "exponent": 3}"#,
+            "s.json: integrands[0].axis: invalid length 4",
+        ),
+        (
+            r#"{"type": "cap", "axis": [0, 0, 1], "half_angle": 400}"#,
+            "s.json: integrands[0].half_angle: must be in (0, 180] degrees, got 400",
+        ),
+        (r#"{"type": "lobes", "axis": [0, 0, 1]}"#, "s.json: integrands[0].type: unknown variant `lobes`"),
+    ] {
+        std::fs::write(d.join("s.json"), spec(integrand)).unwrap();
+        for command in ["validate", "run"] {
+            let o = workbench(d, &[command, "s.json", "-q"][..if command == "run" { 3 } else { 2 }]);
+            refused_in_one_line(&o, &[needle], &format!("{command} {integrand}"));
+        }
+    }
+}

@@ -35,9 +35,9 @@ impl AdaptivePlan {
     }
 }
 
-/// `path: message`.
+/// `path: message`, sub-fields continuing the path ([`crate::files::spec_json::at`]).
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
-    format!("{path}: {message}")
+    crate::files::spec_json::at(&path.to_string(), &message.to_string())
 }
 
 /// Checks the targets and stages. `spp_given`: the table also lists `spp`, which an adaptive
