@@ -53,6 +53,10 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    // One check for every kind of file, before anything is read or written.
+    if let Some(t) = args.threads {
+        workbench::util::threads::check_threads(t)?;
+    }
     let text = workbench::files::spec_json::read_spec(&args.file).unwrap_or_default();
     if workbench::files::spec_json::spec_kind(&text) == Some(SpecKind::Irradiance) {
         return run_irradiance(args);

@@ -77,6 +77,24 @@ pub fn at(path: &str, message: &str) -> String {
     }
 }
 
+/// The sample counts N of a spec's list `field` (an experiment's `samples`, an irradiance file's
+/// `n`): at least one, each at least 1, none listed twice — one check for every kind of file, so
+/// that `[4, 4]` is refused by all of them (issue 42: irradiance files took it silently).
+pub fn check_counts(field: &str, counts: &[u64]) -> Result<(), String> {
+    if counts.is_empty() {
+        return Err(format!("{field}: must list at least one sample count"));
+    }
+    for (i, &n) in counts.iter().enumerate() {
+        if n == 0 {
+            return Err(format!("{field}[{i}]: N must be at least 1, got 0"));
+        }
+        if counts[..i].contains(&n) {
+            return Err(format!("{field}[{i}]: N = {n} is listed twice"));
+        }
+    }
+    Ok(())
+}
+
 /// Whether `s` is a JSON field path as the messages write it: keys (letters, digits, `_`, `$`)
 /// joined by `.`, each optionally followed by indices `[3]`, or indices alone (`[1]`).
 fn is_field_path(s: &str) -> bool {
@@ -115,7 +133,7 @@ pub fn kind(value: &serde_json::Value) -> &'static str {
 }
 
 /// Which kind of spec a file holds, from its top-level keys: render tables have `variants`,
-/// irradiance files `"kind": "irradiance"`.
+/// irradiance files a `"kind"` (`"irradiance"`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SpecKind {
     Experiment,
@@ -128,7 +146,10 @@ pub fn spec_kind(text: &str) -> Option<SpecKind> {
     let text = text.strip_prefix(BOM).unwrap_or(text);
     let value: serde_json::Value = serde_json::from_str(text).ok()?;
     let obj = value.as_object()?;
-    if obj.get("kind").and_then(|k| k.as_str()) == Some("irradiance") {
+    // Only irradiance files have a `kind`: any `kind` makes the file one, so that a misspelt
+    // one (`"irradiance2"`) gets the irradiance reader's message naming `kind` and its value,
+    // not an experiment's about fields it lacks (issue 42).
+    if obj.contains_key("kind") {
         return Some(SpecKind::Irradiance);
     }
     if obj.contains_key("variants") && !obj.contains_key("estimators") {

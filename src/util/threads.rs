@@ -31,8 +31,13 @@ pub fn check_threads(t: usize) -> Result<usize, InputError> {
 }
 
 /// A pool of [`worker_threads`] threads (its size set explicitly, so `RAYON_NUM_THREADS` cannot
-/// exceed the cap).
+/// exceed the cap); a `requested` count is checked first ([`check_threads`]).
 pub fn pool(requested: Option<usize>) -> Result<rayon::ThreadPool, Error> {
+    // Every job asks for its pool here: a requested count outside 1..=MAX_THREADS is refused
+    // for all of them, not clamped for the ones whose door forgot to check (issue 42).
+    if let Some(t) = requested {
+        check_threads(t)?;
+    }
     rayon::ThreadPoolBuilder::new()
         .num_threads(worker_threads(requested))
         .build()

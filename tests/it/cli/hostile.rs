@@ -208,3 +208,46 @@ fn spec_errors_name_the_sub_field() {
         }
     }
 }
+
+/// The irradiance protocol's files took `--threads 0` and `257`, read `"kind": "irradiance2"`
+/// as an experiment file (naming `env`), and ran `"n": [4, 4]`; they are held to the experiment
+/// files' checks, by the same code.
+#[test]
+fn irradiance_files_are_checked_like_experiment_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let irradiance = |extra: &str, n: &str, kind: &str| {
+        format!(
+            r#"{{"kind": "{kind}", "name": "irr", "env": "none.hdr", "grid": [8, 4], "n": {n}, "seed": 3,
+                "estimators": ["mc"]{extra}}}"#
+        )
+    };
+    std::fs::write(d.join("x.json"), EXPERIMENT).unwrap();
+    std::fs::write(d.join("i.json"), irradiance("", "[4, 8]", "irradiance")).unwrap();
+    for file in ["x.json", "i.json"] {
+        for t in ["0", "257"] {
+            let o = workbench(d, &["run", file, "--threads", t, "-q"]);
+            refused_in_one_line(&o, &[&format!("--threads: must be in 1..=256, got {t}")], file);
+        }
+    }
+    std::fs::write(d.join("t.json"), irradiance(r#", "threads": 2"#, "[4, 8]", "irradiance")).unwrap();
+    std::fs::write(d.join("k.json"), irradiance("", "[4, 8]", "irradiance2")).unwrap();
+    std::fs::write(d.join("n.json"), irradiance("", "[4, 4]", "irradiance")).unwrap();
+    std::fs::write(d.join("z.json"), irradiance("", "[4, 0]", "irradiance")).unwrap();
+    for (file, needles) in [
+        ("t.json", &["t.json: threads: unknown field `threads`"][..]),
+        ("k.json", &["k.json: kind: unknown variant `irradiance2`", "`irradiance`"]),
+        ("n.json", &["n.json: n[1]: N = 4 is listed twice"]),
+        ("z.json", &["z.json: n[1]: N must be at least 1, got 0"]),
+    ] {
+        for command in ["validate", "run"] {
+            let o = workbench(d, &[command, file]);
+            refused_in_one_line(&o, needles, &format!("{command} {file}"));
+        }
+    }
+    // The experiment file says the same of the same list.
+    std::fs::write(d.join("e.json"), EXPERIMENT.replace("[4]", "[4, 4]")).unwrap();
+    let o = workbench(d, &["validate", "e.json"]);
+    refused_in_one_line(&o, &["e.json: samples[1]: N = 4 is listed twice"], "e.json");
+    assert!(!d.join("results").exists(), "nothing written");
+}
