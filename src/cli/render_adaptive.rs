@@ -60,7 +60,8 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         return Err(InputError::new(format!(
             "--target-sd: must be finite and > 0, got {}",
             workbench::util::shown::shown(target_sd)
-        )).into());
+        ))
+        .into());
     }
     let kind = match &args.integrator {
         Ok(k) if k.adaptive() => *k,

@@ -61,15 +61,14 @@ pub fn one_line(e: &clap::Error) -> String {
     let text = e.render().to_string();
     let mut paragraphs = text.split("\n\n").map(str::trim).filter(|p| !p.is_empty());
     let first = paragraphs.next().unwrap_or_default();
-    let mut line = first
-        .lines()
-        .map(str::trim)
-        .collect::<Vec<_>>()
-        .join(" ");
+    let mut line = first.lines().map(str::trim).collect::<Vec<_>>().join(" ");
     if let Some(rest) = line.strip_prefix("error: ") {
         line = rest.to_owned();
     }
-    for tip in paragraphs.flat_map(str::lines).filter_map(|l| l.trim().strip_prefix("tip: ")) {
+    for tip in paragraphs
+        .flat_map(str::lines)
+        .filter_map(|l| l.trim().strip_prefix("tip: "))
+    {
         line.push_str("; ");
         line.push_str(tip);
     }
@@ -199,7 +198,13 @@ mod tests {
             "--n: is too large, got 99999999999999999999999"
         );
         let unknown = line(&["workbench", "run", "x.json", "--outt", "d"]);
-        assert!(unknown.starts_with("unexpected argument '--outt' found"), "{unknown}");
-        assert!(!unknown.contains('\n') && !unknown.contains("--help"), "{unknown}");
+        assert!(
+            unknown.starts_with("unexpected argument '--outt' found"),
+            "{unknown}"
+        );
+        assert!(
+            !unknown.contains('\n') && !unknown.contains("--help"),
+            "{unknown}"
+        );
     }
 }

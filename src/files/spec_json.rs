@@ -95,13 +95,17 @@ pub fn check_counts(field: &str, counts: &[u64]) -> Result<(), String> {
     Ok(())
 }
 
-/// Whether `s` is a JSON field path as the messages write it: keys (letters, digits, `_`, `$`)
+/// Whether `s` is a JSON field path as the messages write it: keys (letters, digits, `_`, `$`,
+/// not starting with a digit, so that a value such as `100: applies to …` is not taken for one)
 /// joined by `.`, each optionally followed by indices `[3]`, or indices alone (`[1]`).
 fn is_field_path(s: &str) -> bool {
     let key = |k: &str| {
         let name_end = k.find('[').unwrap_or(k.len());
         let (name, mut indices) = k.split_at(name_end);
-        let name_ok = name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '$'));
+        let name_ok = name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '$'))
+            && !name.starts_with(|c: char| c.is_ascii_digit());
         while let Some(rest) = indices.strip_prefix('[') {
             let Some((digits, after)) = rest.split_once(']') else {
                 return false;
@@ -403,14 +407,35 @@ mod tests {
     /// `normal[0]`) instead of standing after it.
     #[test]
     fn sub_fields_continue_the_path() {
-        assert_eq!(at("integrands[0]", "brdf.phong: must be in (0, 1e6]"), "integrands[0].brdf.phong: must be in (0, 1e6]");
-        assert_eq!(at("integrands[0]", "normal[0]: invalid type"), "integrands[0].normal[0]: invalid type");
-        assert_eq!(at("integrands[0].brdf", "axis[1]: invalid type"), "integrands[0].brdf.axis[1]: invalid type");
+        assert_eq!(
+            at("integrands[0]", "brdf.phong: must be in (0, 1e6]"),
+            "integrands[0].brdf.phong: must be in (0, 1e6]"
+        );
+        assert_eq!(
+            at("integrands[0]", "normal[0]: invalid type"),
+            "integrands[0].normal[0]: invalid type"
+        );
+        assert_eq!(
+            at("integrands[0].brdf", "axis[1]: invalid type"),
+            "integrands[0].brdf.axis[1]: invalid type"
+        );
         assert_eq!(at("n", "[1]: listed twice"), "n[1]: listed twice");
         // Prose is not a path: it stands after the path as before.
-        assert_eq!(at("estimators[2].kernel", "sobolev kernel: s must be"), "estimators[2].kernel: sobolev kernel: s must be");
-        assert_eq!(at("samples[1]", "N must be at least 1, got 0"), "samples[1]: N must be at least 1, got 0");
+        assert_eq!(
+            at("estimators[2].kernel", "sobolev kernel: s must be"),
+            "estimators[2].kernel: sobolev kernel: s must be"
+        );
+        assert_eq!(
+            at("samples[1]", "N must be at least 1, got 0"),
+            "samples[1]: N must be at least 1, got 0"
+        );
         assert_eq!(at("x", "a[b]: c"), "x: a[b]: c");
+        // A value is not a path, nor is a number.
+        assert_eq!(
+            at("reference.spp", "100: applies to"),
+            "reference.spp: 100: applies to"
+        );
+        assert_eq!(at("x", "0.5: too small"), "x: 0.5: too small");
     }
 
     #[test]

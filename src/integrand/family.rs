@@ -207,7 +207,8 @@ impl AxisIntegrand {
 }
 
 /// A rendering-like integrand about a tilted axis (math.md §1, "Rendering-like integrands").
-/// Read by [`FamilyFields`], so that errors name the field inside (`normal[0]`).
+// Read by `FamilyFields`, so that errors name the field inside (`normal[0]`); a doc line here
+// would go into the committed JSON Schema.
 #[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum FamilySpec {
@@ -362,7 +363,10 @@ impl<'de> Deserialize<'de> for FamilySpec {
             }
             None => return Err(D::Error::custom("missing field `type`")),
         };
-        let tagged = Value::Object(serde_json::Map::from_iter([(kind.clone(), Value::Object(object))]));
+        let tagged = Value::Object(serde_json::Map::from_iter([(
+            kind.clone(),
+            Value::Object(object),
+        )]));
         crate::files::spec_json::from_value::<Tagged>(tagged)
             .map(|t| t.0)
             .map_err(|m| {
@@ -371,7 +375,11 @@ impl<'de> Deserialize<'de> for FamilySpec {
                     .strip_prefix(&format!("{kind}."))
                     .or_else(|| m.strip_prefix(&format!("{kind}: ")))
                     .map_or(m.clone(), str::to_owned);
-                D::Error::custom(if m.starts_with("unknown variant") { format!("type: {m}") } else { m })
+                D::Error::custom(if m.starts_with("unknown variant") {
+                    format!("type: {m}")
+                } else {
+                    m
+                })
             })
     }
 }

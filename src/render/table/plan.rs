@@ -726,7 +726,7 @@ mod tests {
             err(&format!(
                 "{{{base}, \"reference\": {{\"method\": \"mc\", \"tolerance\": 1e-6}}}}"
             )),
-            "t.json: reference.tolerance: 0.000001: applies to \"method\": \"exact\", not \"mc\""
+            "t.json: reference.tolerance: 1e-6: applies to \"method\": \"exact\", not \"mc\""
         );
         assert!(
             err(&format!("{{{base}, \"reference\": {{\"tolerance\": 0}}}}"))

@@ -429,8 +429,7 @@ fn pixel_integrands_resolve_to_the_renderers_integrand() {
             .starts_with("integrands[0].pixel: [0, 0] of the 64×64 image shows the background")
     );
     assert!(
-        bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "a"}"#)
-            .starts_with("integrands[0].channel: ")
+        bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "a"}"#).starts_with("integrands[0].channel: ")
     );
     assert!(
         bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "r", "env": "/nonexistent.hdr"}"#)

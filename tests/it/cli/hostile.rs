@@ -54,14 +54,30 @@ fn negative_values_of_numeric_flags_are_refused_in_one_line_naming_flag_and_valu
         (&render, "--width", "-1"),
         (&render, "--height", "-3"),
         (&render, "--seed", "-1"),
-        (&["render", "--out", "o.exr", "--reference", "r.exr"], "--error-max", "-0.5"),
-        (&["render", "--out", "o.exr", "--max-spp", "256"], "--target-sd", "-0.01"),
-        (&["render", "--out", "o.exr", "--target-sd", "0.01"], "--max-spp", "-64"),
+        (
+            &["render", "--out", "o.exr", "--reference", "r.exr"],
+            "--error-max",
+            "-0.5",
+        ),
+        (
+            &["render", "--out", "o.exr", "--max-spp", "256"],
+            "--target-sd",
+            "-0.01",
+        ),
+        (
+            &["render", "--out", "o.exr", "--target-sd", "0.01"],
+            "--max-spp",
+            "-64",
+        ),
         (&render, "--s", "-1.5"),
         (&se, "--sigma", "-1"),
         (&se, "--length", "-0.5"),
         (&render, "--noise", "-0.01"),
-        (&["render", "--out", "o.exr", "--kernel-mean", "mc"], "--kernel-mean-samples", "-5"),
+        (
+            &["render", "--out", "o.exr", "--kernel-mean", "mc"],
+            "--kernel-mean-samples",
+            "-5",
+        ),
         (&["render", "experiments/t.json"], "--shard", "-1/3"),
         (&run, "--trials", "-2"),
         (&run, "--threads", "-1"),
@@ -87,6 +103,8 @@ fn negative_values_of_numeric_flags_are_refused_in_one_line_naming_flag_and_valu
                 "--length" => "se kernel: length must be",
                 _ => flag,
             };
+            // Numbers as the message prints them (util::shown).
+            let value = if value == "-1e-3" { "-0.001" } else { value };
             refused_in_one_line(&o, &[named, value], &case);
             assert_eq!(files_in(d), before, "{case}: nothing written");
         }
@@ -101,12 +119,59 @@ fn numbers_in_messages_and_default_names_are_short() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for args in [
-        &["render", "--integrator", "exact", "--tolerance", "1e-300", "--out", "o.exr"][..],
-        &["render", "--integrator", "exact", "--tolerance=-1e-300", "--out", "o.exr"],
-        &["render", "--integrator", "exact", "--tolerance", "-1e-6", "--out", "o.exr"],
-        &["render", "--integrator", "mc", "--tolerance", "1e-300", "--out", "o.exr"],
-        &["render", "--target-sd", "-1e-300", "--max-spp", "256", "--out", "o.exr"],
-        &["render", "--error-max", "-1e-300", "--reference", "r.exr", "--out", "o.exr"],
+        &[
+            "render",
+            "--integrator",
+            "exact",
+            "--tolerance",
+            "1e-300",
+            "--out",
+            "o.exr",
+        ][..],
+        &[
+            "render",
+            "--integrator",
+            "exact",
+            "--tolerance=-1e-300",
+            "--out",
+            "o.exr",
+        ],
+        &[
+            "render",
+            "--integrator",
+            "exact",
+            "--tolerance",
+            "-1e-6",
+            "--out",
+            "o.exr",
+        ],
+        &[
+            "render",
+            "--integrator",
+            "mc",
+            "--tolerance",
+            "1e-300",
+            "--out",
+            "o.exr",
+        ],
+        &[
+            "render",
+            "--target-sd",
+            "-1e-300",
+            "--max-spp",
+            "256",
+            "--out",
+            "o.exr",
+        ],
+        &[
+            "render",
+            "--error-max",
+            "-1e-300",
+            "--reference",
+            "r.exr",
+            "--out",
+            "o.exr",
+        ],
     ] {
         let o = workbench(d, args);
         let case = args.join(" ");
@@ -128,10 +193,7 @@ fn numbers_in_messages_and_default_names_are_short() {
     let o = workbench(d, &["run", "p.json", "--out", "p", "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let names = files_in(&d.join("p"));
-    assert!(
-        names.iter().any(|n| n.contains("phong1e-300")),
-        "{names:?}"
-    );
+    assert!(names.iter().any(|n| n.contains("phong1e-300")), "{names:?}");
     assert!(names.iter().all(|n| n.len() < 100), "{names:?}");
 }
 
@@ -142,9 +204,18 @@ fn usage_errors_are_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for (args, needles) in [
-        (&["run", "x.json", "--outt", "d"][..], &["unexpected argument '--outt'"][..]),
-        (&["render", "--integrator", "nope", "--out", "o.exr"], &["--integrator", "\"nope\""]),
-        (&["rule", "--design", "nope"], &["--design", "\"nope\"", "uniform"]),
+        (
+            &["run", "x.json", "--outt", "d"][..],
+            &["unexpected argument '--outt'"][..],
+        ),
+        (
+            &["render", "--integrator", "nope", "--out", "o.exr"],
+            &["--integrator", "\"nope\""],
+        ),
+        (
+            &["rule", "--design", "nope"],
+            &["--design", "\"nope\"", "uniform"],
+        ),
         (&["render", "--spp", "many", "--out", "o.exr"], &["--spp", "many"]),
         (&["render"], &["--out"]),
         (&["frobnicate"], &["frobnicate"]),
@@ -154,7 +225,11 @@ fn usage_errors_are_one_line() {
     }
     // --help and --version still print in full, on stdout, exit 0.
     let o = workbench(d, &["run", "--help"]);
-    assert!(o.status.success() && stdout(&o).contains("Usage:"), "{}", stderr(&o));
+    assert!(
+        o.status.success() && stdout(&o).contains("Usage:"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Errors inside an integrand stopped at `integrands[0]` or `brdf`: the path goes on to the
@@ -199,11 +274,17 @@ fn spec_errors_name_the_sub_field() {
             r#"{"type": "cap", "axis": [0, 0, 1], "half_angle": 400}"#,
             "s.json: integrands[0].half_angle: must be in (0, 180] degrees, got 400",
         ),
-        (r#"{"type": "lobes", "axis": [0, 0, 1]}"#, "s.json: integrands[0].type: unknown variant `lobes`"),
+        (
+            r#"{"type": "lobes", "axis": [0, 0, 1]}"#,
+            "s.json: integrands[0].type: unknown variant `lobes`",
+        ),
     ] {
         std::fs::write(d.join("s.json"), spec(integrand)).unwrap();
         for command in ["validate", "run"] {
-            let o = workbench(d, &[command, "s.json", "-q"][..if command == "run" { 3 } else { 2 }]);
+            let o = workbench(
+                d,
+                &[command, "s.json", "-q"][..if command == "run" { 3 } else { 2 }],
+            );
             refused_in_one_line(&o, &[needle], &format!("{command} {integrand}"));
         }
     }
@@ -230,13 +311,20 @@ fn irradiance_files_are_checked_like_experiment_files() {
             refused_in_one_line(&o, &[&format!("--threads: must be in 1..=256, got {t}")], file);
         }
     }
-    std::fs::write(d.join("t.json"), irradiance(r#", "threads": 2"#, "[4, 8]", "irradiance")).unwrap();
+    std::fs::write(
+        d.join("t.json"),
+        irradiance(r#", "threads": 2"#, "[4, 8]", "irradiance"),
+    )
+    .unwrap();
     std::fs::write(d.join("k.json"), irradiance("", "[4, 8]", "irradiance2")).unwrap();
     std::fs::write(d.join("n.json"), irradiance("", "[4, 4]", "irradiance")).unwrap();
     std::fs::write(d.join("z.json"), irradiance("", "[4, 0]", "irradiance")).unwrap();
     for (file, needles) in [
         ("t.json", &["t.json: threads: unknown field `threads`"][..]),
-        ("k.json", &["k.json: kind: unknown variant `irradiance2`", "`irradiance`"]),
+        (
+            "k.json",
+            &["k.json: kind: unknown variant `irradiance2`", "`irradiance`"],
+        ),
         ("n.json", &["n.json: n[1]: N = 4 is listed twice"]),
         ("z.json", &["z.json: n[1]: N must be at least 1, got 0"]),
     ] {
