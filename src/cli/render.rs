@@ -337,7 +337,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     image_files::check_exr_out(out)?;
-    check_size(args.width(), args.height())?;
+    check_size(args.width(), args.height(), "--width/--height")?;
     let (kind, spp, seed, gps) = check_sampling_options(args)?;
     if args.results_dir.is_some() {
         return Err(InputError::new(

@@ -112,7 +112,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     check_gps(gps, "--gps")?;
     let out = args.out;
     super::image_files::check_exr_out(out)?;
-    check_size(args.width, args.height)?;
+    check_size(args.width, args.height, "--width/--height")?;
     let png = sibling_png(out, "");
     let spp_png = sibling_png(out, "-spp");
     let error_png = sibling_png(out, "-error");

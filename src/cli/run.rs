@@ -55,7 +55,7 @@ pub struct ValidateArgs {
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     // One check for every kind of file, before anything is read or written.
     if let Some(t) = args.threads {
-        workbench::util::threads::check_threads(t)?;
+        workbench::util::threads::check_threads(t, "--threads")?;
     }
     let text = workbench::files::spec_json::read_spec(&args.file).unwrap_or_default();
     if workbench::files::spec_json::spec_kind(&text) == Some(SpecKind::Irradiance) {

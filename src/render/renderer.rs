@@ -28,23 +28,23 @@ const PIXELS: u64 = 0x91c;
 /// `2^24` pixels (4096 × 4096) stay under 1 GiB.
 pub const MAX_PIXELS: usize = 1 << 24;
 
-/// Rejects empty images and images too large for memory, naming the options.
-pub fn check_size(width: usize, height: usize) -> Result<(), InputError> {
+/// Rejects empty images and images too large for memory; `what` names the options or fields
+/// (`--width/--height`, `width/height`).
+pub fn check_size(width: usize, height: usize, what: &str) -> Result<(), InputError> {
     if width == 0 || height == 0 {
         return Err(InputError::new(format!(
-            "--width/--height: the image must be at least 1×1, got {width}×{height}"
+            "{what}: the image must be at least 1×1, got {width}×{height}"
         )));
     }
     match width.checked_mul(height) {
         // Under the fixed limit, the image must also fit the memory budget.
-        Some(n) if n <= MAX_PIXELS => crate::bq::rule::check_memory(
-            &format!("--width/--height: a {width}×{height} image"),
-            48 * n as u64,
-        ),
+        Some(n) if n <= MAX_PIXELS => {
+            crate::bq::rule::check_memory(&format!("{what}: a {width}×{height} image"), 48 * n as u64)
+        }
         _ => {
             let gib = 48.0 * width as f64 * height as f64 / (1u64 << 30) as f64;
             Err(InputError::new(format!(
-                "--width/--height: {width}×{height} would need {gib:.1} GiB; the limit is {MAX_PIXELS} \
+                "{what}: {width}×{height} would need {gib:.1} GiB; the limit is {MAX_PIXELS} \
                  pixels (4096×4096)"
             )))
         }

@@ -164,8 +164,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     let (default_width, default_height) = scene.default_size();
     let width = spec.width.unwrap_or(default_width as u64) as usize;
     let height = spec.height.unwrap_or(default_height as u64) as usize;
-    check_size(width, height)
-        .map_err(|e| err("width/height", e.0.trim_start_matches("--width/--height: ")))?;
+    check_size(width, height, "width/height").map_err(|e| e.0)?;
     let env_arg = spec.env.clone().unwrap_or_else(|| "sky".into());
     let env = Environment::from_arg(&env_arg).map_err(|e| err("env", e.0))?;
     let env = match &spec.lookup {
