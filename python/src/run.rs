@@ -133,7 +133,7 @@ pub fn run<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads.map(|t| t.count("threads")).transpose()?;
     if let Some(t) = threads {
-        workbench::util::threads::check_threads(t).map_err(|_| {
+        workbench::util::threads::check_threads(t, "threads").map_err(|_| {
             value_error(format!(
                 "threads: must be in 1..={}, got {t}",
                 workbench::util::threads::MAX_THREADS

@@ -132,9 +132,9 @@ def test_the_spec_and_the_callables_must_agree():
         wb.run(spec, integrands={"cos3": cos3, "other": cos3})
     with pytest.raises(ValueError, match=r'integrands\["cos3"\]: must be callable'):
         wb.run(spec, integrands={"cos3": 3})
-    with pytest.raises(ValueError, match=r'integrands\[0\]: invalid type: string "1", expected f64'):
+    with pytest.raises(ValueError, match=r'integrands\[0\]\.truth: invalid type: string "1", expected f64'):
         wb.run(dict(BASE, integrands=[{"type": "python", "name": "x", "truth": "1"}]), integrands={"x": cos3})
-    with pytest.raises(ValueError, match=r"integrands\[0\]: tolerance: is the computed truth's"):
+    with pytest.raises(ValueError, match=r"integrands\[0\]\.tolerance: is the computed truth's"):
         wb.run(python_cos3(tolerance=1e-3), integrands={"cos3": cos3})
     # A bad estimator is reported before any truth is computed (the callable is never called).
     called = []
@@ -149,7 +149,7 @@ def test_the_cli_refuses_a_python_integrand(cli, tmp_path):
     (tmp_path / "e.json").write_text(json.dumps(python_cos3()))
     p = cli("validate", "e.json", check=False)
     assert p.returncode == 2
-    assert 'integrands[0]: type: "python" names a Python callable' in p.stderr
+    assert 'integrands[0].type: "python" names a Python callable' in p.stderr
 
 
 # Issue 42, item 4: a callable that itself calls `run` (a nested run on a worker thread, whose

@@ -35,7 +35,8 @@ pub fn check_error_max(given: Option<f64>) -> Result<f64, InputError> {
         Ok(error_max)
     } else {
         Err(InputError::new(format!(
-            "--error-max: must be finite and > 0, got {error_max}"
+            "--error-max: must be finite and > 0, got {}",
+            workbench::util::shown::shown(error_max)
         )))
     }
 }

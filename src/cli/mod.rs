@@ -15,8 +15,9 @@ mod reproduce;
 mod rule;
 mod run;
 mod schema;
+mod usage;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use output::{is_broken_pipe, status};
 use std::process::ExitCode;
 
@@ -65,16 +66,20 @@ enum Command {
 
 /// Entry point of the binary.
 pub fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let parsed = usage::with_negative_numbers(Cli::command())
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(cli) => cli,
-        Err(e) => {
-            // Usage errors in clap's own words (exit 2); --help and --version exit 0.
+        // --help and --version, on stdout, exit 0.
+        Err(e) if !e.use_stderr() => {
             let _ = e.print();
-            return if e.use_stderr() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::SUCCESS
-            };
+            return ExitCode::SUCCESS;
+        }
+        // A usage error is one line like any other bad input (exit 2).
+        Err(e) => {
+            status!("Error: {}", usage::one_line(&e));
+            return ExitCode::from(2);
         }
     };
     if let Some(dir) = cli.data {

@@ -20,6 +20,7 @@ use workbench::render::{Environment, Integrator, Renderer, SceneKind, check_size
 /// `--spp` when none is given.
 const DEFAULT_SPP: usize = 40;
 use workbench::util::report::Reporter;
+use workbench::util::shown::shown;
 
 /// Options of `workbench render`.
 #[derive(clap::Args, Debug)]
@@ -131,7 +132,7 @@ pub struct RenderArgs {
     pub results_dir: Option<PathBuf>,
     /// Tables only: render only shard i of n (1 <= i <= n) of the table's rounds (every variant
     /// at one spp or target and repetition), into a shard folder for `workbench merge`.
-    #[arg(long, value_name = "i/n", requires = "spec")]
+    #[arg(long, value_name = "i/n", requires = "spec", allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// Tables only: continue an interrupted table (or, with --shard, shard) from the rounds its
     /// folder's rounds.partial.csv holds; the same files as an uninterrupted run.
@@ -333,7 +334,7 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     // Validate everything before any work.
     let out = args.out.as_ref().expect("clap requires --out without a spec");
     image_files::check_exr_out(out)?;
-    check_size(args.width(), args.height())?;
+    check_size(args.width(), args.height(), "--width/--height")?;
     let (kind, spp, seed, gps) = check_sampling_options(args)?;
     if args.results_dir.is_some() {
         return Err(InputError::new(
@@ -560,7 +561,8 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
         RenderIntegrator::Estimator(kind) => {
             if let Some(t) = args.tolerance {
                 return Err(InputError::new(format!(
-                    "--tolerance {t}: applies to --integrator exact, not {kind}"
+                    "--tolerance {}: applies to --integrator exact, not {kind}",
+                    shown(t)
                 ))
                 .into());
             }
@@ -584,8 +586,9 @@ fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<Integrato
             let t = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
             if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
                 return Err(InputError::new(format!(
-                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {t}",
-                    exact::MIN_TOLERANCE
+                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {}",
+                    exact::MIN_TOLERANCE,
+                    shown(t)
                 ))
                 .into());
             }

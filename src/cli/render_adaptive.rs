@@ -57,7 +57,11 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
         }
     };
     if !(target_sd.is_finite() && target_sd > 0.0) {
-        return Err(InputError::new(format!("--target-sd: must be finite and > 0, got {target_sd}")).into());
+        return Err(InputError::new(format!(
+            "--target-sd: must be finite and > 0, got {}",
+            workbench::util::shown::shown(target_sd)
+        ))
+        .into());
     }
     let kind = match &args.integrator {
         Ok(k) if k.adaptive() => *k,
@@ -108,7 +112,7 @@ pub fn single(args: &AdaptiveArgs<'_>) -> anyhow::Result<()> {
     check_gps(gps, "--gps")?;
     let out = args.out;
     super::image_files::check_exr_out(out)?;
-    check_size(args.width, args.height)?;
+    check_size(args.width, args.height, "--width/--height")?;
     let png = sibling_png(out, "");
     let spp_png = sibling_png(out, "-spp");
     let error_png = sibling_png(out, "-error");

@@ -129,7 +129,7 @@ impl Item {
 
 pub fn reproduce(args: ReproduceArgs) -> anyhow::Result<ExitCode> {
     if let Some(t) = args.threads {
-        workbench::util::threads::check_threads(t)?;
+        workbench::util::threads::check_threads(t, "--threads")?;
     }
     let results = args
         .results_dir

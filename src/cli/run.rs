@@ -31,7 +31,7 @@ pub struct RunArgs {
     /// Run only shard i of n (1 <= i <= n) of the units — (N, trial) pairs; for an irradiance
     /// file, rows of the grid of normals — into a shard folder for `workbench merge`
     /// [default --out: results/<name>-shard-<i>-of-<n>/].
-    #[arg(long, value_name = "i/n")]
+    #[arg(long, value_name = "i/n", allow_hyphen_values = true)]
     shard: Option<String>,
     /// Continue an interrupted run (or shard) from the units its folder's log holds
     /// (trials.partial.csv; irradiance.partial.csv for an irradiance file).
@@ -53,6 +53,10 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    // One check for every kind of file, before anything is read or written.
+    if let Some(t) = args.threads {
+        workbench::util::threads::check_threads(t, "--threads")?;
+    }
     let text = workbench::files::spec_json::read_spec(&args.file).unwrap_or_default();
     if workbench::files::spec_json::spec_kind(&text) == Some(SpecKind::Irradiance) {
         return run_irradiance(args);

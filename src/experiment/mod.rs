@@ -73,7 +73,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<(spec::ExperimentSpec,
         spec.trials = t;
     }
     if let Some(t) = overrides.threads {
-        crate::util::threads::check_threads(t)?;
+        crate::util::threads::check_threads(t, "threads")?;
     }
     let plan = plan::resolve(&spec).map_err(|m| InputError::new(format!("{file}: {m}")))?;
     Ok((spec, plan))

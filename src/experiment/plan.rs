@@ -262,8 +262,9 @@ pub fn parse(text: &str) -> Result<ExperimentSpec, String> {
     crate::files::spec_json::parse(text, "the experiment")
 }
 
+/// `path: message`, sub-fields continuing the path ([`crate::files::spec_json::at`]).
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
-    format!("{path}: {message}")
+    crate::files::spec_json::at(&path.to_string(), &message.to_string())
 }
 
 /// Checks every value and fills in defaults. An integrand of `"type": "python"` is refused: it
@@ -389,17 +390,7 @@ fn resolve_integrands(
 
 /// Sample counts distinct and at least 1, trials at least 1, at least one estimator.
 fn check_counts(spec: &ExperimentSpec) -> Result<(), String> {
-    if spec.samples.is_empty() {
-        return Err(err("samples", "must list at least one sample count"));
-    }
-    for (i, &n) in spec.samples.iter().enumerate() {
-        if n == 0 {
-            return Err(err(format!("samples[{i}]"), "N must be at least 1, got 0"));
-        }
-        if spec.samples[..i].contains(&n) {
-            return Err(err(format!("samples[{i}]"), format!("N = {n} is listed twice")));
-        }
-    }
+    crate::files::spec_json::check_counts("samples", &spec.samples)?;
     if spec.trials == 0 {
         return Err(err("trials", "must be at least 1, got 0"));
     }

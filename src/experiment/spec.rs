@@ -295,12 +295,13 @@ impl<'de> Deserialize<'de> for IntegrandSpec {
         use serde::de::Error;
         match serde_json::Value::deserialize(d)? {
             serde_json::Value::String(name) => Ok(IntegrandSpec::Named(name)),
+            // With the path inside (`normal[0]`), which `serde_json::from_value` would drop.
             v @ serde_json::Value::Object(_) if v.get("type").and_then(|t| t.as_str()) == Some("python") => {
-                serde_json::from_value(v)
+                crate::files::spec_json::from_value(v)
                     .map(IntegrandSpec::External)
                     .map_err(D::Error::custom)
             }
-            v @ serde_json::Value::Object(_) => serde_json::from_value(v)
+            v @ serde_json::Value::Object(_) => crate::files::spec_json::from_value(v)
                 .map(IntegrandSpec::Family)
                 .map_err(D::Error::custom),
             other => Err(D::Error::custom(format!(

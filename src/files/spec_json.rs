@@ -48,15 +48,76 @@ pub fn parse<T: DeserializeOwned>(text: &str, what: &str) -> Result<T, String> {
             kind(&value)
         ));
     }
+    from_value(value)
+}
+
+/// `value` as `T`, with an error `path: message` naming the innermost field that failed
+/// (`axis[1]: invalid type: …`): what a hand-written `Deserialize` that reads a [`Value`] first
+/// (to say which forms a field accepts) uses for the object inside, so that the path goes on
+/// past it (`integrands[0].brdf.axis[1]`, not `integrands[0]`; issue 42).
+pub fn from_value<T: DeserializeOwned>(value: Value) -> Result<T, String> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         let inner = explain_type_error(&e.into_inner().to_string());
-        if path == "." {
-            inner
-        } else {
-            format!("{path}: {inner}")
-        }
+        if path == "." { inner } else { at(&path, &inner) }
     })
+}
+
+/// `path: message`, the one form of a spec error, where a message that starts with a field path
+/// of its own (`brdf.phong: must be …`, `normal[0]: invalid type …`, from the value inside)
+/// continues `path` instead: `integrands[0].brdf.phong: must be …`. Every spec reader builds its
+/// paths with it, so a sub-field is named however deep it is.
+pub fn at(path: &str, message: &str) -> String {
+    match message.split_once(": ") {
+        Some((sub, rest)) if is_field_path(sub) => {
+            let dot = if sub.starts_with('[') { "" } else { "." };
+            format!("{path}{dot}{sub}: {rest}")
+        }
+        _ => format!("{path}: {message}"),
+    }
+}
+
+/// The sample counts N of a spec's list `field` (an experiment's `samples`, an irradiance file's
+/// `n`): at least one, each at least 1, none listed twice — one check for every kind of file, so
+/// that `[4, 4]` is refused by all of them (issue 42: irradiance files took it silently).
+pub fn check_counts(field: &str, counts: &[u64]) -> Result<(), String> {
+    if counts.is_empty() {
+        return Err(format!("{field}: must list at least one sample count"));
+    }
+    for (i, &n) in counts.iter().enumerate() {
+        if n == 0 {
+            return Err(format!("{field}[{i}]: N must be at least 1, got 0"));
+        }
+        if counts[..i].contains(&n) {
+            return Err(format!("{field}[{i}]: N = {n} is listed twice"));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `s` is a JSON field path as the messages write it: keys (letters, digits, `_`, `$`,
+/// not starting with a digit, so that a value such as `100: applies to …` is not taken for one)
+/// joined by `.`, each optionally followed by indices `[3]`, or indices alone (`[1]`).
+fn is_field_path(s: &str) -> bool {
+    let key = |k: &str| {
+        let name_end = k.find('[').unwrap_or(k.len());
+        let (name, mut indices) = k.split_at(name_end);
+        let name_ok = name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '$'))
+            && !name.starts_with(|c: char| c.is_ascii_digit());
+        while let Some(rest) = indices.strip_prefix('[') {
+            let Some((digits, after)) = rest.split_once(']') else {
+                return false;
+            };
+            if digits.is_empty() || !digits.chars().all(|c| c.is_ascii_digit()) {
+                return false;
+            }
+            indices = after;
+        }
+        name_ok && indices.is_empty() && !k.is_empty()
+    };
+    !s.is_empty() && s.split('.').all(key)
 }
 
 fn is_json_whitespace(c: char) -> bool {
@@ -76,7 +137,7 @@ pub fn kind(value: &serde_json::Value) -> &'static str {
 }
 
 /// Which kind of spec a file holds, from its top-level keys: render tables have `variants`,
-/// irradiance files `"kind": "irradiance"`.
+/// irradiance files a `"kind"` (`"irradiance"`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SpecKind {
     Experiment,
@@ -89,7 +150,10 @@ pub fn spec_kind(text: &str) -> Option<SpecKind> {
     let text = text.strip_prefix(BOM).unwrap_or(text);
     let value: serde_json::Value = serde_json::from_str(text).ok()?;
     let obj = value.as_object()?;
-    if obj.get("kind").and_then(|k| k.as_str()) == Some("irradiance") {
+    // Only irradiance files have a `kind`: any `kind` makes the file one, so that a misspelt
+    // one (`"irradiance2"`) gets the irradiance reader's message naming `kind` and its value,
+    // not an experiment's about fields it lacks (issue 42).
+    if obj.contains_key("kind") {
         return Some(SpecKind::Irradiance);
     }
     if obj.contains_key("variants") && !obj.contains_key("estimators") {
@@ -337,6 +401,41 @@ mod tests {
 
     fn error(text: &str) -> String {
         parse::<Spec>(text, "the spec").unwrap_err()
+    }
+
+    /// Issue 42: a message that names a sub-field continues the path (`brdf.phong`,
+    /// `normal[0]`) instead of standing after it.
+    #[test]
+    fn sub_fields_continue_the_path() {
+        assert_eq!(
+            at("integrands[0]", "brdf.phong: must be in (0, 1e6]"),
+            "integrands[0].brdf.phong: must be in (0, 1e6]"
+        );
+        assert_eq!(
+            at("integrands[0]", "normal[0]: invalid type"),
+            "integrands[0].normal[0]: invalid type"
+        );
+        assert_eq!(
+            at("integrands[0].brdf", "axis[1]: invalid type"),
+            "integrands[0].brdf.axis[1]: invalid type"
+        );
+        assert_eq!(at("n", "[1]: listed twice"), "n[1]: listed twice");
+        // Prose is not a path: it stands after the path as before.
+        assert_eq!(
+            at("estimators[2].kernel", "sobolev kernel: s must be"),
+            "estimators[2].kernel: sobolev kernel: s must be"
+        );
+        assert_eq!(
+            at("samples[1]", "N must be at least 1, got 0"),
+            "samples[1]: N must be at least 1, got 0"
+        );
+        assert_eq!(at("x", "a[b]: c"), "x: a[b]: c");
+        // A value is not a path, nor is a number.
+        assert_eq!(
+            at("reference.spp", "100: applies to"),
+            "reference.spp: 100: applies to"
+        );
+        assert_eq!(at("x", "0.5: too small"), "x: 0.5: too small");
     }
 
     #[test]

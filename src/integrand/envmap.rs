@@ -158,11 +158,11 @@ impl EnvmapIntegrand {
             Brdf::Phong { exponent, axis } => {
                 if !(exponent.is_finite() && exponent > 0.0 && exponent <= MAX_EXPONENT) {
                     return Err(format!(
-                        "brdf: the phong exponent must be in (0, 1e6], got {}",
+                        "brdf.phong: the exponent must be in (0, 1e6], got {}",
                         shown(exponent)
                     ));
                 }
-                let axis = unit("brdf: axis", [axis.x, axis.y, axis.z])?;
+                let axis = unit("brdf.axis", [axis.x, axis.y, axis.z])?;
                 Brdf::Phong { exponent, axis }
             }
         };
@@ -260,7 +260,8 @@ impl EnvmapIntegrand {
     fn brdf_name(&self) -> String {
         match self.brdf {
             Brdf::Lambert => "lambert".into(),
-            Brdf::Phong { exponent, .. } => format!("phong{exponent}"),
+            // Short, as in messages: `phong1e-300`, not 300 digits in a file name (issue 42).
+            Brdf::Phong { exponent, .. } => format!("phong{}", shown(exponent)),
         }
     }
 
@@ -287,7 +288,8 @@ impl EnvmapIntegrand {
         let brdf = match self.brdf {
             Brdf::Lambert => "a Lambertian surface".to_string(),
             Brdf::Phong { exponent, axis } => format!(
-                "a Phong lobe e = {exponent}, tilt {:.0}°",
+                "a Phong lobe e = {}, tilt {:.0}°",
+                shown(exponent),
                 axis.z.clamp(-1.0, 1.0).acos().to_degrees()
             ),
         };
@@ -385,11 +387,13 @@ impl<'de> Deserialize<'de> for BrdfSpec {
         use serde::de::Error;
         match serde_json::Value::deserialize(d)? {
             serde_json::Value::String(name) => Ok(BrdfSpec::Named(name)),
-            v @ serde_json::Value::Object(_) => serde_json::from_value(v)
+            // The path inside (`axis[1]`) continues the field's own (`brdf`), which the reader
+            // of the integrand adds.
+            v @ serde_json::Value::Object(_) => crate::files::spec_json::from_value(v)
                 .map(BrdfSpec::Phong)
-                .map_err(|e| D::Error::custom(format!("brdf: {e}"))),
+                .map_err(D::Error::custom),
             other => Err(D::Error::custom(format!(
-                "brdf: expected \"lambert\" or {{\"phong\": e, \"axis\": [x, y, z]}}, got {other}"
+                "expected \"lambert\" or {{\"phong\": e, \"axis\": [x, y, z]}}, got {other}"
             ))),
         }
     }
@@ -613,7 +617,7 @@ mod tests {
                 "mitsuba",
                 "r",
             );
-            assert!(m.starts_with("brdf: the phong exponent"), "{m}");
+            assert!(m.starts_with("brdf.phong: the exponent"), "{m}");
         }
         let m = err(
             up,
@@ -624,7 +628,7 @@ mod tests {
             "mitsuba",
             "r",
         );
-        assert!(m.starts_with("brdf: axis: "), "{m}");
+        assert!(m.starts_with("brdf.axis: "), "{m}");
         assert!(err(up, Brdf::Lambert, "nearest", "r").starts_with("lookup: "));
         assert!(err(up, Brdf::Lambert, "mitsuba", "alpha").starts_with("channel: "));
         let m = BrdfSpec::Named("glass".into()).resolve().unwrap_err();

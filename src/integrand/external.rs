@@ -89,7 +89,10 @@ impl ExternalIntegrand {
                 return Err("tolerance: is the computed truth's; with \"truth\" given there is none".into());
             }
             if !(t > 0.0 && t.is_finite()) {
-                return Err(format!("tolerance: must be a positive number, got {t}"));
+                return Err(format!(
+                    "tolerance: must be a positive number, got {}",
+                    crate::util::shown::shown(t)
+                ));
             }
         }
         let (truth, truth_source) = match spec.truth {

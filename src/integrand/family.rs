@@ -207,7 +207,9 @@ impl AxisIntegrand {
 }
 
 /// A rendering-like integrand about a tilted axis (math.md §1, "Rendering-like integrands").
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, JsonSchema)]
+// Read by `FamilyFields`, so that errors name the field inside (`normal[0]`); a doc line here
+// would go into the committed JSON Schema.
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum FamilySpec {
     /// `max(0, ω·a)^e · (ω·n)^m`.
@@ -270,6 +272,116 @@ pub enum FamilySpec {
         #[serde(default = "default_channel")]
         channel: String,
     },
+}
+
+/// [`FamilySpec`]'s variants read externally tagged (`{"envmap": {…}}`): serde reads an
+/// internally tagged enum (`"type"` beside the fields) through a buffer that loses the path, so an
+/// error inside said `integrands[0]` where it meant `integrands[0].normal[0]` (issue 42).
+/// `remote` makes serde build [`FamilySpec`] itself, so a field missing here does not compile.
+#[derive(Deserialize)]
+#[serde(remote = "FamilySpec", rename_all = "lowercase", deny_unknown_fields)]
+enum FamilyFields {
+    Lobe {
+        #[serde(default)]
+        name: Option<String>,
+        axis: [f64; 3],
+        exponent: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    Cap {
+        #[serde(default)]
+        name: Option<String>,
+        axis: [f64; 3],
+        half_angle: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    Gaussian {
+        #[serde(default)]
+        name: Option<String>,
+        axis: [f64; 3],
+        sharpness: f64,
+        #[serde(default)]
+        cosine: bool,
+    },
+    Pixel {
+        #[serde(default)]
+        name: Option<String>,
+        pixel: [usize; 2],
+        #[serde(default = "default_size")]
+        width: usize,
+        #[serde(default = "default_size")]
+        height: usize,
+        #[serde(default = "default_env")]
+        env: String,
+        channel: String,
+    },
+    Envmap {
+        #[serde(default)]
+        name: Option<String>,
+        env: String,
+        normal: [f64; 3],
+        #[serde(default)]
+        brdf: BrdfSpec,
+        #[serde(default = "default_lookup")]
+        lookup: String,
+        #[serde(default = "default_channel")]
+        channel: String,
+    },
+}
+
+impl<'de> Deserialize<'de> for FamilySpec {
+    /// `{"type": t, fields…}` as `{t: {fields…}}` through [`FamilyFields`], with the path of the
+    /// field that failed ([`crate::files::spec_json::from_value`]) minus the variant's name.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        use serde_json::Value;
+        struct Tagged(FamilySpec);
+        impl<'de> Deserialize<'de> for Tagged {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                FamilyFields::deserialize(d).map(Tagged)
+            }
+        }
+        let mut object = match Value::deserialize(d)? {
+            Value::Object(o) => o,
+            other => {
+                return Err(D::Error::custom(format!(
+                    "expected an object with a \"type\" ({}), got {}",
+                    FamilySpec::types_or(),
+                    crate::files::spec_json::kind(&other)
+                )));
+            }
+        };
+        let kind = match object.remove("type") {
+            Some(Value::String(t)) => t,
+            Some(other) => {
+                return Err(D::Error::custom(format!(
+                    "type: expected one of {}, got {other}",
+                    FamilySpec::types_or()
+                )));
+            }
+            None => return Err(D::Error::custom("missing field `type`")),
+        };
+        let tagged = Value::Object(serde_json::Map::from_iter([(
+            kind.clone(),
+            Value::Object(object),
+        )]));
+        crate::files::spec_json::from_value::<Tagged>(tagged)
+            .map(|t| t.0)
+            .map_err(|m| {
+                // The variant's name leads the path (`envmap.normal[0]: …`); the file has `type`.
+                let m = m
+                    .strip_prefix(&format!("{kind}."))
+                    .or_else(|| m.strip_prefix(&format!("{kind}: ")))
+                    .map_or(m.clone(), str::to_owned);
+                D::Error::custom(if m.starts_with("unknown variant") {
+                    format!("type: {m}")
+                } else {
+                    m
+                })
+            })
+    }
 }
 
 fn default_lookup() -> String {
@@ -517,6 +629,7 @@ mod tests {
         let e = serde_json::from_value::<FamilySpec>(serde_json::json!({"type": "nope"}))
             .unwrap_err()
             .to_string();
+        assert!(e.starts_with("type: unknown variant `nope`"), "{e}");
         let expected: Vec<String> = FamilySpec::TYPES.iter().map(|t| format!("`{t}`")).collect();
         assert!(
             e.contains(&format!("expected one of {}", expected.join(", "))),

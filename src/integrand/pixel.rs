@@ -57,8 +57,7 @@ impl PixelIntegrand {
         env_name: &str,
         channel: &str,
     ) -> Result<Self, String> {
-        check_size(width, height)
-            .map_err(|e| format!("width/height: {}", e.0.trim_start_matches("--width/--height: ")))?;
+        check_size(width, height, "width/height").map_err(|e| e.0)?;
         let channel = CHANNELS
             .iter()
             .position(|c| *c == channel)

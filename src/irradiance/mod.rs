@@ -172,9 +172,8 @@ pub fn resolve(spec: &IrradianceSpec) -> Result<IrradiancePlan, String> {
             "grid: [{w}, {h}]: each side must be from 1 to {MAX_GRID}"
         ));
     }
-    if spec.n.is_empty() {
-        return Err("n: give at least one sample count".into());
-    }
+    let counts: Vec<u64> = spec.n.iter().map(|&k| k as u64).collect();
+    crate::files::spec_json::check_counts("n", &counts)?;
     if spec.estimators.is_empty() {
         return Err("estimators: give at least one (e.g. \"mc\", \"bmc\")".into());
     }
@@ -208,7 +207,6 @@ pub fn resolve(spec: &IrradianceSpec) -> Result<IrradiancePlan, String> {
         }
     }
     n.sort_unstable();
-    n.dedup();
     let env = load_map(&spec.env, Lookup::Mitsuba)?;
     let published = spec
         .published
@@ -223,7 +221,10 @@ pub fn resolve(spec: &IrradianceSpec) -> Result<IrradiancePlan, String> {
         if let Some(v) = v
             && !(v.is_finite() && v > 0.0)
         {
-            return Err(format!("published.{field}: must be a positive number, got {v}"));
+            return Err(format!(
+                "published.{field}: must be a positive number, got {}",
+                crate::util::shown::shown(v)
+            ));
         }
     }
     Ok(IrradiancePlan {

@@ -29,31 +29,30 @@ const PIXELS: u64 = 0x91c;
 pub const MAX_PIXELS: usize = 1 << 24;
 
 /// Rejects empty images, images with a side the tool could not read back, and images too large
-/// for memory, naming the options. The side limit is the decoder's,
-/// [`crate::render::env::MAX_IMAGE_SIDE`]: one limit for the writer and the reader, so that
-/// every image `render` writes is one `--reference` (and `--env`) reads (issue 42.5: a
-/// 100000×1 render was written, then refused by its own `--reference`).
-pub fn check_size(width: usize, height: usize) -> Result<(), InputError> {
+/// for memory; `what` names the options or fields (`--width/--height`, `width/height`). The side
+/// limit is the decoder's, [`crate::render::env::MAX_IMAGE_SIDE`]: one limit for the writer and
+/// the reader, so that every image `render` writes is one `--reference` (and `--env`) reads
+/// (issue 42.5: a 100000×1 render was written, then refused by its own `--reference`).
+pub fn check_size(width: usize, height: usize, what: &str) -> Result<(), InputError> {
     if width == 0 || height == 0 {
         return Err(InputError::new(format!(
-            "--width/--height: the image must be at least 1×1, got {width}×{height}"
+            "{what}: the image must be at least 1×1, got {width}×{height}"
         )));
     }
     let side = crate::render::env::MAX_IMAGE_SIDE as usize;
     match width.checked_mul(height) {
         // Under the fixed limit, the image must also fit the memory budget.
         Some(n) if n <= MAX_PIXELS && (width > side || height > side) => Err(InputError::new(format!(
-            "--width/--height: {width}×{height} has a side over {side}, the largest the image reader \
+            "{what}: {width}×{height} has a side over {side}, the largest the image reader \
              accepts (so that every image written can be read back as a --reference)"
         ))),
-        Some(n) if n <= MAX_PIXELS => crate::bq::rule::check_memory(
-            &format!("--width/--height: a {width}×{height} image"),
-            48 * n as u64,
-        ),
+        Some(n) if n <= MAX_PIXELS => {
+            crate::bq::rule::check_memory(&format!("{what}: a {width}×{height} image"), 48 * n as u64)
+        }
         _ => {
             let gib = 48.0 * width as f64 * height as f64 / (1u64 << 30) as f64;
             Err(InputError::new(format!(
-                "--width/--height: {width}×{height} would need {gib:.1} GiB; the limit is {MAX_PIXELS} \
+                "{what}: {width}×{height} would need {gib:.1} GiB; the limit is {MAX_PIXELS} \
                  pixels (4096×4096)"
             )))
         }

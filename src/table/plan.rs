@@ -148,9 +148,9 @@ pub fn parse(text: &str, path: &Path) -> Result<TablePlan, InputError> {
     resolve(&spec, path).map_err(in_file)
 }
 
-/// `path: value: message`.
+/// `path: message`, sub-fields continuing the path ([`crate::files::spec_json::at`]).
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
-    format!("{path}: {message}")
+    crate::files::spec_json::at(&path.to_string(), &message.to_string())
 }
 
 /// Checks every value and fills in defaults.
@@ -164,8 +164,7 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     let (default_width, default_height) = scene.default_size();
     let width = spec.width.unwrap_or(default_width as u64) as usize;
     let height = spec.height.unwrap_or(default_height as u64) as usize;
-    check_size(width, height)
-        .map_err(|e| err("width/height", e.0.trim_start_matches("--width/--height: ")))?;
+    check_size(width, height, "width/height").map_err(|e| e.0)?;
     let env_arg = spec.env.clone().unwrap_or_else(|| "sky".into());
     let env = Environment::from_arg(&env_arg).map_err(|e| err("env", e.0))?;
     let env = match &spec.lookup {
@@ -429,8 +428,9 @@ fn resolve_reference(spec: &TableSpec, seed: u64, env: &Environment) -> Result<R
             return Err(err(
                 "reference.tolerance",
                 format!(
-                    "must be in [{:e}, 1e-2] (absolute error per pixel and channel), got {tolerance}",
-                    crate::render::exact::MIN_TOLERANCE
+                    "must be in [{:e}, 1e-2] (absolute error per pixel and channel), got {}",
+                    crate::render::exact::MIN_TOLERANCE,
+                    crate::util::shown::shown(tolerance)
                 ),
             ));
         }
@@ -439,7 +439,10 @@ fn resolve_reference(spec: &TableSpec, seed: u64, env: &Environment) -> Result<R
     if let Some(t) = r.tolerance {
         return Err(err(
             "reference.tolerance",
-            format!("{t}: applies to \"method\": \"exact\", not \"mc\""),
+            format!(
+                "{}: applies to \"method\": \"exact\", not \"mc\"",
+                crate::util::shown::shown(t)
+            ),
         ));
     }
     let spp = r.spp.unwrap_or(DEFAULT_REFERENCE_SPP as u64);
@@ -722,7 +725,7 @@ mod tests {
             err(&format!(
                 "{{{base}, \"reference\": {{\"method\": \"mc\", \"tolerance\": 1e-6}}}}"
             )),
-            "t.json: reference.tolerance: 0.000001: applies to \"method\": \"exact\", not \"mc\""
+            "t.json: reference.tolerance: 1e-6: applies to \"method\": \"exact\", not \"mc\""
         );
         assert!(
             err(&format!("{{{base}, \"reference\": {{\"tolerance\": 0}}}}"))

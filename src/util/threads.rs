@@ -19,20 +19,26 @@ pub fn worker_threads(requested: Option<usize>) -> usize {
         .clamp(1, MAX_THREADS)
 }
 
-/// Checks a `--threads` value.
-pub fn check_threads(t: usize) -> Result<usize, InputError> {
+/// Checks a requested number of worker threads; `what` names where it came from (the CLI's
+/// `--threads`, a library caller's `threads`).
+pub fn check_threads(t: usize, what: &str) -> Result<usize, InputError> {
     if (1..=MAX_THREADS).contains(&t) {
         Ok(t)
     } else {
         Err(InputError::new(format!(
-            "--threads: must be in 1..={MAX_THREADS}, got {t}"
+            "{what}: must be in 1..={MAX_THREADS}, got {t}"
         )))
     }
 }
 
 /// A pool of [`worker_threads`] threads (its size set explicitly, so `RAYON_NUM_THREADS` cannot
-/// exceed the cap).
+/// exceed the cap); a `requested` count is checked first ([`check_threads`]).
 pub fn pool(requested: Option<usize>) -> Result<rayon::ThreadPool, Error> {
+    // Every job asks for its pool here: a requested count outside 1..=MAX_THREADS is refused
+    // for all of them, not clamped for the ones whose door forgot to check (issue 42).
+    if let Some(t) = requested {
+        check_threads(t, "threads")?;
+    }
     rayon::ThreadPoolBuilder::new()
         .num_threads(worker_threads(requested))
         .build()

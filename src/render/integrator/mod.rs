@@ -390,7 +390,7 @@ impl Integrator {
     ) -> crate::Result<Self> {
         let sets = if kind.uses_sets() {
             let model =
-                model.ok_or_else(|| InputError::new(format!("--integrator {kind}: needs a BMC model")))?;
+                model.ok_or_else(|| InputError::new(format!("integrator {kind}: needs a BMC model")))?;
             Some(BmcSets::generate(spp, gps, rotate, kind.set_design, model, seed)?)
         } else {
             None
@@ -410,7 +410,7 @@ impl Integrator {
     pub fn with_uncertainty(mut self, scale: Scale, model: Option<&BmcModel>) -> crate::Result<Self> {
         if let Some(sets) = &mut self.sets {
             let model = model
-                .ok_or_else(|| InputError::new(format!("--integrator {}: needs a BMC model", self.kind)))?;
+                .ok_or_else(|| InputError::new(format!("integrator {}: needs a BMC model", self.kind)))?;
             sets.keep_solvers(model, scale)?;
         }
         self.uncertainty = Some(scale);

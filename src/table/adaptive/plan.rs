@@ -35,9 +35,9 @@ impl AdaptivePlan {
     }
 }
 
-/// `path: message`.
+/// `path: message`, sub-fields continuing the path ([`crate::files::spec_json::at`]).
 fn err(path: impl std::fmt::Display, message: impl std::fmt::Display) -> String {
-    format!("{path}: {message}")
+    crate::files::spec_json::at(&path.to_string(), &message.to_string())
 }
 
 /// Checks the targets and stages. `spp_given`: the table also lists `spp`, which an adaptive
@@ -60,7 +60,7 @@ pub fn resolve(a: &AdaptiveSpec, spp_given: Option<&[u64]>) -> Result<AdaptivePl
         if !(t.is_finite() && t > 0.0) {
             return Err(err(
                 format!("adaptive.target_sd[{k}]"),
-                format!("must be finite and > 0, got {t}"),
+                format!("must be finite and > 0, got {}", crate::util::shown::shown(t)),
             ));
         }
         if targets.contains(&t) {

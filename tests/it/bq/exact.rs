@@ -422,19 +422,18 @@ fn pixel_integrands_resolve_to_the_renderers_integrand() {
     let bad = |integrand: &str| resolve(&parse(&spec(integrand)).unwrap()).unwrap_err();
     assert_eq!(
         bad(r#"{"type": "pixel", "pixel": [64, 0], "width": 64, "height": 64, "channel": "g"}"#),
-        "integrands[0]: pixel: [64, 0] is outside the 64×64 image (columns 0..64, rows 0..64)"
+        "integrands[0].pixel: [64, 0] is outside the 64×64 image (columns 0..64, rows 0..64)"
     );
     assert!(
         bad(r#"{"type": "pixel", "pixel": [0, 0], "width": 64, "height": 64, "channel": "g"}"#)
-            .starts_with("integrands[0]: pixel: [0, 0] of the 64×64 image shows the background")
+            .starts_with("integrands[0].pixel: [0, 0] of the 64×64 image shows the background")
     );
     assert!(
-        bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "a"}"#)
-            .starts_with("integrands[0]: channel: ")
+        bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "a"}"#).starts_with("integrands[0].channel: ")
     );
     assert!(
         bad(r#"{"type": "pixel", "pixel": [20, 50], "channel": "r", "env": "/nonexistent.hdr"}"#)
-            .starts_with("integrands[0]: env: /nonexistent.hdr: cannot read")
+            .starts_with("integrands[0].env: /nonexistent.hdr: cannot read")
     );
 }
 

@@ -97,15 +97,15 @@ fn bad_envmap_integrands_are_refused_in_one_line() {
         ),
         (
             r#"{ "type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": "glass" }"#,
-            "brdf: unknown BRDF \"glass\"",
+            "integrands[0].brdf: unknown BRDF \"glass\"",
         ),
         (
             r#"{ "type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": { "phong": 0, "axis": [0, 0, 1] } }"#,
-            "brdf: the phong exponent must be in (0, 1e6], got 0",
+            "integrands[0].brdf.phong: the exponent must be in (0, 1e6], got 0",
         ),
         (
             r#"{ "type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": { "phong": 2e6, "axis": [0, 0, 1] } }"#,
-            "brdf: the phong exponent must be in (0, 1e6], got 2000000",
+            "integrands[0].brdf.phong: the exponent must be in (0, 1e6], got 2000000",
         ),
         (
             r#"{ "type": "envmap", "env": "c.exr", "normal": [0, 1, 0], "brdf": { "phong": 2 } }"#,

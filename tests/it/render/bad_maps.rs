@@ -170,7 +170,7 @@ fn bad_maps_are_refused_in_one_line() {
         d,
         &[],
         &["validate", "exp.json"],
-        &["integrands[0]: env: /dev/zero: is a character device"],
+        &["integrands[0].env: /dev/zero: is a character device"],
     );
 }
 
