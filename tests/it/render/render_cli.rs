@@ -564,3 +564,51 @@ fn an_image_of_the_largest_side_reads_back() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// With stderr a file (not a terminal) a long command prints plain progress lines — share,
+/// counts, elapsed, an estimate left — at most once an interval (issue 43.1: the exact
+/// reference printed nothing for 15 minutes into a log); `-q` silences them. The interval is
+/// 10 s; `WORKBENCH_PROGRESS_INTERVAL` (for tests) shortens it so that a small render shows it.
+#[test]
+fn progress_lines_go_to_a_log_file_unless_quiet() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |quiet: bool| -> String {
+        let log = dir.path().join("log");
+        let mut args = vec![
+            "render",
+            "--integrator",
+            "mc",
+            "--spp",
+            "4",
+            "--width",
+            "16",
+            "--height",
+            "40",
+        ];
+        args.extend(["--out", "a.exr"]);
+        if quiet {
+            args.push("-q");
+        }
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_workbench"))
+            .args(&args)
+            .current_dir(dir.path())
+            .env("WORKBENCH_PROGRESS_INTERVAL", "0.000001")
+            .stderr(std::fs::File::create(&log).unwrap())
+            .status()
+            .unwrap();
+        assert!(status.success());
+        std::fs::read_to_string(&log).unwrap()
+    };
+    let log = run(false);
+    let lines: Vec<&str> = log.lines().filter(|l| l.starts_with("rows: ")).collect();
+    assert!(lines.len() >= 2, "progress lines missing from: {log}");
+    for l in &lines {
+        assert!(
+            l.contains("% (") && l.contains("/40), ") && l.contains(" elapsed"),
+            "{l}"
+        );
+    }
+    assert!(lines.iter().any(|l| l.contains(" left")), "{log}");
+    let quiet = run(true);
+    assert!(!quiet.contains("rows: "), "-q printed progress: {quiet}");
+}
