@@ -162,7 +162,10 @@ pub fn primary_samples(
     sampler.points(count, &mut rng)
 }
 
-/// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`.
+/// One (N, trial) unit. Depends only on the plan, `n_index` and `trial`. In steps: the designs'
+/// sets ([`draw_and_evaluate`]), the tolerance estimators' stages, the weight sets
+/// ([`weight_sets`]), the fitted models' choices ([`choose_models`]), the estimates
+/// ([`estimate_all`]), the weight sets' diagnostics and messages ([`unit_messages`]).
 pub fn run_unit(
     plan: &Plan,
     n_index: usize,
@@ -170,6 +173,104 @@ pub fn run_unit(
     workspace: &mut SpdWorkspace,
 ) -> crate::Result<UnitResult> {
     let n = plan.samples[n_index];
+    let draws = draw_and_evaluate(plan, n, trial)?;
+    // Tolerance estimators extend the unit's set of their design (same stream, nested).
+    let adaptive_clock = Instant::now();
+    let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
+        d.sample_set(count, &mut trial_stream(plan.seed, d, n, trial))
+    })?;
+    // Every tolerance estimator's stages, on every integrand: one shared cost, shown as such.
+    let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
+    let (weights, weight_seconds) = weight_sets(plan, n, trial, &draws, workspace)?;
+    let chosen = choose_models(plan, &draws, &adaptive, &weights);
+    // What each estimator's weight set cost (its stages, for a tolerance estimator).
+    let weight_set_seconds: Vec<f64> = plan
+        .estimators
+        .iter()
+        .map(|e| match set_index(&weights, e) {
+            _ if e.tolerance.is_some() => adaptive_seconds,
+            Some(i) => weight_seconds[i],
+            None => 0.0,
+        })
+        .collect();
+    let sets = UnitSets {
+        weights: &weights,
+        chosen: &chosen,
+    };
+    let estimated = estimate_all(
+        plan,
+        &draws,
+        &adaptive,
+        &sets,
+        &weight_set_seconds,
+        adaptive_seconds,
+    );
+    let ni = plan.integrands.len();
+    let (diagnostics, warnings) = unit_diagnostics(plan, &adaptive, &sets);
+    let messages = unit_messages(plan, &adaptive, &sets, &diagnostics, &estimated);
+    let evaluations: Vec<Vec<u64>> = (0..ni)
+        .map(|fi| {
+            adaptive
+                .iter()
+                .map(|r| r.as_ref().map_or(n as u64, |r| r.outcomes[fi].n_used as u64))
+                .collect()
+        })
+        .collect();
+    Ok(UnitResult {
+        fitted: estimated
+            .amplitudes
+            .iter()
+            .map(|row| row.iter().map(Option::is_some).collect())
+            .collect(),
+        estimates: estimated.estimates,
+        uncertainty: estimated.uncertainty,
+        diagnostics,
+        warnings,
+        messages,
+        chosen,
+        sequential: (0..ni)
+            .map(|fi| {
+                adaptive
+                    .iter()
+                    .map(|r| r.as_ref().map(|r| r.outcomes[fi]))
+                    .collect()
+            })
+            .collect(),
+        cost: Cost {
+            weight_set: weight_set_seconds,
+            seconds: estimated.seconds,
+            evaluations,
+        },
+    })
+}
+
+/// A unit's points and every integrand's values on them.
+struct Draws {
+    /// The unit's N and trial (light-aware estimators draw their own primary samples from them).
+    n: usize,
+    trial: usize,
+    /// `sets[design]`: the points each design of the plan draws.
+    sets: Vec<Vec<crate::util::geometry::Vec3>>,
+    sample_seconds: Vec<f64>,
+    /// `values[integrand][design]`.
+    values: Vec<Vec<Vec<f64>>>,
+    evaluate_seconds: Vec<Vec<f64>>,
+}
+
+impl Draws {
+    fn design_index(plan: &Plan, d: Design) -> usize {
+        plan.designs
+            .iter()
+            .position(|&x| x == d)
+            .expect("design is planned")
+    }
+}
+
+/// Every design's set of the unit, and every integrand on every set, once (a scene pixel traces
+/// rays): the fitted amplitudes' solves and the estimates both use them. One batch per
+/// (integrand, set): an external integrand (a Python callable) is called once per set, never
+/// per point.
+fn draw_and_evaluate(plan: &Plan, n: usize, trial: usize) -> crate::Result<Draws> {
     let mut sample_seconds = Vec::with_capacity(plan.designs.len());
     let sets: Vec<Vec<crate::util::geometry::Vec3>> = plan
         .designs
@@ -181,17 +282,7 @@ pub fn run_unit(
             set
         })
         .collect();
-    let design_index = |d: Design| {
-        plan.designs
-            .iter()
-            .position(|&x| x == d)
-            .expect("design is planned")
-    };
-    // Every integrand on every design's set, once (a scene pixel traces rays): the fitted
-    // amplitudes' solves and the estimates both use them. `values[integrand][design]`.
     let mut evaluate_seconds = vec![vec![0.0; sets.len()]; plan.integrands.len()];
-    // One batch per (integrand, set): an external integrand (a Python callable) is called once
-    // per set, never per point.
     let mut values: Vec<Vec<Vec<f64>>> = Vec::with_capacity(plan.integrands.len());
     for (fi, f) in plan.integrands.iter().enumerate() {
         let mut per_set = Vec::with_capacity(sets.len());
@@ -202,24 +293,33 @@ pub fn run_unit(
         }
         values.push(per_set);
     }
+    Ok(Draws {
+        n,
+        trial,
+        sets,
+        sample_seconds,
+        values,
+        evaluate_seconds,
+    })
+}
 
-    // Weights per (model, design) pair in use, computed once. While the workspace still holds
-    // a weight set's Cholesky factor, what the fitted amplitudes of the estimators that use it
-    // need is solved: one O(N²) `Q⁻¹Y` per (weight set, integrand), shared by every estimator
-    // of the set (each fits its amplitude from it in O(N), in `Rule::estimate`), plus diag(Q⁻¹)
-    // once per weight set (O(N³)) when an estimator uses `loo`.
-    // Tolerance estimators extend the unit's set of their design (same stream, nested).
-    let adaptive_clock = Instant::now();
-    let adaptive = super::adaptive_unit::run_unit(plan, n, trial, &|d, count| {
-        d.sample_set(count, &mut trial_stream(plan.seed, d, n, trial))
-    })?;
-    // Every tolerance estimator's stages, on every integrand: one shared cost, shown as such.
-    let adaptive_seconds = adaptive_clock.elapsed().as_secs_f64();
-    let ni = plan.integrands.len();
-    let mut amplitudes: Vec<Vec<Option<f64>>> = vec![vec![None; plan.estimators.len()]; ni];
-    // One entry per (model, design) weight set: its candidates (one for a fixed model; every
-    // model of the grid for a fitted one, each with its own factor, solves and log det Q).
-    let mut weights: Vec<((usize, Design), Vec<SetCandidate>)> = Vec::new();
+/// One entry per (model, design) weight set in use: its candidates (one for a fixed model; every
+/// model of the grid for a fitted one, each with its own factor, solves and log det Q).
+type WeightSets = Vec<((usize, Design), Vec<SetCandidate>)>;
+
+/// Weights per (model, design) pair in use, computed once, with their seconds. While the
+/// workspace still holds a weight set's Cholesky factor, what the fitted amplitudes of the
+/// estimators that use it need is solved: one O(N²) `Q⁻¹Y` per (weight set, integrand), shared
+/// by every estimator of the set (each fits its amplitude from it in O(N), in
+/// `Rule::estimate`), plus diag(Q⁻¹) once per weight set (O(N³)) when an estimator uses `loo`.
+fn weight_sets(
+    plan: &Plan,
+    n: usize,
+    trial: usize,
+    draws: &Draws,
+    workspace: &mut SpdWorkspace,
+) -> crate::Result<(WeightSets, Vec<f64>)> {
+    let mut weights: WeightSets = Vec::new();
     let mut weight_seconds: Vec<f64> = Vec::new();
     for e in &plan.estimators {
         let Some(m) = e.model.filter(|_| e.tolerance.is_none()) else {
@@ -239,8 +339,8 @@ pub fn run_unit(
                 trial as u64,
             ],
         );
-        let d = design_index(e.design);
-        let set = &sets[d];
+        let d = Draws::design_index(plan, e.design);
+        let set = &draws.sets[d];
         let sharing = |x: &&super::plan::PlannedEstimator| {
             x.model == Some(m) && x.design == e.design && x.tolerance.is_none()
         };
@@ -271,7 +371,7 @@ pub fn run_unit(
                 solves.inverse_diagonal = loo.then(|| workspace.inverse_diagonal());
                 solves.values = (0..plan.integrands.len())
                     .map(|fi| {
-                        let mut values_solve = values[fi][d].clone();
+                        let mut values_solve = draws.values[fi][d].clone();
                         workspace.solve_in_place(&mut values_solve);
                         values_solve
                     })
@@ -291,28 +391,103 @@ pub fn run_unit(
         weights.push(((m, e.design), candidates));
         weight_seconds.push(clock.elapsed().as_secs_f64());
     }
-    let weight_set_of = |e: &super::plan::PlannedEstimator| {
-        e.model.filter(|_| e.tolerance.is_none()).map(|m| {
-            &weights
+    Ok((weights, weight_seconds))
+}
+
+/// The weight sets of a unit and the fitted models' choices among their candidates.
+struct UnitSets<'a> {
+    weights: &'a WeightSets,
+    /// `chosen[fi][ei]` ([`choose_models`]).
+    chosen: &'a [Vec<Option<usize>>],
+}
+
+impl UnitSets<'_> {
+    /// The weight set of estimator `e` (None for MC and tolerance estimators).
+    fn set_of(&self, e: &super::plan::PlannedEstimator) -> Option<&[SetCandidate]> {
+        set_of(self.weights, e)
+    }
+
+    /// The candidate estimator `ei` uses on integrand `fi`.
+    fn candidate_of(&self, plan: &Plan, fi: usize, ei: usize) -> Option<&SetCandidate> {
+        self.set_of(&plan.estimators[ei])
+            .map(|set| &set[self.chosen[fi][ei].unwrap_or(0)])
+    }
+
+    fn weights_of(&self, plan: &Plan, fi: usize, ei: usize) -> Option<&BmcWeights> {
+        self.candidate_of(plan, fi, ei).map(|c| &c.weights)
+    }
+}
+
+/// `diagnostics[fi][ei]`: of the weight set each estimate used (a fitted model's chosen one; a
+/// tolerance estimator's largest), and `warnings[fi][ei]`, how many numerical warnings it has.
+#[allow(clippy::type_complexity)]
+fn unit_diagnostics(
+    plan: &Plan,
+    adaptive: &[Option<super::adaptive_unit::UnitRun>],
+    sets: &UnitSets,
+) -> (Vec<Vec<Option<crate::bq::weights::Diagnostics>>>, Vec<Vec<u32>>) {
+    let ni = plan.integrands.len();
+    // `diagnostics[fi][ei]`: the weight set each estimate used (a fitted model's chosen one).
+    let diagnostics: Vec<Vec<Option<crate::bq::weights::Diagnostics>>> = (0..ni)
+        .map(|fi| {
+            plan.estimators
                 .iter()
-                .find(|(k, _)| *k == (m, e.design))
-                .expect("computed above")
-                .1
+                .zip(adaptive)
+                .enumerate()
+                .map(|(ei, (e, run))| match run {
+                    Some(run) => run.diagnostics.clone(),
+                    None => e.method.diagnostics(sets.weights_of(plan, fi, ei)),
+                })
+                .collect()
         })
-    };
-    // `chosen[fi][ei]`: the grid index a fitted model chose for the estimator on the integrand.
-    let mut chosen: Vec<Vec<Option<usize>>> = vec![vec![None; plan.estimators.len()]; ni];
+        .collect();
+    let warnings: Vec<Vec<u32>> = diagnostics
+        .iter()
+        .map(|row| {
+            row.iter()
+                .map(|d| d.as_ref().map_or(0, |d| d.warnings.len() as u32))
+                .collect()
+        })
+        .collect();
+    (diagnostics, warnings)
+}
+
+/// The index in `weights` of estimator `e`'s weight set (None for MC and tolerance estimators).
+fn set_index(weights: &WeightSets, e: &super::plan::PlannedEstimator) -> Option<usize> {
+    e.model.filter(|_| e.tolerance.is_none()).map(|m| {
+        weights
+            .iter()
+            .position(|(k, _)| *k == (m, e.design))
+            .expect("computed above")
+    })
+}
+
+/// The weight set of estimator `e` among `weights` (None for MC and tolerance estimators).
+fn set_of<'a>(weights: &'a WeightSets, e: &super::plan::PlannedEstimator) -> Option<&'a [SetCandidate]> {
+    set_index(weights, e).map(|i| weights[i].1.as_slice())
+}
+
+/// `chosen[fi][ei]`: the grid index a fitted model chose for the estimator on the integrand
+/// (the largest marginal likelihood, math.md §9; a tolerance estimator's own choice).
+fn choose_models(
+    plan: &Plan,
+    draws: &Draws,
+    adaptive: &[Option<super::adaptive_unit::UnitRun>],
+    weights: &WeightSets,
+) -> Vec<Vec<Option<usize>>> {
+    let mut chosen: Vec<Vec<Option<usize>>> = vec![vec![None; plan.estimators.len()]; plan.integrands.len()];
     for (fi, f) in plan.integrands.iter().enumerate() {
         for (ei, e) in plan.estimators.iter().enumerate() {
             if let Some(c) = adaptive[ei].as_ref().and_then(|r| r.chosen.as_ref()) {
                 chosen[fi][ei] = Some(c[fi]);
                 continue;
             }
-            let Some(set) = weight_set_of(e).filter(|_| plan.models[e.model.expect("has a set")].is_fitted())
+            let Some(set) =
+                set_of(weights, e).filter(|_| plan.models[e.model.expect("has a set")].is_fitted())
             else {
                 continue;
             };
-            let y = &values[fi][design_index(e.design)];
+            let y = &draws.values[fi][Draws::design_index(plan, e.design)];
             let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
             let ells: Vec<f64> = set
                 .iter()
@@ -333,42 +508,48 @@ pub fn run_unit(
             chosen[fi][ei] = Some(crate::bq::fitted::best(&ells));
         }
     }
-    let candidate_of = |fi: usize, ei: usize| {
-        weight_set_of(&plan.estimators[ei]).map(|set| &set[chosen[fi][ei].unwrap_or(0)])
-    };
-    let weights_of = |fi: usize, ei: usize| candidate_of(fi, ei).map(|c| &c.weights);
+    chosen
+}
 
-    let weight_set_seconds: Vec<f64> = plan
-        .estimators
-        .iter()
-        .map(|e| {
-            if e.tolerance.is_some() {
-                return adaptive_seconds;
-            }
-            e.model.map_or(0.0, |m| {
-                weight_seconds[weights
-                    .iter()
-                    .position(|(k, _)| *k == (m, e.design))
-                    .expect("computed above")]
-            })
-        })
-        .collect();
-    let mut estimates = Vec::with_capacity(ni);
-    let mut uncertainty = Vec::with_capacity(ni);
-    let mut fitted = Vec::with_capacity(ni);
-    let mut seconds = Vec::with_capacity(ni);
+/// Every (integrand, estimator)'s estimate, stated uncertainty, fitted amplitude and seconds.
+struct Estimated {
+    estimates: Vec<Vec<f64>>,
+    uncertainty: Vec<Vec<Option<crate::bq::estimator::Uncertainty>>>,
+    amplitudes: Vec<Vec<Option<f64>>>,
+    seconds: Vec<Vec<f64>>,
+}
+
+/// Every estimate of the unit: a tolerance estimator's from its stages, the others from their
+/// weight set (`Rule::estimate`). An estimator's seconds are what it alone would have cost:
+/// drawing its points, its weight set, evaluating the integrand, combining.
+fn estimate_all(
+    plan: &Plan,
+    draws: &Draws,
+    adaptive: &[Option<super::adaptive_unit::UnitRun>],
+    sets: &UnitSets,
+    weight_set_seconds: &[f64],
+    adaptive_seconds: f64,
+) -> Estimated {
+    let ni = plan.integrands.len();
+    let ne = plan.estimators.len();
+    let mut out = Estimated {
+        estimates: Vec::with_capacity(ni),
+        uncertainty: Vec::with_capacity(ni),
+        amplitudes: vec![vec![None; ne]; ni],
+        seconds: Vec::with_capacity(ni),
+    };
     for (fi, f) in plan.integrands.iter().enumerate() {
-        let (values, evaluate_seconds) = (&values[fi], &evaluate_seconds[fi]);
-        let mut row = Vec::with_capacity(plan.estimators.len());
-        let mut sds = Vec::with_capacity(plan.estimators.len());
-        let mut costs = Vec::with_capacity(plan.estimators.len());
+        let (values, evaluate_seconds) = (&draws.values[fi], &draws.evaluate_seconds[fi]);
+        let mut row = Vec::with_capacity(ne);
+        let mut sds = Vec::with_capacity(ne);
+        let mut costs = Vec::with_capacity(ne);
         for (ei, e) in plan.estimators.iter().enumerate() {
             if let Some(run) = &adaptive[ei] {
                 let o = run.outcomes[fi];
                 row.push(o.estimate);
                 sds.push(o.uncertainty);
                 if run.fitted {
-                    amplitudes[fi][ei] = o.uncertainty.and_then(|u| u.amplitude);
+                    out.amplitudes[fi][ei] = o.uncertainty.and_then(|u| u.amplitude);
                 }
                 costs.push(adaptive_seconds);
                 continue;
@@ -379,6 +560,7 @@ pub fn run_unit(
                 let lit = f
                     .lit()
                     .expect("the plan checks that every integrand knows its light");
+                let (n, trial) = (draws.n, draws.trial);
                 let (n_light, n_bsdf) = light.method.counts(n);
                 use crate::bq::estimator::mis::{BSDF_TECHNIQUE, LIGHT_TECHNIQUE};
                 let primary =
@@ -394,13 +576,13 @@ pub fn run_unit(
                 continue;
             }
             let clock = Instant::now();
-            let d = design_index(e.design);
+            let d = Draws::design_index(plan, e.design);
             let prior = e.prior.map_or(0.0, |p| p.resolve(f.constant_prior()));
-            let solves = candidate_of(fi, ei).map(|c| &c.solves);
+            let solves = sets.candidate_of(plan, fi, ei).map(|c| &c.solves);
             let rule = Rule {
                 density: e.design.density(),
-                points: &sets[d],
-                weights: weights_of(fi, ei),
+                points: &draws.sets[d],
+                weights: sets.weights_of(plan, fi, ei),
                 inverse_diagonal: solves.and_then(|s| s.inverse_diagonal.as_deref()),
             };
             let values = Values {
@@ -412,50 +594,40 @@ pub fn run_unit(
                 .points()
                 .expect("light-aware estimators are handled above");
             let estimate = rule.estimate(method, values, prior, e.scale.unwrap_or(Scale::Unit));
-            amplitudes[fi][ei] = estimate.fitted_amplitude;
+            out.amplitudes[fi][ei] = estimate.fitted_amplitude;
             row.push(estimate.value);
             sds.push(estimate.uncertainty);
             costs.push(
-                sample_seconds[d]
+                draws.sample_seconds[d]
                     + weight_set_seconds[ei]
                     + evaluate_seconds[d]
                     + clock.elapsed().as_secs_f64(),
             );
         }
-        seconds.push(costs);
-        estimates.push(row);
-        uncertainty.push(sds);
-        fitted.push(amplitudes[fi].iter().map(Option::is_some).collect::<Vec<bool>>());
+        out.seconds.push(costs);
+        out.estimates.push(row);
+        out.uncertainty.push(sds);
     }
-    // `diagnostics[fi][ei]`: the weight set each estimate used (a fitted model's chosen one).
-    let diagnostics: Vec<Vec<Option<crate::bq::weights::Diagnostics>>> = (0..ni)
-        .map(|fi| {
-            plan.estimators
-                .iter()
-                .zip(&adaptive)
-                .enumerate()
-                .map(|(ei, (e, run))| match run {
-                    Some(run) => run.diagnostics.clone(),
-                    None => e.method.diagnostics(weights_of(fi, ei)),
-                })
-                .collect()
-        })
-        .collect();
-    let warnings: Vec<Vec<u32>> = diagnostics
-        .iter()
-        .map(|row| {
-            row.iter()
-                .map(|d| d.as_ref().map_or(0, |d| d.warnings.len() as u32))
-                .collect()
-        })
-        .collect();
-    // Each weight set's warnings once: a fixed model's set, and each candidate a fitted model
-    // chose somewhere in the unit (a candidate nobody chose affected no estimate).
+    out
+}
+
+/// The unit's warning messages: each weight set's once (a fixed model's set, and each candidate
+/// a fitted model chose somewhere in the unit: a candidate nobody chose affected no estimate),
+/// the tolerance estimators', Bayes–Sard's own negative Var₁, zero amplitudes and non-finite
+/// estimates.
+fn unit_messages(
+    plan: &Plan,
+    adaptive: &[Option<super::adaptive_unit::UnitRun>],
+    sets: &UnitSets,
+    diagnostics: &[Vec<Option<crate::bq::weights::Diagnostics>>],
+    estimated: &Estimated,
+) -> Vec<String> {
     let mut messages: Vec<String> = Vec::new();
-    for ((m, _), set) in &weights {
+    for ((m, _), set) in sets.weights {
         for (c, candidate) in set.iter().enumerate() {
             let used = !plan.models[*m].is_fitted()
-                || chosen
+                || sets
+                    .chosen
                     .iter()
                     .flatten()
                     .zip(plan.estimators.iter().cycle())
@@ -487,7 +659,7 @@ pub fn run_unit(
             }
         }
     }
-    for (fi, row) in amplitudes.iter().enumerate() {
+    for (fi, row) in estimated.amplitudes.iter().enumerate() {
         for (ei, a) in row.iter().enumerate() {
             if *a == Some(0.0) {
                 messages.push(format!(
@@ -501,7 +673,7 @@ pub fn run_unit(
     }
     // A NaN or infinite estimate is numerical trouble too: reported here, and counted per
     // (integrand, estimator) row by [`UnitResult::warnings_for`].
-    for (fi, row) in estimates.iter().enumerate() {
+    for (fi, row) in estimated.estimates.iter().enumerate() {
         for (ei, est) in row.iter().enumerate() {
             if !est.is_finite() {
                 messages.push(format!(
@@ -512,36 +684,7 @@ pub fn run_unit(
             }
         }
     }
-    let evaluations: Vec<Vec<u64>> = (0..ni)
-        .map(|fi| {
-            adaptive
-                .iter()
-                .map(|r| r.as_ref().map_or(n as u64, |r| r.outcomes[fi].n_used as u64))
-                .collect()
-        })
-        .collect();
-    Ok(UnitResult {
-        estimates,
-        uncertainty,
-        diagnostics,
-        warnings,
-        messages,
-        fitted,
-        chosen,
-        sequential: (0..ni)
-            .map(|fi| {
-                adaptive
-                    .iter()
-                    .map(|r| r.as_ref().map(|r| r.outcomes[fi]))
-                    .collect()
-            })
-            .collect(),
-        cost: Cost {
-            weight_set: weight_set_seconds,
-            seconds,
-            evaluations,
-        },
-    })
+    messages
 }
 
 /// One model's weight set on a unit's points: its weights, what its factor solved, and (fitted

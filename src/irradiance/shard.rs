@@ -154,11 +154,7 @@ impl Job for IrradiancePlan {
     fn from_record(first: &ShardFolder) -> Result<IrradiancePlan, InputError> {
         let at = first.record();
         let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
-        let text = first
-            .spec
-            .get("text")
-            .and_then(|t| t.as_str())
-            .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
+        let text = first.job_text("text")?;
         let spec: super::IrradianceSpec = crate::files::spec_json::parse(text, "the irradiance file")
             .map_err(|m| bad(format!("\"job\": {m}")))?;
         let plan = super::resolve(&spec).map_err(|m| bad(format!("\"job\": {m}")))?;

@@ -1,5 +1,5 @@
-//! What the three jobs — experiments ([`crate::experiment`]), render tables
-//! ([`crate::table`]) and the irradiance protocol ([`crate::irradiance`]) — share: a run is a
+//! What the three jobs — experiments (`experiment/`), render tables (`table/`) and the
+//! irradiance protocol (`irradiance/`) — share: a run is a
 //! list of **units** done in order, each a fixed number of rows appended to a unit log
 //! ([`unit_log`]) as it finishes; a run may be a [`Shard`] of the units, and `merge` turns the
 //! shards' logs into the files one run writes ([`shard_set`], [`merge`]).

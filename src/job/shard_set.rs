@@ -90,6 +90,16 @@ impl ShardFolder {
     pub fn record(&self) -> PathBuf {
         self.dir.join(SHARD_FILE)
     }
+
+    /// The text field `key` of the job's own record (`shard.json`'s `"job"`).
+    pub fn job_text(&self, key: &str) -> Result<&str, InputError> {
+        self.spec.get(key).and_then(|t| t.as_str()).ok_or_else(|| {
+            InputError::new(format!(
+                "merge: {}: \"job\" has no \"{key}\"",
+                self.record().display()
+            ))
+        })
+    }
 }
 
 /// What kind of job the shard in `dir` is of (None if it has no readable `shard.json`).

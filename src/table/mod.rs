@@ -81,25 +81,13 @@ pub fn run(
     reporter: &dyn Reporter,
 ) -> crate::Result<TableReport> {
     let out = output_dir(results, plan);
-    let cache = reference::cache_path(plan, results);
-    let mut inputs: Vec<(&str, &Path)> = vec![
-        ("the render-table file", &plan.file),
-        ("the reference cache", &cache),
-    ];
-    if !matches!(plan.env_arg.as_str(), "sky" | "white") {
-        inputs.push(("the environment map", Path::new(&plan.env_arg)));
-    }
-    let mut folder = ResultFolder::prepare(
+    let mut folder = prepare_folder(
+        plan,
+        results,
         &out,
         &out.display().to_string(),
         "use another --results-dir (or another \"name\" in the spec)",
-        &inputs,
-        export::legacy_manifest_files,
     )?;
-    if !cache.exists() {
-        // The reference is written there after it is rendered: fail now, not then.
-        crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
-    }
     let rounds = shard::Rounds::open(plan, &folder, crate::job::Shard::WHOLE, resume)?;
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
 
@@ -134,6 +122,47 @@ pub fn run(
         table_md,
         times_md,
     })
+}
+
+/// Prepares the folder `out` of a table's run or shard (`what` and `hint` name it in a refusal):
+/// it must not be, nor replace, one of the table's inputs (its file, its reference cache, its
+/// map), and the cache's folder must be writable when the reference is still to be rendered —
+/// the reference is written there after it is rendered: fail now, not then.
+pub(crate) fn prepare_folder(
+    plan: &TablePlan,
+    results: &Path,
+    out: &Path,
+    what: &str,
+    hint: &str,
+) -> crate::Result<ResultFolder> {
+    let cache = reference::cache_path(plan, results);
+    let mut inputs: Vec<(&str, &Path)> = vec![
+        ("the render-table file", &plan.file),
+        ("the reference cache", &cache),
+    ];
+    if !matches!(plan.env_arg.as_str(), "sky" | "white") {
+        inputs.push(("the environment map", Path::new(&plan.env_arg)));
+    }
+    let folder = ResultFolder::prepare(out, what, hint, &inputs, export::legacy_manifest_files)?;
+    if !cache.exists() {
+        crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
+    }
+    Ok(folder)
+}
+
+/// Writes a table's wall-clock files (machine-dependent; not committed): `timings.csv`, one row
+/// per render, and `timings.md`, the mean seconds per image — for both kinds of table.
+pub(crate) fn write_timings(folder: &mut ResultFolder, csv: &[u8], times_md: &str) -> crate::Result<()> {
+    folder.write_local(
+        "timings.csv",
+        "wall-clock seconds per render (machine-dependent; not committed)",
+        csv,
+    )?;
+    folder.write_local(
+        "timings.md",
+        "mean seconds per image (machine-dependent; not committed)",
+        times_md.as_bytes(),
+    )
 }
 
 /// Writes a fixed-spp table's files from every render's row (not the manifest, nor
@@ -195,16 +224,7 @@ pub fn write_outputs(
         &plot::plot_svg(plan, &cells)?,
     )?;
     let times_md = export::times_md(plan, &cells);
-    folder.write_local(
-        "timings.csv",
-        "wall-clock seconds per render (machine-dependent; not committed)",
-        &export::timings_csv(plan, rows),
-    )?;
-    folder.write_local(
-        "timings.md",
-        "mean seconds per image (machine-dependent; not committed)",
-        times_md.as_bytes(),
-    )?;
+    write_timings(folder, &export::timings_csv(plan, rows), &times_md)?;
     Ok((cells, table_md, times_md))
 }
 

@@ -90,24 +90,13 @@ pub fn run_shard(
     resume: bool,
     reporter: &dyn Reporter,
 ) -> crate::Result<ShardReport> {
-    let cache = reference::cache_path(plan, results);
-    let mut inputs: Vec<(&str, &Path)> = vec![
-        ("the render-table file", &plan.file),
-        ("the reference cache", &cache),
-    ];
-    if !matches!(plan.env_arg.as_str(), "sky" | "white") {
-        inputs.push(("the environment map", Path::new(&plan.env_arg)));
-    }
-    let mut folder = ResultFolder::prepare(
+    let mut folder = super::prepare_folder(
+        plan,
+        results,
         out,
         &format!("--out {}", out.display()),
         "use another --out",
-        &inputs,
-        export::legacy_manifest_files,
     )?;
-    if !cache.exists() {
-        crate::files::atomic::check_writable_dir(cache.parent().unwrap_or(results))?;
-    }
     let spec_text = crate::files::spec_json::read_spec(&plan.file)?;
     // The rounds' log, checked before any work.
     let rounds = Rounds::open(plan, &folder, shard, resume)?;
@@ -572,16 +561,7 @@ impl Job for TablePlan {
     fn from_record(first: &ShardFolder) -> Result<TablePlan, InputError> {
         let at = first.record();
         let bad = |m: String| InputError::new(format!("merge: {}: {m}", at.display()));
-        let text = first
-            .spec
-            .get("text")
-            .and_then(|t| t.as_str())
-            .ok_or_else(|| bad("\"job\" has no \"text\"".into()))?;
-        let spec = first
-            .spec
-            .get("spec")
-            .and_then(|t| t.as_str())
-            .ok_or_else(|| bad("\"job\" has no \"spec\"".into()))?;
+        let (text, spec) = (first.job_text("text")?, first.job_text("spec")?);
         let plan = super::plan::parse(text, Path::new(spec)).map_err(|e| bad(e.0))?;
         if export::plan_hash(&plan) != first.identity.plan_hash {
             return Err(bad(format!(

@@ -104,16 +104,7 @@ pub fn write_outputs(
         &plot::plot_svg(plan, targets, &cells)?,
     )?;
     let times_md = export::times_md(plan, targets, &cells);
-    folder.write_local(
-        "timings.csv",
-        "wall-clock seconds per render (machine-dependent; not committed)",
-        &export::timings_csv(plan, rows),
-    )?;
-    folder.write_local(
-        "timings.md",
-        "mean seconds per image (machine-dependent; not committed)",
-        times_md.as_bytes(),
-    )?;
+    super::write_timings(folder, &export::timings_csv(plan, rows), &times_md)?;
     Ok(AdaptiveReport {
         cells,
         table_md,
