@@ -67,7 +67,7 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("cos3", "7441f968e91e9cbf", 1.4),
     // Four envmap integrands under Pisa and Park (truths by the texel sum), 8 estimators × 3 N ×
     // 100 trials; 2026-12-02, the machine shared (load average ≈ 12).
-    ("envmap-vs-renderers", "f74fa4aa6e8ef9dd", 4.6),
+    ("envmap-vs-renderers", "08f88c19f816fd11", 4.6),
     ("glossy", "632cf3cccbbbc598", 2.9),
     // Probulator's irradiance protocol on a 256×128 map, every estimator and N (about 80 s of
     // CPU each); 2026-11-27, the machine shared (load average ≈ 12).
