@@ -79,7 +79,7 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("render-adaptive", "112b9c7dcc882fec", 174.0),
     // The real-light tables (128×128, exact reference under a 1024×512 map, 120 renders):
     // 110–155 s of CPU each, 2026-11-27 on the shared machine; the estimate is half of it.
-    ("real-light-integrands", "c5b4ccf35512bc9b", 3.0),
+    ("real-light-integrands", "4bf3342bfb204059", 3.0),
     ("real-light-thesis-forest", "d76c4ac125800558", 78.0),
     ("real-light-thesis-park", "7b60afda70f668ea", 75.0),
     ("real-light-thesis-pisa", "3e10939690e8e6b3", 77.0),
