@@ -239,5 +239,5 @@ def test_an_unreachable_tolerance_is_refused_as_the_tolerance_with_the_remedy():
     with pytest.raises(ValueError) as e:
         wb.run(spec, integrands={"step": lambda p: (p[:, 0] > 0.3).astype(np.float64)})
     m = str(e.value)
-    assert m.startswith("integrands[0]: tolerance: the cubature did not reach the default tolerance"), m
+    assert m.startswith("integrands[0].tolerance: the cubature did not reach the default tolerance"), m
     assert "the integrand's values were fine" in m and 'give "truth"' in m and "trial" not in m, m
