@@ -53,11 +53,3 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
 }
-
-/// `x.exr` → `x<suffix>.png`, keeping the stem's bytes as they are (a name need not be UTF-8).
-pub fn sibling_png(out: &std::path::Path, suffix: &str) -> std::path::PathBuf {
-    let mut name = out.file_stem().unwrap_or_default().to_os_string();
-    name.push(suffix);
-    name.push(".png");
-    out.with_file_name(name)
-}

@@ -2,25 +2,20 @@
 
 use super::image_files;
 use super::model_args::ModelArgs;
-use super::output::{sibling_png, status, stdout};
+use super::output::{status, stdout};
 use super::progress::Bar;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use workbench::bq::weights::Scale;
 use workbench::error::InputError;
-use workbench::files::file_set::FileSet;
 use workbench::render::env::Lookup;
-use workbench::render::exact;
 use workbench::render::image::{ColourMap, ErrorScale, Image, short_number};
-use workbench::render::integrator::{DEFAULT_GPS, IntegratorKind, check_gps, check_spp};
+use workbench::render::integrator::IntegratorKind;
+use workbench::render::plan::{Field, ImageIntegrator, ImagePlan, ImageRequest, Method};
 use workbench::render::uncertainty::{PixelSds, coverage, coverage_map_png};
-use workbench::render::{Environment, Integrator, Renderer, SceneKind, check_size};
-
-/// `--spp` when none is given.
-const DEFAULT_SPP: usize = 40;
+use workbench::render::{Integrator, SceneKind};
 use workbench::util::report::Reporter;
-use workbench::util::shown::shown;
 
 /// Options of `workbench render`.
 #[derive(clap::Args, Debug)]
@@ -44,7 +39,7 @@ pub struct RenderArgs {
     )]
     pub spec: Option<PathBuf>,
     #[arg(long, default_value = "bmc", value_parser = parse_integrator, help = integrator_help())]
-    pub integrator: RenderIntegrator,
+    pub integrator: ImageIntegrator,
     /// Samples per pixel (hemisphere directions per estimate) [default: 40]; not with `exact`.
     /// With --target-sd: the first stage, the pilot [default: 64].
     #[arg(long)]
@@ -143,50 +138,12 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
-impl RenderArgs {
-    /// `--width`, or the scene's default.
-    pub fn width(&self) -> usize {
-        self.width.unwrap_or(self.scene.default_size().0)
-    }
-
-    /// `--height`, or the scene's default.
-    pub fn height(&self) -> usize {
-        self.height.unwrap_or(self.scene.default_size().1)
-    }
-
-    /// The environment of `--env` under `--env-lookup`.
-    pub fn environment(&self) -> Result<Environment, InputError> {
-        let env = Environment::from_arg(&self.env)?;
-        match self.env_lookup {
-            Some(lookup) => env.with_lookup(lookup, "--env-lookup"),
-            None => Ok(env),
-        }
-    }
-}
-
 fn parse_scene(name: &str) -> Result<SceneKind, String> {
     SceneKind::from_name(name, "--scene").map_err(|e| e.0.trim_start_matches("--scene: ").to_string())
 }
 
 fn parse_lookup(name: &str) -> Result<Lookup, String> {
     Lookup::from_name(name, "--env-lookup").map_err(|e| e.0.trim_start_matches("--env-lookup: ").to_string())
-}
-
-/// What computes each pixel: an estimator of the family ([`IntegratorKind`]) or the certified
-/// quadrature (`exact`), which is not an estimator (no samples, no seed) and so not a `Method`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RenderIntegrator {
-    Estimator(IntegratorKind),
-    Exact,
-}
-
-impl std::fmt::Display for RenderIntegrator {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            RenderIntegrator::Estimator(k) => write!(f, "{k}"),
-            RenderIntegrator::Exact => f.write_str("exact"),
-        }
-    }
 }
 
 fn integrator_help() -> String {
@@ -197,12 +154,12 @@ fn integrator_help() -> String {
     )
 }
 
-fn parse_integrator(name: &str) -> Result<RenderIntegrator, String> {
+fn parse_integrator(name: &str) -> Result<ImageIntegrator, String> {
     if name == "exact" {
-        return Ok(RenderIntegrator::Exact);
+        return Ok(ImageIntegrator::Exact);
     }
     IntegratorKind::from_name(name)
-        .map(RenderIntegrator::Estimator)
+        .map(ImageIntegrator::Estimator)
         .ok_or_else(|| {
             format!(
                 "unknown integrator {name:?}; expected one of {}, exact",
@@ -289,206 +246,160 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn single(args: &RenderArgs) -> anyhow::Result<()> {
-    if args.target_sd.is_some() || args.max_spp.is_some() {
-        // The stage walker keeps one nested factor per pixel; a fitted model would need one
-        // per grid model and a choice per stage.
-        if args.model.resolve()?.is_fitted() {
-            anyhow::bail!(workbench::error::InputError::new(
-                "--kernel fitted: cannot be used with --target-sd or --max-spp yet; give a fixed kernel"
-            ));
-        }
-        return super::render_adaptive::single(&super::render_adaptive::AdaptiveArgs {
-            target_sd: args.target_sd,
-            max_spp: args.max_spp,
-            integrator: match args.integrator {
-                RenderIntegrator::Estimator(k) => Ok(k),
-                other => Err(other.to_string()),
-            },
-            spp: args.spp,
-            gps: args.gps,
-            no_rotate: args.no_rotate,
-            width: args.width(),
-            height: args.height(),
-            env: &args.env,
-            env_lookup: args.env_lookup,
-            scene: args.scene,
-            seed: args.seed,
-            out: args.out.as_ref().expect("clap requires --out without a spec"),
-            reference: args.reference.as_ref(),
-            error_max: args.error_max,
-            grey: args.error_colours.as_deref() == Some("grey"),
-            unused: (args.tolerance.map(|_| "--tolerance"))
-                .or(args.results_dir.as_ref().map(|_| "--results-dir"))
-                .or(args.sd_out.as_ref().map(|_| "--sd-out"))
-                .or(args.scale.as_ref().map(|_| "--scale"))
-                .or(args
-                    .error_scale
-                    .as_ref()
-                    .filter(|v| v.as_str() != "absolute")
-                    .map(|_| "--error-scale")),
-            model: &args.model,
-            quiet: args.quiet,
-        });
+/// The flag of each setting of a single image, in the library's messages.
+pub(super) fn flag(field: Field) -> &'static str {
+    match field {
+        Field::Integrator => "--integrator",
+        Field::Spp => "--spp",
+        Field::Tolerance => "--tolerance",
+        Field::Gps => "--gps",
+        Field::NoRotate => "--no-rotate",
+        Field::Size => "--width/--height",
+        Field::Env => "--env",
+        Field::EnvLookup => "--env-lookup",
+        Field::Seed => "--seed",
+        Field::Out => "--out",
+        Field::Reference => "--reference",
+        Field::ErrorScale => "--error-scale",
+        Field::ErrorMax => "--error-max",
+        Field::ErrorColours => "--error-colours",
+        Field::SdOut => "--sd-out",
+        Field::Scale => "--scale",
+        Field::TargetSd => "--target-sd",
+        Field::MaxSpp => "--max-spp",
+        Field::ResultsDir => "--results-dir",
+        Field::Kernel => "--kernel",
     }
-    // Validate everything before any work.
-    let out = args.out.as_ref().expect("clap requires --out without a spec");
-    image_files::check_exr_out(out)?;
-    check_size(args.width(), args.height(), "--width/--height")?;
-    let (kind, spp, seed, gps) = check_sampling_options(args)?;
-    if args.results_dir.is_some() {
-        return Err(InputError::new(
-            "--results-dir: applies to tables (render SPEC.json), not single images",
-        )
-        .into());
-    }
-    let error_image_options = args
-        .error_scale
-        .as_ref()
-        .map(|_| "--error-scale")
-        .or(args.error_max.map(|_| "--error-max"))
-        .or(args.error_colours.as_ref().map(|_| "--error-colours"));
-    if let Some(flag) = error_image_options
-        && args.reference.is_none()
-        && args.sd_out.is_none()
-    {
-        return Err(InputError::new(format!(
-            "{flag}: applies to the error image (--reference) or the sd image (--sd-out); give one of them"
-        ))
-        .into());
-    }
-    let error_scale = match args.error_scale.as_deref() {
-        Some("normalised") => ErrorScale::Normalised,
-        _ => ErrorScale::Absolute,
-    };
-    if args.error_max.is_some() && error_scale != ErrorScale::Absolute {
-        return Err(InputError::new("--error-max: applies to --error-scale absolute").into());
-    }
-    let error_colours = match args.error_colours.as_deref() {
-        Some("grey") => ColourMap::Grey,
-        _ => ColourMap::Viridis,
-    };
-    let error_max = image_files::check_error_max(args.error_max)?;
-    let scale = check_sd_options(args, kind)?;
-    // Never write over an input (the reference, an environment map) or one output over another.
-    let png = sibling_png(out, "");
-    let error_png = sibling_png(out, "-error");
-    let sd_pngs = args
-        .sd_out
-        .as_ref()
-        .map(|sd| (sibling_png(sd, ""), sibling_png(sd, "-coverage")));
-    // The error image is written with --reference and removed without it (an earlier one would
-    // describe another image), so it is an output either way; so is the coverage map.
-    let mut outputs: Vec<(&str, &std::path::Path)> = vec![
-        ("--out", out),
-        ("--out (its PNG)", &png),
-        ("--out (its error image)", &error_png),
-    ];
-    if let (Some(sd), Some((sd_png, coverage_png))) = (&args.sd_out, &sd_pngs) {
-        outputs.push(("--sd-out", sd));
-        outputs.push(("--sd-out (its PNG)", sd_png));
-        outputs.push(("--sd-out (its coverage map)", coverage_png));
-    }
-    image_files::check_outputs_apart(&outputs, args.reference.as_deref(), &args.env)?;
-    let env = args.environment()?;
-    image_files::check_out_dir_writable(out)?;
-    let model_start = Instant::now();
-    let model = if kind.is_some_and(|k| k.uses_sets()) {
-        Some(args.model.build()?)
-    } else {
-        None
-    };
-    if let Some(k) = kind {
-        workbench::render::integrator::check_memory(
-            &format!("--spp {spp}"),
-            k,
-            spp,
-            gps,
-            model.as_ref(),
-            args.sd_out.is_some(),
-            args.width() * args.height(),
-        )?;
-    }
-    let reference =
-        image_files::read_optional_reference(args.reference.as_deref(), args.width(), args.height())?;
-    let renderer = Renderer::for_scene(args.scene, args.width(), args.height(), env);
-    // The image and its PNGs are one set: no other command may write them meanwhile.
-    let mut files = FileSet::lock(&outputs, "use another --out")?;
+}
 
-    let model_seconds = model_start.elapsed().as_secs_f64();
+/// The flags of a single image as an unchecked request.
+fn request(args: &RenderArgs) -> ImageRequest<'_> {
+    ImageRequest {
+        integrator: args.integrator,
+        spp: args.spp,
+        tolerance: args.tolerance,
+        gps: args.gps,
+        no_rotate: args.no_rotate,
+        width: args.width,
+        height: args.height,
+        scene: args.scene,
+        env: &args.env,
+        env_lookup: args.env_lookup,
+        seed: args.seed,
+        out: args.out.as_deref().expect("clap requires --out without a spec"),
+        reference: args.reference.as_deref(),
+        error_scale: args.error_scale.as_deref().map(|s| match s {
+            "normalised" => ErrorScale::Normalised,
+            _ => ErrorScale::Absolute,
+        }),
+        error_max: args.error_max,
+        error_colours: args.error_colours.as_deref().map(|c| match c {
+            "grey" => ColourMap::Grey,
+            _ => ColourMap::Viridis,
+        }),
+        sd_out: args.sd_out.as_deref(),
+        scale: args
+            .scale
+            .as_deref()
+            .map(|s| Scale::from_name(s).expect("clap checks the names")),
+        target_sd: args.target_sd,
+        max_spp: args.max_spp,
+        table_only: args.results_dir.as_ref().map(|_| flag(Field::ResultsDir)),
+        model_given: args.model.given(),
+        model: args.model.resolve().map_err(|e| {
+            e.downcast::<InputError>()
+                .unwrap_or_else(|e| InputError::new(e.to_string()))
+        }),
+    }
+}
+
+/// One image: the flags resolved into a plan (every check before the first pixel), then
+/// rendered and written.
+fn single(args: &RenderArgs) -> anyhow::Result<()> {
+    let bar = Bar::new(args.quiet);
+    let plan = ImagePlan::resolve(request(args), flag, &bar)?;
+    if let Method::Adaptive { .. } = plan.method {
+        return super::render_adaptive::single(&plan, &bar);
+    }
+    // The image and its PNGs are one set: no other command may write them meanwhile.
+    let labelled = plan.outputs.labelled(flag);
+    let mut files = image_files::lock(&labelled)?;
+    let model_seconds = plan.setup_start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let (image, sds, what) = render_image(args, &renderer, kind, spp, gps, seed, model.as_ref(), scale)?;
+    let (image, sds, what) = render_image(&plan, &bar)?;
     let seconds = start.elapsed().as_secs_f64();
 
+    let outputs = &plan.outputs;
+    let (out, png, error_png) = (&outputs.exr, &outputs.png, &outputs.error_png);
+    let (error_scale, error_max, error_colours) = (plan.error_scale, plan.error_max, plan.error_colours);
+    let pixels = plan.width * plan.height;
     // Every file is written in full before any replaces its predecessor, so a failure (a full
     // disk) leaves the earlier image and PNGs together, as they were.
     files.stage(out, &image.to_exr()?)?;
-    files.stage(&png, &image.to_png()?)?;
-    let error_image = match &reference {
+    files.stage(png, &image.to_png()?)?;
+    let error_image = match &plan.reference {
         Some(r) => Some(image.error_png(r, error_scale, error_max, error_colours)?),
         None => None,
     };
     match &error_image {
-        Some(e) => files.stage(&error_png, &e.png)?,
+        Some(e) => files.stage(error_png, &e.png)?,
         // An error image of an earlier render would describe another image.
-        None => files.remove_stale(&error_png),
+        None => files.remove_stale(error_png),
     }
     let mut sd_image = None;
-    if let (Some(sds), Some(sd_out), Some((sd_png, coverage_png))) = (&sds, &args.sd_out, &sd_pngs) {
-        files.stage(sd_out, &sds.sd.to_exr()?)?;
+    if let (Some(sds), Some(sd)) = (&sds, &outputs.sd) {
+        files.stage(&sd.exr, &sds.sd.to_exr()?)?;
         let e = workbench::render::image::scalar_png(
             &sds.norms(),
-            args.width(),
-            args.height(),
+            plan.width,
+            plan.height,
             error_scale,
             error_max,
             error_colours,
             workbench::render::image::SD_TITLE,
         )?;
-        files.stage(sd_png, &e.png)?;
+        files.stage(&sd.png, &e.png)?;
         sd_image = Some(e);
-        match &reference {
-            Some(r) => files.stage(coverage_png, &coverage_map_png(&image, r, sds, 0.95)?)?,
-            None => files.remove_stale(coverage_png),
+        match &plan.reference {
+            Some(r) => files.stage(&sd.coverage, &coverage_map_png(&image, r, sds, 0.95)?)?,
+            None => files.remove_stale(&sd.coverage),
         }
     }
     image_files::commit_and_report_removed(files)?;
     status!(
         "render: {what}, {}×{}: {} {seconds:.3} s (after {model_seconds:.3} s of set-up: \
          environment, kernel-mean table) → {}, {}",
-        args.width(),
-        args.height(),
-        if kind.is_some() {
-            "sample sets + render"
-        } else {
+        plan.width,
+        plan.height,
+        if matches!(plan.method, Method::Exact { .. }) {
             "quadrature"
+        } else {
+            "sample sets + render"
         },
         out.display(),
         png.display()
     );
-    if let Some(r) = &reference {
+    if let Some(r) = &plan.reference {
         stdout(&format!("rmse = {:.6e}\n", image.rmse(r)))?;
     }
     if let Some(e) = &error_image {
         status!(
             "render: error image → {} ({})",
             error_png.display(),
-            error_summary(e, error_scale, args.width() * args.height())
+            error_summary(e, error_scale, pixels)
         );
     }
-    if let (Some(sds), Some(e), Some(sd_out), Some((sd_png, coverage_png))) =
-        (&sds, &sd_image, &args.sd_out, &sd_pngs)
-    {
+    if let (Some(sds), Some(e), Some(sd)) = (&sds, &sd_image, &outputs.sd) {
         status!(
             "render: posterior sd ({} amplitude, {} interval) → {}, {} ({})",
-            scale.name(),
+            plan.scale.name(),
             match sds.dof {
                 Some(d) => format!("Student-t {d} dof"),
                 None => "normal".to_string(),
             },
-            sd_out.display(),
-            sd_png.display(),
-            error_summary(e, error_scale, args.width() * args.height()).replace("error", "sd norm")
+            sd.exr.display(),
+            sd.png.display(),
+            error_summary(e, error_scale, pixels).replace("error", "sd norm")
         );
         if sds.zero_amplitude > 0 {
             status!(
@@ -497,164 +408,52 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
                 workbench::bq::weights::NumericalWarning::ZeroAmplitude.message()
             );
         }
-        if let Some(r) = &reference {
+        if let Some(r) = &plan.reference {
             let c = coverage(&image, r, sds, None);
             stdout(&format!(
                 "coverage50 = {:.4}, coverage80 = {:.4}, coverage95 = {:.4} ({} pixel-channels), \
                  median |error|/sd = {:.3}\n",
                 c.coverage50, c.coverage80, c.coverage95, c.pixel_channels, c.median_error_over_sd
             ))?;
-            status!("render: coverage map → {}", coverage_png.display());
+            status!("render: coverage map → {}", sd.coverage.display());
         }
     }
     Ok(())
 }
 
-/// `--sd-out` and `--scale`: the sd image needs an estimator with a posterior (an integrator
-/// with weights) and an `.exr` name; `--scale` applies only to it. Returns the amplitude scale.
-fn check_sd_options(args: &RenderArgs, kind: Option<IntegratorKind>) -> anyhow::Result<Scale> {
-    let scale = args
-        .scale
-        .as_deref()
-        .map(|s| Scale::from_name(s).expect("clap checks the names"))
-        .unwrap_or(Scale::DEFAULT);
-    let Some(sd) = &args.sd_out else {
-        if let Some(s) = &args.scale {
-            return Err(InputError::new(format!(
-                "--scale {s}: applies to the posterior sd image; give --sd-out"
-            ))
-            .into());
-        }
-        return Ok(scale);
-    };
-    match kind {
-        Some(k) if k.has_posterior() => {}
-        _ => {
-            let with_posterior = IntegratorKind::names_where(|k| k.has_posterior());
-            let (last, rest) = with_posterior
-                .split_last()
-                .expect("some integrator has a posterior");
-            return Err(InputError::new(format!(
-                "--sd-out {}: needs an integrator with a posterior ({} or {last}), not {}",
-                sd.display(),
-                rest.join(", "),
-                args.integrator
-            ))
-            .into());
-        }
-    }
-    if sd.extension().and_then(|e| e.to_str()) != Some("exr") {
-        return Err(InputError::new(format!(
-            "--sd-out {}: the sd image is OpenEXR; use a name ending in .exr",
-            sd.display()
-        ))
-        .into());
-    }
-    Ok(scale)
-}
-
-/// The sampling options, checked against the integrator: `exact` takes none of them (only
-/// `--tolerance`), MC takes no set or model options. Returns the estimator (`None` for
-/// `exact`), spp, seed and number of sets.
-fn check_sampling_options(args: &RenderArgs) -> anyhow::Result<(Option<IntegratorKind>, usize, u64, usize)> {
-    let kind = match args.integrator {
-        RenderIntegrator::Estimator(kind) => {
-            if let Some(t) = args.tolerance {
-                return Err(InputError::new(format!(
-                    "--tolerance {}: applies to --integrator exact, not {kind}",
-                    shown(t)
-                ))
-                .into());
-            }
-            Some(kind)
-        }
-        RenderIntegrator::Exact => {
-            // Sampling options are errors with the quadrature, not silently ignored.
-            let given = args
-                .spp
-                .map(|_| "--spp")
-                .or(args.seed.map(|_| "--seed"))
-                .or(args.gps.map(|_| "--gps"))
-                .or(args.no_rotate.then_some("--no-rotate"))
-                .or(args.model.given());
-            if let Some(flag) = given {
-                return Err(InputError::new(format!(
-                    "{flag}: does not apply to --integrator exact (the certified quadrature draws no samples)"
-                ))
-                .into());
-            }
-            let t = args.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
-            if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
-                return Err(InputError::new(format!(
-                    "--tolerance: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {}",
-                    exact::MIN_TOLERANCE,
-                    shown(t)
-                ))
-                .into());
-            }
-            None
-        }
-    };
-    let spp = args.spp.unwrap_or(DEFAULT_SPP);
-    let seed = args.seed.unwrap_or(0);
-    if let Some(kind) = kind {
-        check_spp(kind, spp, "--spp")?;
-    }
-    if kind.is_some_and(|k| !k.uses_sets()) {
-        // Options of the BMC integrators are errors with MC, not silently ignored.
-        if let Some(flag) = image_files::weight_option_given(args.gps, args.no_rotate, &args.model) {
-            return Err(InputError::new(format!(
-                "{flag}: applies to the integrators with weights ({}), not {}",
-                IntegratorKind::names_where(|k| k.uses_sets()).join(", "),
-                args.integrator
-            ))
-            .into());
-        }
-    }
-    let gps = args.gps.unwrap_or(DEFAULT_GPS);
-    check_gps(gps, "--gps")?;
-    Ok((kind, spp, seed, gps))
-}
-
-/// Renders with the estimator `kind` (its sample sets built first) or, for `None`, by the
-/// certified quadrature; returns the image, its per-pixel sds when `--sd-out` asks for them
-/// (amplitude `scale`), and what made it, for the status line.
-#[allow(clippy::too_many_arguments)]
-fn render_image(
-    args: &RenderArgs,
-    renderer: &Renderer,
-    kind: Option<IntegratorKind>,
-    spp: usize,
-    gps: usize,
-    seed: u64,
-    model: Option<&workbench::bq::model::BmcModel>,
-    scale: Scale,
-) -> anyhow::Result<(Image, Option<PixelSds>, String)> {
+/// Renders the plan's fixed-spp estimator (its sample sets built first) or its certified
+/// quadrature; returns the image, its per-pixel sds when the plan has an sd image, and what
+/// made it, for the status line.
+fn render_image(plan: &ImagePlan, bar: &Bar) -> anyhow::Result<(Image, Option<PixelSds>, String)> {
     let pool = workbench::util::threads::pool(None)?;
-    let bar = Bar::new(args.quiet);
-    let (image, sds, what) = match kind {
-        Some(kind) => {
-            let mut integrator = Integrator::build(kind, spp, gps, !args.no_rotate, model, seed)?;
+    let renderer = &plan.renderer;
+    let with_sd = plan.outputs.sd.is_some();
+    let (image, sds, what) = match plan.method {
+        Method::Fixed { kind, spp } => {
+            let model = plan.model.as_ref();
+            let mut integrator = Integrator::build(kind, spp, plan.gps, plan.rotate, model, plan.seed)?;
             for line in workbench::table::runner::numerical_warnings(&integrator) {
                 status!("warning: {line}");
             }
-            if args.sd_out.is_some() {
-                integrator = integrator.with_uncertainty(scale, model)?;
+            if with_sd {
+                integrator = integrator.with_uncertainty(plan.scale, model)?;
             }
-            bar.start("rows", (renderer.passes(&integrator) * args.height()) as u64);
-            let (image, sds) = if args.sd_out.is_some() {
-                let (image, sds) = pool.install(|| renderer.render_with_sd(&integrator, seed, &bar));
+            bar.start("rows", (renderer.passes(&integrator) * plan.height) as u64);
+            let (image, sds) = if with_sd {
+                let (image, sds) = pool.install(|| renderer.render_with_sd(&integrator, plan.seed, bar));
                 (image, Some(sds))
             } else {
-                (pool.install(|| renderer.render(&integrator, seed, &bar)), None)
+                (
+                    pool.install(|| renderer.render(&integrator, plan.seed, bar)),
+                    None,
+                )
             };
             bar.finish();
             (image, sds, format!("{kind} {spp} spp"))
         }
-        None => {
-            let tol = args.tolerance.unwrap_or(exact::default_tolerance(&renderer.env));
-            bar.start("rows", args.height() as u64);
-            let (image, stats) = pool.install(|| renderer.render_exact(tol, &bar));
+        Method::Exact { tolerance: tol } => {
+            bar.start("rows", plan.height as u64);
+            let (image, stats) = pool.install(|| renderer.render_exact(tol, bar));
             bar.finish();
             if stats.work_limited > 0 {
                 status!(
@@ -683,6 +482,7 @@ fn render_image(
                 ),
             )
         }
+        Method::Adaptive { .. } => unreachable!("adaptive images render in render_adaptive"),
     };
     Ok((image, sds, what))
 }

@@ -113,8 +113,7 @@ pub fn load_map(env: &str, lookup: Lookup) -> Result<Arc<Environment>, String> {
     if let Some(e) = MAPS.lock().expect("map cache").get(&key) {
         return Ok(e.clone());
     }
-    let environment =
-        Environment::from_arg(env).map_err(|e| format!("env: {}", e.0.trim_start_matches("--env ")))?;
+    let environment = Environment::from_arg(env).map_err(|e| format!("env: {}", e.0))?;
     if !matches!(environment, Environment::Map(_)) {
         return Err(format!(
             "env: the envmap family needs a map (a catalogue name such as \"pisa\" or a .hdr/.exr file), got {env:?}"

@@ -119,8 +119,7 @@ impl PixelIntegrand {
         env: &str,
         channel: &str,
     ) -> Result<Self, String> {
-        let environment =
-            Environment::from_arg(env).map_err(|e| format!("env: {}", e.0.trim_start_matches("--env ")))?;
+        let environment = Environment::from_arg(env).map_err(|e| format!("env: {}", e.0))?;
         PixelIntegrand::new(pixel, width, height, environment, env, channel)
     }
 

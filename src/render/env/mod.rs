@@ -29,14 +29,13 @@ impl Environment {
     /// `sky`, `white`, a catalogue map's name (`pisa`, read from the data folder and checked
     /// against its sha256; [`crate::data`]), or the path of a Radiance `.hdr` / OpenEXR map
     /// (whatever its name; a path is anything with a `/` or an existing file). Errors start with
-    /// `--env ARG: `.
+    /// `ARG: `; the caller puts the setting's name before it (the CLI's `--env`, a spec's `env:`).
     pub fn from_arg(arg: &str) -> Result<Self, InputError> {
         match arg {
             "sky" => Ok(Environment::Sky),
             "white" => Ok(Environment::White),
             _ => {
-                let failed =
-                    |e: crate::data::DataError| InputError::new(format!("--env {arg}: {}", e.reason()));
+                let failed = |e: crate::data::DataError| InputError::new(format!("{arg}: {}", e.reason()));
                 let bytes = crate::data::resolve(arg, crate::data::Kind::Map)
                     .and_then(|source| source.read(FileKind::Map))
                     .map_err(failed)?;
@@ -191,7 +190,7 @@ impl EnvMap {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let name = path.display();
         let bytes = crate::files::read::read(path, FileKind::Map)
-            .map_err(|e| InputError::new(format!("--env {name}: {}", e.reason())))?;
+            .map_err(|e| InputError::new(format!("{name}: {}", e.reason())))?;
         Self::decode(&name.to_string(), &bytes)
     }
 
@@ -199,13 +198,13 @@ impl EnvMap {
     pub fn decode(name: &str, bytes: &[u8]) -> Result<Self, InputError> {
         let img = decode_hdr_image(bytes).map_err(|m| {
             InputError::new(format!(
-                "--env {name}: {m}; use `sky`, `white` or an equirectangular .hdr/.exr file"
+                "{name}: {m}; use `sky`, `white` or an equirectangular .hdr/.exr file"
             ))
         })?;
         let (w, h) = (img.width() as usize, img.height() as usize);
         if w < 1 || h < 2 {
             return Err(InputError::new(format!(
-                "--env {name}: the map is {w}×{h} texels; it needs at least 1×2"
+                "{name}: the map is {w}×{h} texels; it needs at least 1×2"
             )));
         }
         let texels: Vec<[f32; 3]> = img.pixels().map(|p| p.0).collect();
@@ -214,7 +213,7 @@ impl EnvMap {
             .position(|t| t.iter().any(|v| !v.is_finite() || *v < 0.0))
         {
             return Err(InputError::new(format!(
-                "--env {name}: texel ({}, {}) = {:?} is not a finite radiance >= 0",
+                "{name}: texel ({}, {}) = {:?} is not a finite radiance >= 0",
                 k % w,
                 k / w,
                 texels[k]

@@ -158,7 +158,7 @@ fn bad_maps_are_refused_in_one_line() {
         d,
         &[],
         &["validate", "table.json"],
-        &["table.json: env: --env fifo.hdr: is a named pipe (FIFO)"],
+        &["table.json: env: fifo.hdr: is a named pipe (FIFO)"],
     );
     std::fs::write(
         d.join("exp.json"),

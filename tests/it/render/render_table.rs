@@ -161,7 +161,7 @@ fn spec_errors_are_exit_2_before_any_work() {
         ),
         (
             SPEC.replace("\"seed\": 7", "\"env\": \"nowhere.hdr\""),
-            "bad.json: env: --env nowhere.hdr: cannot read",
+            "bad.json: env: nowhere.hdr: cannot read",
         ),
         ("{\"name\": ".into(), "bad.json: malformed JSON"),
         (
