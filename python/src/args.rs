@@ -28,6 +28,11 @@ impl Whole {
         }
     }
 
+    /// The int given, if it is one (of any size).
+    pub fn int(&self) -> Option<i128> {
+        self.0.as_ref().ok().copied()
+    }
+
     /// The value as a `usize`.
     pub fn count(&self, name: &str) -> PyResult<usize> {
         match &self.0 {

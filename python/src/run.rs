@@ -131,15 +131,22 @@ pub fn run<'py>(
     threads: Option<Whole>,
     tables: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let threads = threads.map(|t| t.count("threads")).transpose()?;
-    if let Some(t) = threads {
-        workbench::util::threads::check_threads(t, "threads").map_err(|_| {
-            value_error(format!(
-                "threads: must be in 1..={}, got {t}",
-                workbench::util::threads::MAX_THREADS
-            ))
-        })?;
-    }
+    // An int outside the pool's range (negative, 0, too many) is told that range; what is no
+    // int at all (2.0, "2") is told it must be a whole number.
+    let threads = threads
+        .map(|t| match t.int() {
+            Some(v) => usize::try_from(v)
+                .ok()
+                .and_then(|t| workbench::util::threads::check_threads(t, "threads").ok())
+                .ok_or_else(|| {
+                    value_error(format!(
+                        "threads: must be in 1..={}, got {v}",
+                        workbench::util::threads::MAX_THREADS
+                    ))
+                }),
+            None => t.count("threads"),
+        })
+        .transpose()?;
     let out = out
         .map(|o| {
             let is_path =

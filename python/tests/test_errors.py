@@ -122,7 +122,7 @@ def test_whole_number_arguments_out_of_range():
     raises(r"^kernel_mean_samples: must be a whole number .* got -5$", wb.weights, POINTS, kernel_mean="mc", kernel_mean_samples=-5)
     raises(r"^seed: must be a whole number .* got -1$", wb.kernel_means, POINTS, seed=-1)
     raises(r"^trial: must be a whole number .* got -1$", wb.trial_points, 1, "uniform", 4, -1)
-    raises(r"^threads: must be a whole number .* got -2$", wb.run, GOOD, threads=-2)
+    raises(r"^threads: must be in 1..=256, got -2$", wb.run, GOOD, threads=-2)
     # The largest seed is a seed.
     wb.trial_points(2**64 - 1, "uniform", 4, 0)
 

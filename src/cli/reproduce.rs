@@ -39,7 +39,7 @@ pub struct ReproduceArgs {
     #[arg(long)]
     results_dir: Option<PathBuf>,
     /// Worker threads, 1 to 256 [default: one per core]. Results do not depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = super::usage::parse_threads)]
     threads: Option<usize>,
     /// Print the files in order with their outputs and time estimates, and run nothing.
     #[arg(long)]

@@ -26,7 +26,7 @@ pub struct RunArgs {
     #[arg(long)]
     trials: Option<u64>,
     /// Worker threads, 1 to 256 [default: one per core]. Results do not depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = super::usage::parse_threads)]
     threads: Option<usize>,
     /// Run only shard i of n (1 <= i <= n) of the units — (N, trial) pairs; for an irradiance
     /// file, rows of the grid of normals — into a shard folder for `workbench merge`

@@ -114,6 +114,16 @@ fn invalid_value(e: &clap::Error) -> Option<String> {
     }
 }
 
+/// `--threads`: a count in the range the pool accepts, so that a refused value, negative or
+/// not, is told the real range (`must be in 1..=256, got -1`), as a refused 0 is.
+pub fn parse_threads(value: &str) -> Result<usize, String> {
+    let max = workbench::util::threads::MAX_THREADS;
+    match value.trim().parse::<i128>() {
+        Ok(t) if (1..=max as i128).contains(&t) => Ok(t as usize),
+        _ => Err(format!("must be in 1..={max}, got {}", shown_value(value))),
+    }
+}
+
 /// Why an unsigned integer flag refused `value`.
 fn integer_reason(p: &ParseIntError, value: &str) -> String {
     match p.kind() {
