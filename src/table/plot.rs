@@ -53,6 +53,21 @@ struct Frame<'a> {
     y: Axis,
 }
 
+/// The values a figure draws of its cells, for its axis range: each mean and, where it is
+/// finite, its interval's ends; values a log axis cannot show left out.
+fn drawn_values(cells: &[Cell]) -> impl Iterator<Item = f64> + '_ {
+    cells
+        .iter()
+        .flat_map(|c| {
+            let mut v = vec![c.mean];
+            if finite_interval(c) {
+                v.extend([c.mean - c.half_width, c.mean + c.half_width]);
+            }
+            v
+        })
+        .filter(|&y| ok(y))
+}
+
 /// Whether a cell's interval can stand on a log axis.
 fn finite_interval(c: &Cell) -> bool {
     c.half_width.is_finite() && c.mean - c.half_width > 0.0
@@ -76,16 +91,7 @@ fn frame<'a>(plan: &TablePlan, cells: &'a [Cell]) -> Frame<'a> {
         let a = c.mean * (c.spp as f64).sqrt();
         Some((v, vec![(x_min, a / x_min.sqrt()), (x_max, a / x_max.sqrt())]))
     });
-    let drawn: Vec<f64> = cells
-        .iter()
-        .flat_map(|c| {
-            let mut v = vec![c.mean];
-            if finite_interval(c) {
-                v.extend([c.mean - c.half_width, c.mean + c.half_width]);
-            }
-            v
-        })
-        .filter(|&y| ok(y))
+    let drawn: Vec<f64> = drawn_values(cells)
         .chain(guide.iter().flat_map(|g| g.1.iter().map(|p| p.1)))
         .collect();
     let (y0, y1) = style::padded_log_range(&drawn, 1.12);
@@ -331,17 +337,7 @@ fn draw_dots(plan: &TablePlan, cells: &[Cell]) -> style::FigureResult<style::Fig
     let spp = plan.spp[0];
     let rows = plan.variants.len();
     let cell_of = |v: usize| cells.iter().find(|c| c.variant == v);
-    let values: Vec<f64> = cells
-        .iter()
-        .flat_map(|c| {
-            let mut v = vec![c.mean];
-            if finite_interval(c) {
-                v.extend([c.mean - c.half_width, c.mean + c.half_width]);
-            }
-            v
-        })
-        .filter(|&y| ok(y))
-        .collect();
+    let values: Vec<f64> = drawn_values(cells).collect();
     // A linear axis from 0, so that the bars' lengths compare as ratios (a log axis over the
     // narrow range of one spp holds one tick label or none).
     let x1 = 1.06 * values.iter().copied().fold(0.0, f64::max);
