@@ -53,3 +53,12 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
 }
+
+/// The flags of the jobs' settings, for the library's messages (`--out DIR: …`, `--resume: …`).
+pub const JOB_FLAGS: workbench::job::SettingNames = workbench::job::SettingNames {
+    out: "--out",
+    trials: "--trials",
+    shard: "--shard",
+    resume: "--resume",
+    results_dir: "--results-dir",
+};

@@ -227,6 +227,7 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
                 shard,
                 &out,
                 args.resume,
+                &super::output::JOB_FLAGS,
                 &Bar::new(args.quiet),
             )
         })?;
@@ -238,8 +239,15 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    let report =
-        pool.install(|| workbench::table::run(&plan, &results, args.resume, &Bar::new(args.quiet)))?;
+    let report = pool.install(|| {
+        workbench::table::run(
+            &plan,
+            &results,
+            args.resume,
+            &super::output::JOB_FLAGS,
+            &Bar::new(args.quiet),
+        )
+    })?;
     stdout(&report.table_md)?;
     stdout(&format!("\n{}", report.times_md))?;
     status!("render: table → {}", report.out_dir.display());

@@ -277,6 +277,7 @@ fn plan(
                     &file,
                     &ex::Overrides {
                         threads,
+                        names: super::output::JOB_FLAGS,
                         ..Default::default()
                     },
                 )?;
@@ -505,6 +506,7 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
                 out: Some(item.out.clone()),
                 threads,
                 spec: Some(item.file.clone()),
+                names: super::output::JOB_FLAGS,
                 ..Default::default()
             };
             for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
@@ -534,6 +536,7 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
                 Some(&item.file),
                 threads,
                 false,
+                &super::output::JOB_FLAGS,
                 &Bar::new(quiet),
             )?;
             if !quiet {
@@ -550,7 +553,7 @@ fn run_item(item: &Item, results: &Path, threads: Option<usize>, quiet: bool) ->
                 status!("warning: {w}");
             }
             let pool = workbench::util::threads::pool(threads)?;
-            pool.install(|| table::run(plan, results, false, &Bar::new(quiet)))?;
+            pool.install(|| table::run(plan, results, false, &super::output::JOB_FLAGS, &Bar::new(quiet)))?;
             Ok(Outcome {
                 checks: 0,
                 failed: 0,

@@ -69,6 +69,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         spec: Some(args.file.clone()),
         shard,
         resume: args.resume,
+        names: super::output::JOB_FLAGS,
     };
     let plan = ex::load_plan(&args.file, &overrides)?;
     for w in plan.models.iter().filter_map(|m| m.accuracy_warning()) {
@@ -146,6 +147,7 @@ fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
             &out,
             args.threads,
             args.resume,
+            &super::output::JOB_FLAGS,
             &Bar::new(args.quiet),
         )?;
         resumed(report.resumed, report.units);
@@ -162,6 +164,7 @@ fn run_irradiance(args: RunArgs) -> anyhow::Result<ExitCode> {
         Some(&args.file),
         args.threads,
         args.resume,
+        &super::output::JOB_FLAGS,
         &Bar::new(args.quiet),
     )?;
     resumed(report.resumed, plan.height);

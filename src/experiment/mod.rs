@@ -49,6 +49,8 @@ pub struct Overrides {
     pub shard: Option<Shard>,
     /// Continue the run the folder's unit log holds, without redoing its units (`--resume`).
     pub resume: bool,
+    /// How messages name these settings (the CLI: its flags; by default the field names).
+    pub names: crate::job::SettingNames,
 }
 
 /// Reads, applies overrides, validates. Errors are [`InputError`]s naming the file.
@@ -63,11 +65,15 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<(spec::ExperimentSpec,
     let mut spec = plan::parse(&text).map_err(|m| InputError::new(format!("{file}: {m}")))?;
     if let Some(t) = overrides.trials {
         if t == 0 {
-            return Err(InputError::new("--trials: must be at least 1, got 0"));
+            return Err(InputError::new(format!(
+                "{}: must be at least 1, got 0",
+                overrides.names.trials
+            )));
         }
         if t < 2 && spec.checks.iter().any(|c| c.calibrated.is_none()) {
             return Err(InputError::new(format!(
-                "--trials {t}: the file's checks need at least 2 trials for their paired test"
+                "{} {t}: the file's checks need at least 2 trials for their paired test",
+                overrides.names.trials
             )));
         }
         spec.trials = t;
@@ -125,13 +131,17 @@ pub fn run_plan(
         Path::new("results").join(name)
     });
     let what = match &overrides.out {
-        Some(out) => format!("--out {}", out.display()),
+        Some(out) => format!("{} {}", overrides.names.out, out.display()),
         None => out_dir.display().to_string(),
     };
     // A shard records the experiment as run, for the merge to rebuild the plan from.
     let shard_spec = match (&overrides.shard, &overrides.spec) {
         (Some(_), Some(path)) => Some(load(path, overrides)?.0),
-        (Some(_), None) => return Err(InputError::new("--shard: needs the experiment file").into()),
+        (Some(_), None) => {
+            return Err(
+                InputError::new(format!("{}: needs the experiment file", overrides.names.shard)).into(),
+            );
+        }
         _ => None,
     };
     // Every worker thread holds its weight sets at once: refused before anything is written.
@@ -144,7 +154,7 @@ pub fn run_plan(
     let mut folder = ResultFolder::prepare(
         &out_dir,
         &what,
-        "use another --out",
+        &format!("use another {}", overrides.names.out),
         &inputs,
         export::legacy_manifest_files,
     )?;
@@ -156,13 +166,19 @@ pub fn run_plan(
     let log_path = folder.partial_path(job::PARTIAL_LOG)?;
     let mut resumed_row_warnings = 0u64;
     let ne = plan.estimators.len();
-    let (mut log, resumed) =
-        crate::job::open_log(plan, &log_path, shard, overrides.resume, &mut |u, k, v| {
+    let (mut log, resumed) = crate::job::open_log(
+        plan,
+        &log_path,
+        shard,
+        overrides.resume,
+        &overrides.names,
+        &mut |u, k, v| {
             resumed_row_warnings += u64::from(v.warnings);
             if let Some(s) = summary.as_mut() {
                 s.push(k / ne, k % ne, u / plan.trials, &v);
             }
-        })?;
+        },
+    )?;
     let units = shard.len(plan.samples.len() * plan.trials);
     reporter.start("trials×N", units as u64);
     reporter.advance(resumed as u64);

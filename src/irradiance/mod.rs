@@ -516,6 +516,7 @@ pub fn run(
     spec_path: Option<&Path>,
     threads: Option<usize>,
     resume: bool,
+    names: &crate::job::SettingNames,
     reporter: &dyn Reporter,
 ) -> crate::Result<Report> {
     use crate::files::result_folder::ResultFolder;
@@ -523,7 +524,7 @@ pub fn run(
     let mut folder = ResultFolder::prepare(
         out,
         &out.display().to_string(),
-        "use another --out",
+        &format!("use another {}", names.out),
         &inputs,
         export::legacy_manifest_files,
     )?;
@@ -533,9 +534,15 @@ pub fn run(
     let log = folder.partial_path(shard::PARTIAL_LOG)?;
     let mut totals = Totals::new(plan);
     let resumed = pool.install(|| {
-        shard::compute(plan, crate::job::Shard::WHOLE, &log, resume, reporter, &mut |v| {
-            totals.push(v)
-        })
+        shard::compute(
+            plan,
+            crate::job::Shard::WHOLE,
+            &log,
+            resume,
+            names,
+            reporter,
+            &mut |v| totals.push(v),
+        )
     })?;
     let (exact, rows) = totals.finish(plan);
     let wall_seconds = start.elapsed().as_secs_f64();

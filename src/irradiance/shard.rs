@@ -221,12 +221,13 @@ pub fn compute(
     shard: Shard,
     path: &Path,
     resume: bool,
+    names: &crate::job::SettingNames,
     reporter: &dyn Reporter,
     each: &mut dyn FnMut(&NormalValues),
 ) -> crate::Result<usize> {
     let w = plan.width;
     let mine: Vec<usize> = shard.units(plan.height).collect();
-    let (mut log, done) = crate::job::open_log(plan, path, shard, resume, &mut |_, _, v| each(&v))?;
+    let (mut log, done) = crate::job::open_log(plan, path, shard, resume, names, &mut |_, _, v| each(&v))?;
     let rules = plan.rules()?;
     let tolerance = plan.exact_tolerance();
     let todo = &mine[done..];
@@ -258,6 +259,7 @@ pub struct ShardReport {
 
 /// Runs shard `shard` of the protocol into the shard folder `out` (see the module
 /// documentation); with `resume`, continues from the log an interrupted shard left there.
+#[allow(clippy::too_many_arguments)]
 pub fn run_shard(
     plan: &IrradiancePlan,
     spec_path: &Path,
@@ -265,12 +267,13 @@ pub fn run_shard(
     out: &Path,
     threads: Option<usize>,
     resume: bool,
+    names: &crate::job::SettingNames,
     reporter: &dyn Reporter,
 ) -> crate::Result<ShardReport> {
     let mut folder = ResultFolder::prepare(
         out,
-        &format!("--out {}", out.display()),
-        "use another --out",
+        &format!("{} {}", names.out, out.display()),
+        &format!("use another {}", names.out),
         &[("the irradiance file", spec_path)],
         super::export::legacy_manifest_files,
     )?;
@@ -279,7 +282,7 @@ pub fn run_shard(
     let identity = plan.identity(shard);
     let start = Instant::now();
     let log = folder.partial_path(PARTIAL_LOG)?;
-    let resumed = pool.install(|| compute(plan, shard, &log, resume, reporter, &mut |_| {}))?;
+    let resumed = pool.install(|| compute(plan, shard, &log, resume, names, reporter, &mut |_| {}))?;
     let job = serde_json::json!({
         "kind": KIND,
         "job": {

@@ -22,6 +22,40 @@ use crate::error::{Error, InputError};
 use crate::util::report::Reporter;
 use std::path::{Path, PathBuf};
 
+/// How messages name a job's settings: the caller's names for them — the CLI's flags
+/// (`--out`, `--resume`), a library caller's field names ([`SettingNames::FIELDS`], which the
+/// Python bindings' arguments share). The library itself names no flag.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SettingNames {
+    /// The output folder.
+    pub out: &'static str,
+    /// The trials override of an experiment.
+    pub trials: &'static str,
+    /// The share of the units run (`i/n`).
+    pub shard: &'static str,
+    /// Continuing an interrupted run from its unit log.
+    pub resume: &'static str,
+    /// The folder of a render table's outputs and reference cache.
+    pub results_dir: &'static str,
+}
+
+impl SettingNames {
+    /// The settings' field names.
+    pub const FIELDS: SettingNames = SettingNames {
+        out: "out",
+        trials: "trials",
+        shard: "shard",
+        resume: "resume",
+        results_dir: "results_dir",
+    };
+}
+
+impl Default for SettingNames {
+    fn default() -> Self {
+        SettingNames::FIELDS
+    }
+}
+
 /// A kind of job, as the shared machinery sees it: its resolved plan.
 pub trait Job: Sized {
     /// `shard.json`'s `"kind"`.
@@ -94,6 +128,7 @@ pub fn open_log<J: Job>(
     path: &Path,
     shard: Shard,
     resume: bool,
+    names: &SettingNames,
     each: &mut dyn FnMut(usize, usize, J::Row),
 ) -> crate::Result<(LogWriter, usize)> {
     let units: Vec<usize> = shard.units(job.units()).collect();
@@ -105,6 +140,7 @@ pub fn open_log<J: Job>(
         &units,
         job.rows_per_unit(),
         resume,
+        names.resume,
         &mut |u, lines| {
             rows.clear();
             for (k, line) in lines.iter().enumerate() {

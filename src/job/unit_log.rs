@@ -90,7 +90,8 @@ pub type UnitLines<'a> = dyn FnMut(usize, &[&str]) -> std::result::Result<(), (u
 /// the two header lines. Resuming: checks the identity and the column line, hands each complete
 /// unit's rows to `each(unit, rows)` — whose error refuses the log — then checks their digests,
 /// cuts off a half-written last unit, and returns how many units are done. The errors name the
-/// file and the line.
+/// file and the line, and the resume setting by the caller's name for it, `resume_name`.
+#[allow(clippy::too_many_arguments)]
 pub fn open_lines(
     path: &Path,
     identity: &Identity,
@@ -98,6 +99,7 @@ pub fn open_lines(
     units: &[usize],
     per_unit: usize,
     resume: bool,
+    resume_name: &str,
     each: &mut UnitLines<'_>,
 ) -> Result<(LogWriter, usize)> {
     let io = |what: &str, e| Error::io(format!("{what} {}", path.display()), e);
@@ -117,7 +119,7 @@ pub fn open_lines(
     }
     let refuse = |problem: String| -> Error {
         InputError::new(format!(
-            "--resume: {}: {problem}; run without --resume to start over",
+            "{resume_name}: {}: {problem}; run without {resume_name} to start over",
             path.display()
         ))
         .into()

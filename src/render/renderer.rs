@@ -44,7 +44,7 @@ pub fn check_size(width: usize, height: usize, what: &str) -> Result<(), InputEr
         // Under the fixed limit, the image must also fit the memory budget.
         Some(n) if n <= MAX_PIXELS && (width > side || height > side) => Err(InputError::new(format!(
             "{what}: {width}×{height} has a side over {side}, the largest the image reader \
-             accepts (so that every image written can be read back as a --reference)"
+             accepts (so that every image written can be read back as a reference image)"
         ))),
         Some(n) if n <= MAX_PIXELS => {
             crate::bq::rule::check_memory(&format!("{what}: a {width}×{height} image"), 48 * n as u64)

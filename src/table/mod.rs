@@ -78,6 +78,7 @@ pub fn run(
     plan: &TablePlan,
     results: &Path,
     resume: bool,
+    names: &crate::job::SettingNames,
     reporter: &dyn Reporter,
 ) -> crate::Result<TableReport> {
     let out = output_dir(results, plan);
@@ -86,9 +87,12 @@ pub fn run(
         results,
         &out,
         &out.display().to_string(),
-        "use another --results-dir (or another \"name\" in the spec)",
+        &format!(
+            "use another {} (or another \"name\" in the spec)",
+            names.results_dir
+        ),
     )?;
-    let rounds = shard::Rounds::open(plan, &folder, crate::job::Shard::WHOLE, resume)?;
+    let rounds = shard::Rounds::open(plan, &folder, crate::job::Shard::WHOLE, resume, names)?;
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
 
     let reference = reference::reference(plan, &renderer, results, reporter)?;

@@ -166,7 +166,8 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     let height = spec.height.unwrap_or(default_height as u64) as usize;
     check_size(width, height, "width/height").map_err(|e| e.0)?;
     let env_arg = spec.env.clone().unwrap_or_else(|| "sky".into());
-    let env = Environment::from_arg(&env_arg).map_err(|e| err("env", e.0))?;
+    // Not `err`: the message starts with the map's name, which is no sub-field of `env`.
+    let env = Environment::from_arg(&env_arg).map_err(|e| format!("env: {}", e.0))?;
     let env = match &spec.lookup {
         Some(name) => env
             .with_lookup(Lookup::from_name(name, "lookup").map_err(|e| e.0)?, "lookup")
@@ -710,7 +711,7 @@ mod tests {
         assert!(err(&format!("{{{base}, \"width\": 100000, \"height\": 100000}}")).contains("width/height"));
         assert!(
             err(&format!("{{{base}, \"env\": \"missing.hdr\"}}"))
-                .starts_with("t.json: env: --env missing.hdr: cannot read")
+                .starts_with("t.json: env: missing.hdr: cannot read")
         );
         assert!(
             err(&format!("{{{base}, \"reference\": {{\"spp\": 0}}}}")).starts_with("t.json: reference.spp:")

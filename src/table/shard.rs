@@ -88,18 +88,19 @@ pub fn run_shard(
     shard: Shard,
     out: &Path,
     resume: bool,
+    names: &crate::job::SettingNames,
     reporter: &dyn Reporter,
 ) -> crate::Result<ShardReport> {
     let mut folder = super::prepare_folder(
         plan,
         results,
         out,
-        &format!("--out {}", out.display()),
-        "use another --out",
+        &format!("{} {}", names.out, out.display()),
+        &format!("use another {}", names.out),
     )?;
     let spec_text = crate::files::spec_json::read_spec(&plan.file)?;
     // The rounds' log, checked before any work.
-    let rounds = Rounds::open(plan, &folder, shard, resume)?;
+    let rounds = Rounds::open(plan, &folder, shard, resume, names)?;
     let identity = rounds.identity.clone();
     let start = Instant::now();
     let renderer = Renderer::for_scene(plan.scene, plan.width, plan.height, plan.env.clone());
@@ -182,12 +183,13 @@ impl Rounds {
         folder: &ResultFolder,
         shard: Shard,
         resume: bool,
+        names: &crate::job::SettingNames,
     ) -> crate::Result<Rounds> {
         let identity = plan.identity(shard);
         let mine: Vec<usize> = shard.units(units(plan)).collect();
         let log_path = folder.partial_path(ROUNDS_LOG)?;
         let mut done_rows = Vec::new();
-        let (log, _) = crate::job::open_log(plan, &log_path, shard, resume, &mut |_, _, row| {
+        let (log, _) = crate::job::open_log(plan, &log_path, shard, resume, names, &mut |_, _, row| {
             done_rows.push(row)
         })?;
         Ok(Rounds {

@@ -109,7 +109,7 @@ mod a_file_type_the_tool_does_not_support_is_accepted {
         std::fs::write(dir.path().join("table.json"), spec).unwrap();
         let err = input_error(dir.path(), &["validate", "table.json"]);
         assert!(
-            err.starts_with("Error: table.json: env: --env sky.png: the file is a PNG image, not a Radiance"),
+            err.starts_with("Error: table.json: env: sky.png: the file is a PNG image, not a Radiance"),
             "{err}"
         );
     }
