@@ -254,32 +254,6 @@ fn table(spec: &Path, args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The flag of each setting of a single image, in the library's messages.
-pub(super) fn flag(field: Field) -> &'static str {
-    match field {
-        Field::Integrator => "--integrator",
-        Field::Spp => "--spp",
-        Field::Tolerance => "--tolerance",
-        Field::Gps => "--gps",
-        Field::NoRotate => "--no-rotate",
-        Field::Size => "--width/--height",
-        Field::Env => "--env",
-        Field::EnvLookup => "--env-lookup",
-        Field::Seed => "--seed",
-        Field::Out => "--out",
-        Field::Reference => "--reference",
-        Field::ErrorScale => "--error-scale",
-        Field::ErrorMax => "--error-max",
-        Field::ErrorColours => "--error-colours",
-        Field::SdOut => "--sd-out",
-        Field::Scale => "--scale",
-        Field::TargetSd => "--target-sd",
-        Field::MaxSpp => "--max-spp",
-        Field::ResultsDir => "--results-dir",
-        Field::Kernel => "--kernel",
-    }
-}
-
 /// The flags of a single image as an unchecked request.
 fn request(args: &RenderArgs) -> ImageRequest<'_> {
     ImageRequest {
@@ -312,7 +286,10 @@ fn request(args: &RenderArgs) -> ImageRequest<'_> {
             .map(|s| Scale::from_name(s).expect("clap checks the names")),
         target_sd: args.target_sd,
         max_spp: args.max_spp,
-        table_only: args.results_dir.as_ref().map(|_| flag(Field::ResultsDir)),
+        table_only: args
+            .results_dir
+            .as_ref()
+            .map(|_| image_files::flag(Field::ResultsDir)),
         model_given: args.model.given(),
         model: args.model.resolve().map_err(|e| {
             e.downcast::<InputError>()
@@ -325,12 +302,12 @@ fn request(args: &RenderArgs) -> ImageRequest<'_> {
 /// rendered and written.
 fn single(args: &RenderArgs) -> anyhow::Result<()> {
     let bar = Bar::new(args.quiet);
-    let plan = ImagePlan::resolve(request(args), flag, &bar)?;
+    let plan = ImagePlan::resolve(request(args), image_files::flag, &bar)?;
     if let Method::Adaptive { .. } = plan.method {
         return super::render_adaptive::single(&plan, &bar);
     }
     // The image and its PNGs are one set: no other command may write them meanwhile.
-    let labelled = plan.outputs.labelled(flag);
+    let labelled = plan.outputs.labelled(image_files::flag);
     let mut files = image_files::lock(&labelled)?;
     let model_seconds = plan.setup_start.elapsed().as_secs_f64();
     let start = Instant::now();

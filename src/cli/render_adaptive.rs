@@ -17,7 +17,7 @@ pub fn single(plan: &ImagePlan, bar: &Bar) -> anyhow::Result<()> {
         unreachable!("render_adaptive::single takes adaptive plans")
     };
     let (kind, target_sd, first) = (*kind, settings.target_sd, settings.stages[0]);
-    let labelled = plan.outputs.labelled(super::render::flag);
+    let labelled = plan.outputs.labelled(super::image_files::flag);
     let mut files = super::image_files::lock(&labelled)?;
     let (out, png, error_png) = (&plan.outputs.exr, &plan.outputs.png, &plan.outputs.error_png);
     let spp_png = plan

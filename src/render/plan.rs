@@ -1,5 +1,5 @@
-//! The resolved plan of one single image, as experiments ([`crate::experiment::plan`]) and render
-//! tables ([`crate::table::plan`]) resolve theirs: [`ImagePlan::resolve`] checks every setting
+//! The resolved plan of one single image, as experiments (`experiment::plan`) and render
+//! tables (`table::plan`) resolve theirs: [`ImagePlan::resolve`] checks every setting
 //! of an unchecked [`ImageRequest`] — integrator, samples, size, environment and its lookup,
 //! outputs, reference, error and sd images, adaptive stages — reads the inputs and builds the
 //! model, all before the first pixel. What is left to the caller is to lock the outputs, render
