@@ -193,7 +193,11 @@ mod tests {
         );
         assert_eq!(
             line(&["workbench", "run", "x.json", "--threads=-1"]),
-            "--threads: must be a whole number ≥ 0, got -1"
+            "--threads: must be in 1..=256, got -1"
+        );
+        assert_eq!(
+            line(&["workbench", "reproduce", "--threads", "300"]),
+            "--threads: must be in 1..=256, got 300"
         );
         assert_eq!(
             line(&["workbench", "render", "--spp", "--out", "x.exr"]),
