@@ -284,16 +284,23 @@ def path_method():
 
 
 def render(scene, props, spp, seed):
-    import drjit as dr
+    """compare_data.render (the timed, synchronised render) of the integrator ``props``."""
     import mitsuba as mi
 
-    integ = mi.load_dict(props)
-    dr.sync_thread()
-    t0 = time.perf_counter()
-    img = mi.render(scene, integrator=integ, spp=spp, seed=seed)
-    dr.eval(img)
-    dr.sync_thread()
-    return np.array(img, dtype=np.float64)[..., :3], time.perf_counter() - t0
+    if HERE not in sys.path:
+        sys.path.insert(0, HERE)
+    import compare_data
+
+    return compare_data.render(scene, mi.load_dict(props), spp, seed)
+
+
+def portable(text: str) -> str:
+    """``text`` with this machine's paths taken out, for the committed run.json and table.md:
+    the data folder as ``$WORKBENCH_DATA`` and the repository's root as a relative path."""
+    data = os.environ.get("WORKBENCH_DATA")
+    if data:
+        text = text.replace(os.path.abspath(data).rstrip(os.sep) + os.sep, "$WORKBENCH_DATA/")
+    return text.replace(ROOT + os.sep, "")
 
 
 def metrics(img, ref):
@@ -451,12 +458,13 @@ def main(argv=None):
     if ref_rmse > 0.1 * smallest:
         progress(f"warning: the reference's own RMSE {ref_rmse:.3g} is more than a tenth of the smallest "
                  f"RMSE compared ({smallest:.3g}); raise --ref-spp")
-    meta = {"scene": scene_src.label, "source": args.scene or args.case, "variant": variant,
+    source = portable(os.path.abspath(args.scene)) if args.scene else args.case
+    meta = {"scene": scene_src.label, "source": source, "variant": variant,
             "mitsuba": mi.__version__, "python": platform.python_version(), "budgets": budgets,
             "seeds": seeds, "ref_spp": 2 * half, "ref_seconds": t1 + t2, "ref_rmse": ref_rmse,
             "emitters": emitters, "delta_emitters": delta, "has_envmap": has_envmap,
             "sampler": args.sampler, "res": res, "crop": crop, "load": os.getloadavg(),
-            "seconds": time.perf_counter() - clock, "command": " ".join(sys.argv)}
+            "seconds": time.perf_counter() - clock, "command": portable(" ".join(sys.argv))}
     write(out, rows, meta)
     progress(f"done: {out}/table.md ({meta['seconds']:.0f} s)")
     return rows, meta
