@@ -42,3 +42,15 @@ bench-irradiance:
 #   just vs-direct --case spheres-museum        (a scene of python/comparison/scenes.py; WORKBENCH_DATA)
 vs-direct *args:
     python python/comparison/vs_direct.py {{args}}
+
+# Issue 41's six outside scenes (nine cases: pisa in two shells, park and sky each with the spheres
+# and matpreview; compare_data.VS_DIRECT_CASES) into results/mitsuba/vs-direct/CASE/, references of
+# 32768 spp (their own RMSE stated per table). Not in CI: about 8 minutes a case, 70 in all on 2
+# cores shared with other work (docs/guide/mitsuba.md). Extra arguments go to every case.
+vs-direct-all *args:
+    #!/usr/bin/env bash
+    set -euo pipefail
+    cases=$(cd python/comparison && python -c 'import compare_data; print(" ".join(compare_data.VS_DIRECT_CASES))')
+    for c in $cases; do
+        python python/comparison/vs_direct.py --case "$c" --ref-spp 32768 --out "results/mitsuba/vs-direct/$c" {{args}}
+    done
