@@ -13,6 +13,7 @@ mod external;
 mod frame;
 mod integrand;
 mod json;
+mod memory;
 mod model;
 mod rule;
 mod run;
@@ -53,6 +54,7 @@ fn _workbench(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run::run, m)?)?;
     m.add_function(wrap_pyfunction!(run::trial_points, m)?)?;
     m.add_function(wrap_pyfunction!(frame::to_world, m)?)?;
+    m.add_function(wrap_pyfunction!(memory::check_memory, m)?)?;
     m.add(
         "METHODS",
         workbench::bq::estimator::Method::ALL.map(|m| m.name()).to_vec(),

@@ -283,3 +283,9 @@ def to_world(points: Points, normal: Sequence[float], azimuth: Optional[float] =
     >>> bool(abs(world[:, 1] - points[:, 2]).max() < 1e-12)
     True
     """
+
+def check_memory(what: str, bytes: int) -> None:
+    """The library's memory guard: ``ValueError`` with one line naming ``what``, the bytes and the
+    budget (``WORKBENCH_MEMORY``, else 3/4 of the machine's memory) when ``bytes`` is more than
+    the budget or cannot be allocated now. For callers that plan many rules at once (the Mitsuba
+    integrator's ``rules × n²`` factors)."""

@@ -45,6 +45,7 @@ import numpy as np
 import mitsuba as mi
 
 from . import light as _light
+from . import lightbq as _lightbq
 from . import properties as _props
 from . import rules as _rules
 
@@ -101,6 +102,9 @@ def integrator_class():
             if st.method == "bmc":
                 self.rules = _rules.build(st)
                 self._device_arrays()
+            # The light methods' rules and kernel means are the Rust core's (issue 40), made
+            # per scene in render() (bmc-light's depend on the scene's map).
+            self._light_scene = None
 
         # -- the rule on the device -------------------------------------------------------
 
@@ -155,6 +159,23 @@ def integrator_class():
                 self._info = SceneInfo(scene)
                 self._scene = scene
             return self._info
+
+        def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+            """Mitsuba's render, after the checks that need the scene (a ``ValueError`` naming the
+            property, before any work: in the LLVM variant ``mi.render`` re-raises it as a
+            ``RuntimeError`` whose cause it is)."""
+            if self.method in _props.LIGHT_METHODS:
+                self._prepare_light(scene)
+            return super().render(scene, sensor, seed, spp, develop, evaluate)
+
+        def _prepare_light(self, scene):
+            """The light method's scene checks, then its rules, weights and (bmc-light,
+            bmc-split) kernel means of the scene's map, once per scene."""
+            if self._light_scene is scene:
+                return
+            _lightbq.check_scene(self.method, scene)
+            _lightbq.prepare(self.settings, scene)
+            self._light_scene = scene
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
             info = self._scene_info(scene)
