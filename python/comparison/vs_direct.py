@@ -176,7 +176,7 @@ class DictScene:
     def load(self, sampler=None, mis_compensation=False, res=None, crop=None):
         import mitsuba as mi
 
-        d = copy.deepcopy(self.d)
+        d = _copy_dicts(self.d)
         for v in d.values():
             if not isinstance(v, dict):
                 continue
@@ -187,6 +187,12 @@ class DictScene:
             if mis_compensation and v.get("type") == "envmap":
                 v["mis_compensation"] = True
         return mi.load_dict(d)
+
+
+def _copy_dicts(d):
+    """A copy of a scene dict's nested dicts, sharing the leaves (Mitsuba's transforms cannot be
+    deep-copied)."""
+    return {k: _copy_dicts(v) if isinstance(v, dict) else v for k, v in d.items()}
 
 
 def _film_values(res, crop):

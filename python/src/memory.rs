@@ -6,8 +6,10 @@ use pyo3::prelude::*;
 
 use crate::value_error;
 
-/// `ValueError` with the guard's one line (naming `what`, the bytes and the budget) when `bytes`
-/// exceeds the memory budget or cannot be allocated now; `None` otherwise.
+/// The library's memory guard: ``ValueError`` with one line naming ``what``, the bytes and the
+/// budget (``WORKBENCH_MEMORY``, else 3/4 of the machine's memory) when ``bytes`` is more than
+/// the budget or cannot be allocated now. For callers that plan many rules at once (the Mitsuba
+/// integrator's ``rules × n²`` factors).
 #[pyfunction]
 pub fn check_memory(what: &str, bytes: u64) -> PyResult<()> {
     workbench::util::memory::check(what, bytes).map_err(value_error)

@@ -7,7 +7,7 @@ issue 41) need of a scene, checked before any render, and the scene's map as Mit
   ``ValueError`` naming the property ``method``, raised from the integrator's ``render`` before
   any work (never from inside a traced kernel, where Mitsuba's scalar threads would abort).
 - :func:`env_map`: the ``envmap`` emitter's texels — the ``Bitmap`` Mitsuba built from the file
-  (its ``data`` parameter, without the column it repeats for the wrap-around lookup), its
+  (its ``data`` parameter, without the columns it pads for the wrap-around lookup), its
   ``scale`` and ``to_world`` — and their content hash (SHA-256 of the texels, shape and scale),
   the key under which the map's kernel means are cached (:data:`KERNEL_MEANS`): a map is
   precomputed once per process whatever the number of renders, scenes or integrators.
@@ -93,9 +93,11 @@ def env_map(scene):
         return None
     bitmap = mi.Bitmap(params["data"])
     texels = np.array(bitmap, dtype=np.float32)
-    # Mitsuba's envmap repeats its first column at the end (for the wrap-around lookup).
-    if texels.shape[1] > 1 and np.array_equal(texels[:, 0], texels[:, -1]):
-        texels = texels[:, :-1]
+    # Mitsuba 3.9's envmap pads the map with one column on each side for the wrap-around
+    # lookup (the last column before the first, the first after the last): the file's texels
+    # are the columns between.
+    if texels.shape[1] > 3 and np.array_equal(texels[:, 0], texels[:, -2]) and np.array_equal(texels[:, -1], texels[:, 1]):
+        texels = texels[:, 1:-1]
     texels = np.ascontiguousarray(texels[..., :3])
     scale = float(params["scale"][0]) if hasattr(params["scale"], "__len__") else float(params["scale"])
     to_world = np.array(params["to_world"].matrix, dtype=np.float64).reshape(4, 4)
