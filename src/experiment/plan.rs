@@ -3,7 +3,9 @@
 
 use super::spec::*;
 use crate::bq::estimator::MethodName;
+use crate::bq::estimator::bq_pss::PssOptions;
 use crate::bq::estimator::mis::{LightEstimator, LightMethod};
+use crate::bq::kernel::primary::SobolevOrder;
 use crate::bq::model::BmcModel;
 use crate::bq::model::ResolvedModel;
 use crate::bq::rule::MAX_POINTS;
@@ -197,6 +199,10 @@ pub struct ResolvedSettings {
     pub heuristic: Option<Heuristic>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub compensation: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub order: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weights: Option<crate::bq::estimator::bq_pss::PssWeights>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kernel: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -902,12 +908,14 @@ fn resolve_estimator(
         ("sampler", e.sampler.map(|s| format!("{:?}", s.name()))),
         ("heuristic", e.heuristic.map(|h| format!("{:?}", h.name()))),
         ("compensation", e.compensation.map(|c| c.to_string())),
+        ("order", e.order.map(|o| o.to_string())),
+        ("weights", e.weights.map(|w| format!("{:?}", w.name()))),
     ] {
         if let Some(value) = given {
             return Err(err(
                 at(field),
                 format!(
-                    "{value} is not used by method {} (only by the light-aware mc-light, mc-bsdf, mis)",
+                    "{value} is not used by method {} (only by the light-aware mc-light, mc-bsdf, mis, bq-pss)",
                     e.method
                 ),
             ));
@@ -969,6 +977,8 @@ fn resolve_estimator(
         sampler: None,
         heuristic: None,
         compensation: None,
+        order: None,
+        weights: None,
         kernel: model.as_ref().map(|m| m.to_json()["kernel"].clone()),
         noise: model.as_ref().filter(|m| !m.is_fitted()).map(|m| m.noise),
         kernel_mean: model.as_ref().map(|m| m.kernel_mean),
@@ -1048,7 +1058,32 @@ fn resolve_light_estimator(
             ));
         }
     }
-    let sampler = e.sampler.unwrap_or(Sampler::Uniform);
+    let is_pss = method == LightMethod::BqPss;
+    if !is_pss {
+        if let Some(o) = e.order {
+            return Err(unused("order", o.to_string(), " (only by bq-pss)"));
+        }
+        if let Some(w) = e.weights {
+            return Err(unused("weights", format!("{:?}", w.name()), " (only by bq-pss)"));
+        }
+    }
+    let order = match e.order {
+        None => SobolevOrder::One,
+        Some(o) => SobolevOrder::from_number(o).ok_or_else(|| {
+            err(
+                at("order"),
+                format!("{o} is not an order of bq-pss's product Sobolev kernel (1 or 2)"),
+            )
+        })?,
+    };
+    let pss = PssOptions {
+        order,
+        weights: e.weights.unwrap_or_default(),
+    };
+    // bq-pss's points are a scrambled Sobol set unless told otherwise (math.md §11 (a)).
+    let sampler = e
+        .sampler
+        .unwrap_or(if is_pss { Sampler::Sobol } else { Sampler::Uniform });
     let heuristic = e.heuristic.unwrap_or_default();
     let compensation = e.compensation.unwrap_or(false);
     let design = match sampler {
@@ -1065,6 +1100,7 @@ fn resolve_light_estimator(
             heuristic,
             compensation,
             sampler,
+            pss,
         }),
         model: None,
         prior: None,
@@ -1076,6 +1112,8 @@ fn resolve_light_estimator(
             sampler: Some(sampler),
             heuristic: is_mis.then_some(heuristic),
             compensation: is_mis.then_some(compensation),
+            order: is_pss.then_some(order.number() as u64),
+            weights: is_pss.then_some(pss.weights),
             kernel: None,
             noise: None,
             kernel_mean: None,

@@ -487,11 +487,16 @@ pub fn faces(estimators: &[super::plan::PlannedEstimator]) -> Vec<SeriesStyle> {
         .iter()
         .map(|e| {
             e.light.map(|l| {
-                serde_json::json!({
+                let mut id = serde_json::json!({
                     "method": l.method.name(),
                     "heuristic": l.heuristic.name(),
                     "compensation": l.compensation,
-                })
+                });
+                if l.method == crate::bq::estimator::mis::LightMethod::BqPss {
+                    id["order"] = l.pss.order.number().into();
+                    id["weights"] = l.pss.weights.name().into();
+                }
+                id
             })
         })
         .collect();

@@ -538,6 +538,27 @@ fn estimate_all(
         amplitudes: vec![vec![None; ne]; ni],
         seconds: Vec::with_capacity(ni),
     };
+    // bq-pss's weights depend on its points only (math.md §11 (a)): once per unit, shared by
+    // every integrand; each integrand's cost includes them, as it alone would have paid them.
+    let pss_rules: Vec<Option<(crate::bq::estimator::bq_pss::PssRule, f64)>> = plan
+        .estimators
+        .iter()
+        .map(|e| {
+            let light = e.light?;
+            let clock = Instant::now();
+            let (n_light, _) = light.method.counts(draws.n);
+            let points = primary_samples(
+                plan.seed,
+                light.sampler,
+                crate::bq::estimator::mis::LIGHT_TECHNIQUE,
+                n_light,
+                draws.n,
+                draws.trial,
+            );
+            let rule = light.pss_rule(&points)?;
+            Some((rule, clock.elapsed().as_secs_f64()))
+        })
+        .collect();
     for (fi, f) in plan.integrands.iter().enumerate() {
         let (values, evaluate_seconds) = (&draws.values[fi], &draws.evaluate_seconds[fi]);
         let mut row = Vec::with_capacity(ne);
@@ -560,6 +581,13 @@ fn estimate_all(
                 let lit = f
                     .lit()
                     .expect("the plan checks that every integrand knows its light");
+                if let Some((rule, rule_seconds)) = &pss_rules[ei] {
+                    let (value, sd) = light.estimate_on_rule(lit, rule);
+                    row.push(value);
+                    sds.push(sd);
+                    costs.push(clock.elapsed().as_secs_f64() + rule_seconds);
+                    continue;
+                }
                 let (n, trial) = (draws.n, draws.trial);
                 let (n_light, n_bsdf) = light.method.counts(n);
                 use crate::bq::estimator::mis::{BSDF_TECHNIQUE, LIGHT_TECHNIQUE};

@@ -123,6 +123,13 @@ pub struct EstimatorSpec {
     /// 2019); default false. Refused on a map that is constant.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compensation: Option<bool>,
+    /// `bq-pss` only: the order of its product Sobolev kernel on primary samples, 1 (default) or 2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<u64>,
+    /// `bq-pss` only: its weights, `bmc` (default), `bsq` (Bayes–Sard), or the ablations `equal`
+    /// (RQMC on the same points) and `cv` (a least-squares polynomial control variate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weights: Option<crate::bq::estimator::bq_pss::PssWeights>,
     /// BMC/BMCP only; default Sobolev with s = 1.4.
     #[serde(default)]
     pub kernel: Option<KernelSpec>,

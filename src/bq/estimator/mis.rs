@@ -20,6 +20,7 @@
 //! an Owen-scrambled Sobol set, a fresh scramble per technique and trial.
 
 use super::Uncertainty;
+use super::bq_pss::{PssOptions, PssRule, mis_integrand};
 use crate::integrand::lit::{Lit, Technique};
 use crate::sampling::primary::Sampler;
 use serde::{Deserialize, Serialize};
@@ -36,11 +37,20 @@ pub enum LightMethod {
     /// `N/2` light and `N/2` BSDF samples with MIS weights.
     #[serde(rename = "mis")]
     Mis,
+    /// Bayesian quadrature in primary sample space on the one-sample MIS integrand, `N/2` points
+    /// of two evaluations each ([`super::bq_pss`], math.md §11 (a)).
+    #[serde(rename = "bq-pss")]
+    BqPss,
 }
 
 impl LightMethod {
     /// Every light-aware estimator, in the order of the docs.
-    pub const ALL: [LightMethod; 3] = [LightMethod::McLight, LightMethod::McBsdf, LightMethod::Mis];
+    pub const ALL: [LightMethod; 4] = [
+        LightMethod::McLight,
+        LightMethod::McBsdf,
+        LightMethod::Mis,
+        LightMethod::BqPss,
+    ];
 
     /// The name in experiment files and CSVs.
     pub fn name(self) -> &'static str {
@@ -48,6 +58,7 @@ impl LightMethod {
             LightMethod::McLight => "mc-light",
             LightMethod::McBsdf => "mc-bsdf",
             LightMethod::Mis => "mis",
+            LightMethod::BqPss => "bq-pss",
         }
     }
 
@@ -56,12 +67,14 @@ impl LightMethod {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// `(n_L, n_B)` at `N` samples (`mis`: `N` even).
+    /// `(n_L, n_B)` primary samples drawn at `N` evaluations (`mis`: `N` even; `bq-pss`: `N/2`
+    /// shared points, drawn in the light technique's stream, each warped by both techniques).
     pub fn counts(self, n: usize) -> (usize, usize) {
         match self {
             LightMethod::McLight => (n, 0),
             LightMethod::McBsdf => (0, n),
             LightMethod::Mis => (n / 2, n / 2),
+            LightMethod::BqPss => (n / 2, 0),
         }
     }
 
@@ -71,6 +84,9 @@ impl LightMethod {
             LightMethod::Mis if n < 2 || n % 2 == 1 => Err(format!(
                 "N = {n}: mis draws N/2 light and N/2 BSDF samples, so N must be even and at least 2"
             )),
+            LightMethod::BqPss if n < 2 || n % 2 == 1 => Err(format!(
+                "N = {n}: bq-pss evaluates f twice at each of N/2 points, so N must be even and at least 2"
+            )),
             _ => Ok(()),
         }
     }
@@ -79,7 +95,7 @@ impl LightMethod {
     fn terms(self, n: usize) -> usize {
         match self {
             LightMethod::McLight | LightMethod::McBsdf => n,
-            LightMethod::Mis => n / 2,
+            LightMethod::Mis | LightMethod::BqPss => n / 2,
         }
     }
 
@@ -132,6 +148,8 @@ pub struct LightEstimator {
     pub compensation: bool,
     /// How every technique's primary samples are drawn.
     pub sampler: Sampler,
+    /// `bq-pss`'s kernel order and weights (default otherwise, unused).
+    pub pss: PssOptions,
 }
 
 /// Stream identifiers of the two techniques' primary samples.
@@ -149,6 +167,10 @@ impl LightEstimator {
     /// `Î` and its standard error from the light technique's primary samples `light_u` and the
     /// BSDF technique's `bsdf_u` (their lengths [`LightMethod::counts`]); the integrand's values
     /// are `N` evaluations of `f` (one ray each where there is visibility).
+    ///
+    /// `bq-pss` builds its rule from `light_u` here; a caller with several integrands on the same
+    /// points builds it once ([`LightEstimator::pss_rule`]) and calls
+    /// [`LightEstimator::estimate_on_rule`].
     pub fn estimate(
         &self,
         f: &dyn Lit,
@@ -157,6 +179,12 @@ impl LightEstimator {
     ) -> (f64, Option<Uncertainty>) {
         let light = self.light_technique();
         let terms: Vec<f64> = match self.method {
+            LightMethod::BqPss => {
+                let rule = self
+                    .pss_rule(light_u)
+                    .expect("the product Sobolev Gram matrix factors with the jitter ladder");
+                return self.estimate_on_rule(f, &rule);
+            }
             LightMethod::McLight => light_u
                 .iter()
                 .map(|&u| {
@@ -203,6 +231,24 @@ impl LightEstimator {
             amplitude: None,
         });
         (value, uncertainty)
+    }
+}
+
+impl LightEstimator {
+    /// `bq-pss`'s weights on the primary samples `points` (once per set; None for the other
+    /// methods).
+    pub fn pss_rule(&self, points: &[[f64; 2]]) -> Option<PssRule> {
+        (self.method == LightMethod::BqPss).then(|| {
+            PssRule::new(points.to_vec(), self.pss.order)
+                .expect("the product Sobolev Gram matrix factors with the jitter ladder")
+        })
+    }
+
+    /// `bq-pss`'s `Î` and sd on a rule built once for its points: `G` at each point (two
+    /// evaluations of `f`), then the rule's weights.
+    pub fn estimate_on_rule(&self, f: &dyn Lit, rule: &PssRule) -> (f64, Option<Uncertainty>) {
+        let g: Vec<f64> = rule.points.iter().map(|&u| mis_integrand(f, u)).collect();
+        rule.estimate(self.pss.weights, &g)
     }
 }
 

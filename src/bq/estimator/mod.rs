@@ -15,6 +15,7 @@
 
 pub mod bmc;
 pub mod bmcp;
+pub mod bq_pss;
 pub mod bsq;
 pub mod mc;
 pub mod mis;
@@ -296,7 +297,7 @@ pub enum MethodName {
 impl MethodName {
     /// The names of every method: [`Method::ALL`]'s, then [`mis::LightMethod::ALL`]'s (a test
     /// keeps them so), for messages.
-    pub const NAMES: [&'static str; 7] = ["mc", "bmc", "bmcp", "bsq", "mc-light", "mc-bsdf", "mis"];
+    pub const NAMES: [&'static str; 8] = ["mc", "bmc", "bmcp", "bsq", "mc-light", "mc-bsdf", "mis", "bq-pss"];
 
     /// Parses a name of [`Method`] or [`mis::LightMethod`].
     pub fn from_name(name: &str) -> Option<Self> {
@@ -343,7 +344,7 @@ impl MethodName {
     pub fn min_points(self) -> usize {
         match self {
             MethodName::Points(m) => m.min_points(),
-            MethodName::Light(mis::LightMethod::Mis) => 2,
+            MethodName::Light(mis::LightMethod::Mis | mis::LightMethod::BqPss) => 2,
             MethodName::Light(_) => 1,
         }
     }
@@ -356,9 +357,13 @@ impl MethodName {
         }
     }
 
-    /// [`Method::is_monte_carlo`]; light-aware estimators are Monte Carlo averages.
+    /// [`Method::is_monte_carlo`]; light-aware estimators are Monte Carlo averages but for
+    /// `bq-pss` (a quadrature).
     pub fn is_monte_carlo(self) -> bool {
-        self.points().is_none_or(Method::is_monte_carlo)
+        match self {
+            MethodName::Points(m) => m.is_monte_carlo(),
+            MethodName::Light(m) => m != mis::LightMethod::BqPss,
+        }
     }
 
     /// [`Method::states_own_unit_variance`]; false for light-aware estimators.

@@ -4,6 +4,7 @@
 //! profile of the squared distance, `k(x, y) = κ(‖x − y‖²)`.
 
 pub mod fast_pow;
+pub mod primary;
 mod sobolev;
 mod squared_exponential;
 
