@@ -239,12 +239,15 @@ def workbench_method(spec: str):
         k, v = kv.split("=", 1)
         props[k] = int(v) if v.lstrip("-").isdigit() else (float(v) if _is_float(v) else v)
 
+    # bq-pss traces two rays per point (its light and its BSDF technique): N/2 points for N rays.
+    per_point = 2 if name == "bq-pss" else 1
+
     def at(b):
-        if "n" in props:  # n points per camera sample, b/n camera samples (antialiasing)
-            spp = max(1, int(round(b / props["n"])))
-            return dict(props), spp, spp * (1 + props["n"])
-        n = max(2, int(round(b)))
-        return dict(props, n=n), 1, 1 + n
+        if "n" in props:  # n points per camera sample, b/(n·rays per point) camera samples (antialiasing)
+            spp = max(1, int(round(b / (per_point * props["n"]))))
+            return dict(props), spp, spp * (1 + per_point * props["n"])
+        n = max(2, int(round(b / per_point)))
+        return dict(props, n=n), 1, 1 + per_point * n
 
     return spec.replace(":", " "), at
 

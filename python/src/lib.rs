@@ -15,6 +15,7 @@ mod integrand;
 mod json;
 mod memory;
 mod model;
+mod pss;
 mod rule;
 mod run;
 
@@ -55,6 +56,7 @@ fn _workbench(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run::trial_points, m)?)?;
     m.add_function(wrap_pyfunction!(frame::to_world, m)?)?;
     m.add_function(wrap_pyfunction!(memory::check_memory, m)?)?;
+    m.add_function(wrap_pyfunction!(pss::pss_rules, m)?)?;
     m.add(
         "METHODS",
         workbench::bq::estimator::Method::ALL.map(|m| m.name()).to_vec(),

@@ -114,6 +114,8 @@ def prepare(settings, scene):
     import workbench as _wb
 
     needed = {"bq-pss": "pss_rules", "bmc-light": "light_kernel_means", "bmc-split": "light_kernel_means"}
+    if settings.method == "bq-pss":
+        return  # its point sets were made when the integrator was loaded (rules.build_pss)
     name = needed[settings.method]
     if not hasattr(_wb, name):
         raise ValueError(
