@@ -1,6 +1,6 @@
 """The workbench Mitsuba integrator's methods against Mitsuba's own ``direct`` in its strongest
 cheap configuration, on any Mitsuba scene with direct light (issue 41, items 2–3: the baseline
-and the protocol; the BQ methods with light sampling plug in by name when they exist).
+and the protocol; the BQ methods with light sampling by name, ``--methods bq-pss,…``).
 
     python python/comparison/vs_direct.py --scene FILE.xml [--spps 16,64] [--seeds 4]
         [--ref-spp 1024] [--methods bmc,mc_bsdf] [--res W,H] [--crop X,Y,W,H] [--out DIR]
@@ -19,9 +19,10 @@ scene has a delta light the table says which version ran (``mi.__version__``).
 **The methods.** ``--methods`` names the workbench integrator's ``method`` values (``bmc``,
 ``mc_bsdf``, ``mc_cosine``, and any method the integrator gains later, e.g. ``bq-pss``:
 ``{"type": "workbench", "method": NAME, "n": N}`` at 1 spp, refused by the integrator itself if
-unknown), or ``NAME:key=value:…`` for other properties (``bmc:kernel=fitted``; ``bmc:n=16``: 16
+unknown; ``bq-pss`` traces two rays per point, so it gets N/2 points at a budget of N), or
+``NAME:key=value:…`` for other properties (``bmc:kernel=fitted``; ``bmc:n=16``: 16
 points per camera sample and N/16 camera samples per pixel, so that the pixel's footprint is
-sampled as ``direct``'s N spp sample it). Default ``bmc,bmc:n=16,mc_bsdf``. Mitsuba's ``path``
+sampled as ``direct``'s N spp sample it). Default ``bq-pss,bmc,mc_bsdf`` (equal time at ``bq-pss``'s). Mitsuba's ``path``
 (``max_depth`` 2) is rendered too, at N spp.
 
 **The reference.** ``path`` with ``max_depth`` 2 at ``--ref-spp`` spp, rendered as two halves of
@@ -376,7 +377,7 @@ def main(argv=None):
     p.add_argument("--spps", default="16,64", help="budgets N, rays per pixel")
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--ref-spp", type=int, default=1024)
-    p.add_argument("--methods", default="bmc,bmc:n=16,mc_bsdf")
+    p.add_argument("--methods", default="bq-pss,bmc,mc_bsdf")
     p.add_argument("--sampler", default="ldsampler", choices=["ldsampler", "multijitter"])
     p.add_argument("--res", default=None, help="W,H: the film's resolution")
     p.add_argument("--crop", default=None, help="X,Y,W,H: a crop of the film")

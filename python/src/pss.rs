@@ -22,7 +22,7 @@ use crate::value_error;
 /// "q_inverse": (sets, n, n), "jitter": (sets,)}``, every number the library's (``Q⁻¹`` by its
 /// Cholesky solves, with the jitter its ladder added).
 #[pyfunction]
-#[pyo3(signature = (n, sets, order, seed=Whole::of(0)))]
+#[pyo3(signature = (n, sets, order, seed=Whole::of(0)), text_signature = "(n, sets, order, seed=0)")]
 pub fn pss_rules<'py>(
     py: Python<'py>,
     n: Whole,
