@@ -65,9 +65,9 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("cos3-designs", "97c5a9457a7023df", 8.9),
     ("cos3-thesis-kernel-mean", "993ddf34a8f79d5c", 56.0),
     ("cos3", "7441f968e91e9cbf", 1.4),
-    // Four envmap integrands under Pisa and Park (truths by the texel sum), 8 estimators × 3 N ×
-    // 100 trials; 2026-12-02, the machine shared (load average ≈ 12).
-    ("envmap-vs-renderers", "08f88c19f816fd11", 4.6),
+    // Four envmap integrands under Pisa and Park (truths by the texel sum), 13 estimators (5 of
+    // them bq-pss) × 3 N × 100 trials; 2026-12-02, 1.6 s on 2 threads, the machine shared by 5 helpers.
+    ("envmap-vs-renderers", "1791113eb8ca86ac", 1.6),
     ("glossy", "632cf3cccbbbc598", 2.9),
     // Probulator's irradiance protocol on a 256×128 map, every estimator and N (about 80 s of
     // CPU each); 2026-11-27, the machine shared (load average ≈ 12).

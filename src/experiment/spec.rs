@@ -107,7 +107,7 @@ pub struct EstimatorSpec {
     /// Unique name in outputs and checks.
     pub label: String,
     /// The estimator's method by name: `mc`, `bmc`, `bmcp`, `bsq` (values on a design's points)
-    /// or the light-aware `mc-light`, `mc-bsdf`, `mis` (math.md §11; envmap integrands only).
+    /// or the light-aware `mc-light`, `mc-bsdf`, `mis`, `bq-pss` (math.md §11; envmap integrands only).
     pub method: MethodName,
     /// Sampling design by name; default `uniform` (not for the light-aware methods: `sampler`).
     #[serde(default)]

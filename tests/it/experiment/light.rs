@@ -6,7 +6,7 @@
 //! is one line naming the field and value, exit 2, nothing written.
 
 use crate::common::*;
-use crate::light_baselines::{baselines, check_unbiased};
+use crate::light_baselines::{baselines, check_unbiased, check_unbiased_with, pss_variants};
 use std::path::Path;
 use workbench::bq::estimator::mis::{BSDF_TECHNIQUE, LIGHT_TECHNIQUE, LightEstimator};
 use workbench::experiment::plan::resolve_integrand;
@@ -67,6 +67,7 @@ fn every_baseline_is_unbiased_on_a_synthetic_map() {
         }));
         for f in [&lambert, &phong] {
             check_unbiased(f, 16, 1500, 40);
+            check_unbiased_with(&pss_variants(), f, 128, 400, 40);
         }
     }
 }
@@ -241,6 +242,26 @@ fn bad_light_estimator_input_is_one_line() {
                 "[4]",
             ),
             vec!["estimators[0].sampler", "\"sobol\"", "method mc"],
+        ),
+        (
+            spec(up, r#"{"label": "P", "method": "bq-pss", "order": 3}"#, "[4]"),
+            vec!["estimators[0].order", "3", "1 or 2"],
+        ),
+        (
+            spec(up, r#"{"label": "MIS", "method": "mis", "order": 2}"#, "[4]"),
+            vec!["estimators[0].order", "only by bq-pss"],
+        ),
+        (
+            spec(up, r#"{"label": "B", "method": "bmc", "weights": "cv"}"#, "[4]"),
+            vec!["estimators[0].weights", "\"cv\"", "method bmc"],
+        ),
+        (
+            spec(up, r#"{"label": "P", "method": "bq-pss"}"#, "[4, 5]"),
+            vec!["samples[1]", "N = 5", "bq-pss", "even"],
+        ),
+        (
+            spec(r#""cos3""#, r#"{"label": "P", "method": "bq-pss"}"#, "[4]"),
+            vec!["estimators[0].method", "\"bq-pss\"", "no light"],
         ),
         (
             spec(up, r#"{"label": "X", "method": "mis-light"}"#, "[4]"),
