@@ -45,8 +45,10 @@ vs-direct *args:
 
 # Issue 41's six outside scenes (nine cases: pisa in two shells, park and sky each with the spheres
 # and matpreview; compare_data.VS_DIRECT_CASES) into results/mitsuba/vs-direct/CASE/, references of
-# 32768 spp, 262144 under a sun (their own RMSE stated per table). Not in CI: about 8 minutes a case, 70 in all on 2
-# cores shared with other work (docs/guide/mitsuba.md). Extra arguments go to every case.
+# 32768 spp, 262144 under a sun (their own RMSE stated per table). Not in CI. Measured under load
+# (2 cores shared with four other jobs): 252 s for cornell-box, 366 s for bsdf_spheres; a sun case's
+# 2^18-spp reference alone is ~8x cornell-box's 195 s, so the nine cases take about 2 hours
+# (docs/guide/mitsuba.md). Extra arguments go to every case.
 vs-direct-all *args:
     #!/usr/bin/env bash
     set -euo pipefail
