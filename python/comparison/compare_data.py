@@ -52,6 +52,18 @@ CASES = [
     ("matpreview-roughconductor-0.1-park", "matpreview", "park", "roughconductor-0.1", (128, 96)),
     ("matpreview-roughplastic-0.1-sky", "matpreview", "sky", "roughplastic-0.1", (128, 96)),
     ("matpreview-roughconductor-0.1-sky", "matpreview", "sky", "roughconductor-0.1", (128, 96)),
+    ("matpreview-roughplastic-0.1-pisa", "matpreview", "pisa", "roughplastic-0.1", (128, 96)),
+    ("matpreview-roughconductor-0.1-pisa", "matpreview", "pisa", "roughconductor-0.1", (128, 96)),
+    ("matpreview-park", "matpreview", "park", "plastic", (128, 96)),
+    ("matpreview-sky", "matpreview", "sky", "plastic", (128, 96)),
+]
+#: Issue 41's six outside scenes as vs_direct.py cases (the pisa scene in its two shells, the park
+#: and sky scenes each as the spheres and matpreview): ``just vs-direct-all`` runs them all.
+VS_DIRECT_CASES = [
+    "spheres-museum", "matpreview-plastic",
+    "matpreview-roughplastic-0.1-pisa", "matpreview-roughconductor-0.1-pisa",
+    "spheres-park", "matpreview-park", "spheres-sky", "matpreview-sky",
+    "cornell-box",
 ]
 #: The cases results/mitsuba/data/ holds (the rest are in results/mitsuba/data-maps/).
 MUSEUM_CASES = [c[0] for c in CASES[:9]]

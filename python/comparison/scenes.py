@@ -38,10 +38,20 @@ def data_root() -> str:
     return root
 
 
+#: Debevec's light probes (``envmaps/debevec/``) by name: the 1024×512 lat-long of each.
+DEBEVEC = {"pisa": "pisa_1024x512.hdr", "grace": "grace_256x128.hdr"}
+
+
 def env_path(env: str) -> str:
-    """``museum`` (the scenes' own map) or a Poly Haven map's name (``park``, ``sky``, …)."""
+    """``museum`` (the scenes' own map), a Debevec probe (``pisa``, ``grace``) or a Poly Haven
+    map's name (``park``, ``sky``, …: these two with the real, unclipped sun)."""
     if env == "museum":
         return os.path.join(data_root(), "mitsuba-data", "common", "textures", "museum.exr")
+    if env in DEBEVEC:
+        path = os.path.join(data_root(), "envmaps", "debevec", DEBEVEC[env])
+        if not os.path.isfile(path):
+            raise SystemExit(f"error: map {env!r}: {path} is missing")
+        return path
     path = os.path.join(data_root(), "envmaps", "polyhaven", f"{env}.hdr")
     if not os.path.isfile(path):
         raise SystemExit(f"error: map {env!r}: {path} is missing")

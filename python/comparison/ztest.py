@@ -54,6 +54,8 @@ METHODS = {
     "bmc fitted 1 rule": {"type": "workbench", "method": "bmc", "kernel": "fitted", "rules": 1},
     "mc_cosine": {"type": "workbench", "method": "mc_cosine"},
     "mc_bsdf": {"type": "workbench", "method": "mc_bsdf"},
+    "bq-pss": {"type": "workbench", "method": "bq-pss"},
+    "bq-pss order 1": {"type": "workbench", "method": "bq-pss", "order": 1},
     "path": {"type": "path", "max_depth": 2},
     "direct": {"type": "direct"},
 }

@@ -13,7 +13,9 @@ mod external;
 mod frame;
 mod integrand;
 mod json;
+mod memory;
 mod model;
+mod pss;
 mod rule;
 mod run;
 
@@ -53,6 +55,8 @@ fn _workbench(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run::run, m)?)?;
     m.add_function(wrap_pyfunction!(run::trial_points, m)?)?;
     m.add_function(wrap_pyfunction!(frame::to_world, m)?)?;
+    m.add_function(wrap_pyfunction!(memory::check_memory, m)?)?;
+    m.add_function(wrap_pyfunction!(pss::pss_rules, m)?)?;
     m.add(
         "METHODS",
         workbench::bq::estimator::Method::ALL.map(|m| m.name()).to_vec(),

@@ -34,7 +34,7 @@ def results(mitsuba_data):
     if wbm.set_variant() != "llvm_ad_rgb":
         pytest.skip("renders 48×48×32 samples per method: the vectorised variant only")
     wbm.register()
-    out, _ = ztest.run(SPP, N, ["bmc", "bmc fitted", "mc_cosine", "mc_bsdf", "path"], root=str(mitsuba_data.parent))
+    out, _ = ztest.run(SPP, N, ["bmc", "bmc fitted", "mc_cosine", "mc_bsdf", "bq-pss", "path"], root=str(mitsuba_data.parent))
     return out
 
 
@@ -48,7 +48,7 @@ def test_the_scene_loads_as_mitsubas_tests_load_it(mitsuba_data):
     assert ref.shape == (48, 48, 3) and var.shape == (48, 48, 3)
 
 
-@pytest.mark.parametrize("method", ["bmc", "bmc fitted", "mc_bsdf"])
+@pytest.mark.parametrize("method", ["bmc", "bmc fitted", "mc_bsdf", "bq-pss"])
 def test_bmc_and_mc_pass_where_path_passes(results, method):
     path = results["path"]["groups"]
     ours = results[method]["groups"]

@@ -65,11 +65,14 @@ def test_a_small_scene_of_ones_own(tmp_path, variant):
     scene = write_scene(tmp_path)
     out = tmp_path / "out"
     vs_direct.main(["--scene", str(scene), "--spps", "4", "--seeds", "2", "--ref-spp", "64",
-                    "--methods", "bmc,mc_bsdf", "--crop", "4,2,8,8", "--out", str(out)])
+                    "--methods", "bq-pss,bmc,mc_bsdf", "--crop", "4,2,8,8", "--out", str(out)])
     table = rows(out)
     spp = [r for r in table if r["timing"] == "equal spp"]
     labels = [r["method"] for r in spp]
-    assert labels[:2] == ["bmc", "mc_bsdf"] and labels[-1] == "path"
+    assert labels[:3] == ["bq-pss", "bmc", "mc_bsdf"] and labels[-1] == "path"
+    # bq-pss traces two rays per point: N/2 points at a budget of N.
+    pss = spp[0]
+    assert json.loads(pss["props"])["n"] == 2 and pss["rays"] == "5"
     # Three direct configurations (an envmap is there: mis_compensation too), two forms each.
     directs = [r for r in spp if r["kind"] == "direct"]
     assert len(directs) == 6
@@ -82,7 +85,7 @@ def test_a_small_scene_of_ones_own(tmp_path, variant):
     assert (ones["spp"], ones["rays"]) == ("4", "12")
     # Every other method again at the first method's time.
     eq = [r for r in table if r["timing"].startswith("equal time")]
-    assert len(eq) == len(spp) and "bmc" in eq[0]["timing"] and eq[0]["method"] == "bmc"
+    assert len(eq) == len(spp) and "bq-pss" in eq[0]["timing"] and eq[0]["method"] == "bq-pss"
     for r in table:
         for k in ("rmse", "relmse", "rmse_clamped"):
             assert float(r[k]) > 0 and float(r[k + "_ci"]) >= 0, (r["method"], k)

@@ -283,3 +283,18 @@ def to_world(points: Points, normal: Sequence[float], azimuth: Optional[float] =
     >>> bool(abs(world[:, 1] - points[:, 2]).max() < 1e-12)
     True
     """
+
+def check_memory(what: str, bytes: int) -> None:
+    """The library's memory guard: ``ValueError`` with one line naming ``what``, the bytes and the
+    budget (``WORKBENCH_MEMORY``, else 3/4 of the machine's memory) when ``bytes`` is more than
+    the budget or cannot be allocated now. For callers that plan many rules at once (the Mitsuba
+    integrator's ``rules × n²`` factors)."""
+
+def pss_rules(n: int, sets: int, order: int, seed: int = 0) -> dict[str, Any]:
+    """``bq-pss``'s ``sets`` point sets of ``n`` Owen-scrambled Sobol points in ``[0, 1)²`` (a fresh
+    scramble per set from ``seed``) with the product Sobolev kernel of ``order`` (1 or 2; math.md
+    §11 (a)), whose kernel mean is 1, so the weights depend on the points only. Returns
+    ``{"points": (sets, n, 2), "bmc_weights": (sets, n) = Q⁻¹1, "bsq_weights": (sets, n) (summing
+    to 1), "bmc_var1": (sets,) = 1 − 1ᵀQ⁻¹1, "bsq_var1": (sets,) = (1 − 1ᵀQ⁻¹1)/1ᵀQ⁻¹1,
+    "q_inverse": (sets, n, n), "jitter": (sets,)}``, every number the library's (``Q⁻¹`` by its
+    Cholesky solves, with the jitter its ladder added)."""

@@ -45,6 +45,7 @@ import numpy as np
 import mitsuba as mi
 
 from . import light as _light
+from . import lightbq as _lightbq
 from . import properties as _props
 from . import rules as _rules
 
@@ -101,6 +102,16 @@ def integrator_class():
             if st.method == "bmc":
                 self.rules = _rules.build(st)
                 self._device_arrays()
+            # The light methods' rules and kernel means are the Rust core's (issue 40): bq-pss's
+            # point sets now, bmc-light's per scene in render() (they depend on its map).
+            self._light_scene = None
+            if st.method == "bq-pss":
+                self.pss = _rules.build_pss(st)
+                as_array = self._as_array()
+                self._pp = [as_array(self.pss.points[:, k]) for k in range(2)]
+                self._pw = as_array(self.pss.weights)
+                self._pvar1 = as_array(self.pss.var1)
+                self._pct = as_array(self.pss.ct)
 
         # -- the rule on the device -------------------------------------------------------
 
@@ -111,15 +122,17 @@ def integrator_class():
             variants)."""
             pts = self.rules.points
             models = self.rules.models
-            if self.symbolic:
-                as_array = lambda a: mi.Float(np.asarray(a, dtype=np.float64).ravel().tolist())  # noqa: E731
-            else:
-                as_array = lambda a: np.asarray(a, dtype=np.float64).ravel().tolist()  # noqa: E731
+            as_array = self._as_array()
             self._p = [as_array(pts[:, k]) for k in range(3)]
             self._w = [as_array(m.weights) for m in models]
             self._ct = [None if m.ct is None else as_array(m.ct) for m in models]
             self._var1 = [as_array(m.var1) for m in models]
             self._logdet = [as_array(m.log_det_q) for m in models]
+
+        def _as_array(self):
+            if self.symbolic:
+                return lambda a: mi.Float(np.asarray(a, dtype=np.float64).ravel().tolist())
+            return lambda a: np.asarray(a, dtype=np.float64).ravel().tolist()
 
         def _get(self, array, i):
             return dr.gather(mi.Float, array, i) if self.symbolic else array[i]
@@ -156,6 +169,23 @@ def integrator_class():
                 self._scene = scene
             return self._info
 
+        def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+            """Mitsuba's render, after the checks that need the scene (a ``ValueError`` naming the
+            property, before any work: in the LLVM variant ``mi.render`` re-raises it as a
+            ``RuntimeError`` whose cause it is)."""
+            if self.method in _props.LIGHT_METHODS:
+                self._prepare_light(scene)
+            return super().render(scene, sensor, seed, spp, develop, evaluate)
+
+        def _prepare_light(self, scene):
+            """The light method's scene checks, then its rules, weights and (bmc-light,
+            bmc-split) kernel means of the scene's map, once per scene."""
+            if self._light_scene is scene:
+                return
+            _lightbq.check_scene(self.method, scene)
+            _lightbq.prepare(self.settings, scene)
+            self._light_scene = scene
+
         def sample(self, scene, sampler, ray, medium=None, active=True):
             info = self._scene_info(scene)
             lighting = info.lighting
@@ -175,6 +205,13 @@ def integrator_class():
             def incident(wo_local, mask):
                 return lighting.incident(scene, si, si.to_world(wo_local), mask)
 
+            if st.method == "bq-pss":
+                # The one-sample MIS integrand covers every lobe and every emitter (delta ones
+                # too): nothing is added to it.
+                estimate, sd = self._pss(scene, sampler, hit, si, bsdf, ctx)
+                result = dr.select(hit, result + estimate, result)
+                sd = dr.select(hit, sd, zero)
+                return result, active, [sd[0], sd[1], sd[2]]
             if st.method == "mc_bsdf":
                 estimate, sd = self._mc(sampler, hit, si, bsdf, ctx, side, incident, full=True)
             else:
@@ -314,6 +351,68 @@ def integrator_class():
                 sd = dr.select(fallback, dr.sqrt(variance / n), sd)
             return estimate, sd
 
+        def _mis_integrand(self, scene, si, bsdf, ctx, u, lobe, mask):
+            """``G(u) = f(x_L)/(p_L + p_B)(x_L) + f(x_B)/(p_L + p_B)(x_B)``, ``x_t = T_t(u)``
+            (math.md §11 (a); Veach's one-sample MIS with balance weights and n_t = 1, one
+            primary sample for both techniques): ``T_L`` Mitsuba's emitter sampling
+            (``scene.sample_emitter_direction``, its visibility test and its choice of emitter),
+            ``T_B`` its BSDF sampling (``bsdf.sample``; ``lobe`` picks the lobe), ``f = f_r cos L``.
+            Delta emitters and delta lobes have weight 1 (the other technique cannot draw them)."""
+            zero = mi.Color3f(0.0)
+            ds, spec = scene.sample_emitter_direction(si, u, True, mask)
+            ok_l = mask & (ds.pdf > 0)
+            wo_l = si.to_local(ds.d)
+            f_l = bsdf.eval(ctx, si, wo_l, ok_l)
+            pb_l = dr.select(ds.delta, 0.0, bsdf.pdf(ctx, si, wo_l, ok_l))
+            # spec = L/p_L (0 where occluded), so f L/(p_L + p_B) = f spec p_L/(p_L + p_B).
+            term_l = dr.select(ok_l, f_l * spec * (ds.pdf / (ds.pdf + pb_l)), zero)
+            bs, weight = bsdf.sample(ctx, si, lobe, u, mask)
+            ok_b = mask & (bs.pdf > 0)
+            ray = si.spawn_ray(si.to_world(bs.wo))
+            hit_b = scene.ray_intersect(ray, ok_b)
+            emitter = hit_b.emitter(scene, ok_b)
+            if emitter is None:  # scalar: the ray meets nothing that emits
+                return term_l
+            radiance = emitter.eval(hit_b, ok_b)
+            delta_lobe = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+            ds_b = mi.DirectionSample3f(scene, hit_b, si)
+            pl_b = dr.select(delta_lobe, 0.0, scene.pdf_emitter_direction(si, ds_b, ok_b & _not(delta_lobe)))
+            term_b = dr.select(ok_b, weight * radiance * (bs.pdf / (bs.pdf + pl_b)), zero)
+            return term_l + term_b
+
+        def _pss(self, scene, sampler, hit, si, bsdf, ctx):
+            """``bq-pss`` (math.md §11 (a)): one of the K point sets at random, shifted by a
+            uniform ``Δ`` modulo 1 (Cranley–Patterson: each point uniform in ``[0, 1)²``), so
+            that with the Bayes–Sard weights (summing to 1) the estimate ``Σ w_i G(u_i)`` is
+            unbiased; its sd ``sqrt(λ̂ Var₁)``, ``λ̂ = rᵀQ⁻¹r/(N − 1)``, ``r = G − Î``
+            (the core's formula; ``‖Cᵀr‖²``)."""
+            n = self.n
+            k_rules = self.pss.count
+            if k_rules > 1:
+                rule = dr.minimum(mi.UInt32(sampler.next_1d(hit) * k_rules), k_rules - 1)
+            else:
+                rule = mi.UInt32(0) if self.symbolic else 0
+            base = rule * n
+            shift = sampler.next_2d(hit)
+            ys = dr.alloc_local(mi.Color3f, n, mi.Color3f(0.0)) if self.symbolic else [None] * n
+
+            def wrap(x):
+                x = x - dr.floor(x)
+                return dr.select(x < 1.0, x, 0.0)
+
+            def body(i, estimate, ys, smp):
+                u = mi.Point2f(wrap(self._get(self._pp[0], base + i) + shift[0]),
+                               wrap(self._get(self._pp[1], base + i) + shift[1]))
+                g = self._mis_integrand(scene, si, bsdf, ctx, u, smp.next_1d(hit), hit)
+                ys[i] = g
+                return estimate + self._get(self._pw, base + i) * g, ys, smp
+
+            estimate, ys, _ = self._loop((mi.Color3f(0.0), ys, sampler), body, "workbench_pss")
+            quad = self._quad_of(self._pct, ys, rule, estimate)
+            amplitude = _clamp_at_zero(quad / (n - 1))
+            sd = dr.sqrt(amplitude * mi.Color3f(self._get(self._pvar1, rule)))
+            return estimate, sd
+
         def _log_likelihood(self, quad, k, rule):
             """ℓ = −(N/2) log(YᵀQ⁻¹Y / N) − ½ log det Q (math.md §9), per channel."""
             n = self.n
@@ -322,21 +421,28 @@ def integrator_class():
         def _quad(self, k, ys, rule):
             """YᵀQ_k⁻¹Y = ‖C_kᵀ Y‖² per channel: a triangular double loop (Cᵀ is upper
             triangular), N(N+1)/2 multiply-adds."""
+            return self._quad_of(self._ct[k], ys, rule)
+
+        def _quad_of(self, ct, ys, rule, offset=None):
+            """‖Cᵀ(Y − offset)‖² per channel with rule ``rule``'s factor in ``ct``."""
             n = self.n
-            ct = self._ct[k]
             base = rule * (n * n)
+            if offset is not None:
+                ys_at = lambda j: ys[j] - offset  # noqa: E731
+            else:
+                ys_at = lambda j: ys[j]  # noqa: E731
             if not self.symbolic:
                 quad = mi.Color3f(0.0)
                 for row in range(n):
                     z = mi.Color3f(0.0)
                     for j in range(row, n):
-                        z += ct[base + row * n + j] * ys[j]
+                        z += ct[base + row * n + j] * ys_at(j)
                     quad += z * z
                 return quad
 
             def outer(row, quad, ys):
                 def inner(j, z, ys):
-                    return j + 1, z + dr.gather(mi.Float, ct, base + row * n + j) * ys[j], ys
+                    return j + 1, z + dr.gather(mi.Float, ct, base + row * n + j) * ys_at(j), ys
 
                 _, z, ys = dr.while_loop(
                     (row, mi.Color3f(0.0), ys), lambda j, z, ys: j < n, inner, label="workbench_whiten"

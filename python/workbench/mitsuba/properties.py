@@ -8,7 +8,15 @@ import dataclasses
 import math
 from typing import Any, Optional
 
-METHODS = ("bmc", "mc_cosine", "mc_bsdf")
+METHODS = ("bmc", "mc_cosine", "mc_bsdf", "bq-pss", "bmc-light", "bmc-split")
+#: The estimators with light sampling (math.md §11, issue 41): their rules, weights and
+#: light-measure kernel means come from the Rust core (issue 40), never from Python.
+LIGHT_METHODS = ("bq-pss", "bmc-light", "bmc-split")
+#: Orders of ``bq-pss``'s product kernel on [0,1]² (math.md §11 (a)): 1, the unanchored Sobolev
+#: kernel; 2, its second-order (smoother) form.
+PSS_ORDERS = (1, 2)
+#: Bytes of one float64.
+FLOAT_BYTES = 8
 SCALES = ("ml", "unit")
 #: Kernel names: ``sobolev`` (with ``s``) or ``fitted`` (the workbench's grid of models, chosen per
 #: pixel sample and channel by the marginal likelihood, math.md §9).
@@ -52,6 +60,11 @@ class Settings:
     #: How many rules (seeds seed, seed + 1, …) each camera sample picks one of at random.
     rules: int = 16
     symbolic: bool = True
+    #: ``bq-pss``: the order of the product kernel on primary sample space.
+    order: int = 2
+    #: ``bmc-split``: the share of the map's power in (0, 1] its brightest texels (the "sun")
+    #: must hold to be split off and light-sampled (math.md §11 (c)).
+    sun_threshold: float = 0.5
 
 
 def _get(props, name: str, default: Any) -> Any:
@@ -94,7 +107,7 @@ def read(props, designs: Optional[tuple] = None) -> Settings:
     if n < 2:
         raise ValueError(f"n: must be at least 2, got {n}")
     kernel = _choice(props, "kernel", "sobolev", KERNELS)
-    bound = MAX_N_BMC if method == "bmc" else MAX_N_MC
+    bound = MAX_N_BMC if method == "bmc" or method in LIGHT_METHODS else MAX_N_MC
     if n > bound:
         raise ValueError(f"n: at most {bound} for method {method!r}, got {n}")
     design = _get(props, "design", Settings.design)
@@ -122,18 +135,40 @@ def read(props, designs: Optional[tuple] = None) -> Settings:
     rules = _integer(props, "rules", default_rules)
     if rules < 1:
         raise ValueError(f"rules: must be at least 1, got {rules}")
-    if method == "bmc" and rules * per_rule > MAX_FACTOR_ENTRIES:
+    if (method == "bmc" or method in LIGHT_METHODS) and rules * per_rule > MAX_FACTOR_ENTRIES:
         raise ValueError(
             f"rules: {rules} rules of n = {n} points need {rules * per_rule} factor entries, "
             f"more than {MAX_FACTOR_ENTRIES} (128 MiB)"
         )
     if not symbolic and rules > 1:
         raise ValueError("symbolic: false (the unrolled loops, for tests) needs rules = 1")
+    order = _integer(props, "order", Settings.order)
+    if order not in PSS_ORDERS:
+        raise ValueError(f"order: unknown kernel order {order} for bq-pss; expected one of {PSS_ORDERS}")
+    sun_threshold = _number(props, "sun_threshold", Settings.sun_threshold)
+    if not 0 < sun_threshold <= 1:
+        raise ValueError(f"sun_threshold: must be in (0, 1] (a share of the map's power), got {sun_threshold!r}")
+    if method in LIGHT_METHODS:
+        # Every rule's N×N factor is held at once (float64): the library's memory guard, so that
+        # the budget and the message are those of every other door (WORKBENCH_MEMORY).
+        _memory(rules, per_rule)
     glossy_points = _number(props, "glossy_points", 2.0)
     if glossy_points < 0:
         raise ValueError(f"glossy_points: must be non-negative, got {glossy_points!r}")
     return Settings(
         method=method, n=n, design=design, kernel=kernel, s=s, noise=noise, scale=scale, seed=seed,
         max_depth=max_depth,
-        glossy_points=glossy_points, rules=rules, symbolic=symbolic,
+        glossy_points=glossy_points, rules=rules, symbolic=symbolic, order=order,
+        sun_threshold=sun_threshold,
     )
+
+
+def _memory(rules: int, per_rule: int) -> None:
+    """The library's memory guard on ``rules`` factors of ``per_rule`` float64 entries, as a
+    ``ValueError`` naming the property ``rules``."""
+    import workbench as _wb
+
+    try:
+        _wb.check_memory(f"rules: {rules} rules of {per_rule} factor entries", rules * per_rule * FLOAT_BYTES)
+    except ValueError as e:
+        raise ValueError(str(e)) from None

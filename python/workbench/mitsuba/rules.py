@@ -106,3 +106,37 @@ def build(settings: Settings) -> Rules:
 
 #: The designs the library draws rules with (``DesignName`` in _workbench.pyi).
 DESIGNS = ("uniform", "cosine", "fibonacci", "stratified", "sobol", "rings")
+
+
+@dataclasses.dataclass
+class PssRules:
+    """``bq-pss``'s K point sets of N points in ``[0, 1)²`` (stacked, K·N × 2) with their
+    Bayes–Sard weights (K·N, summing to 1 per set), unit-amplitude variance ``Var₁`` (K) and the
+    whitening factor ``Cᵀ`` of ``Q⁻¹ = CCᵀ`` (K·N², for the amplitude ``rᵀQ⁻¹r/(N − 1)``), all
+    from ``workbench.pss_rules`` (the Rust core's ``bq_pss::point_sets``); only the Cholesky
+    factor of the core's ``Q⁻¹`` is taken here, as for the hemisphere rules."""
+
+    n: int
+    count: int
+    points: np.ndarray
+    weights: np.ndarray
+    var1: np.ndarray
+    ct: np.ndarray
+    jitter: np.ndarray
+
+
+def build_pss(settings: Settings) -> PssRules:
+    """The ``rules`` sets of ``n`` points of ``order`` from seed ``seed``."""
+    try:
+        r = _wb.pss_rules(settings.n, settings.rules, settings.order, seed=settings.seed)
+    except ValueError as e:
+        raise ValueError(f"rules: {e}" if "memory" in str(e) else str(e)) from None
+    cts = []
+    for qi in r["q_inverse"]:
+        c = np.linalg.cholesky(0.5 * (qi + qi.T))
+        cts.append(np.ascontiguousarray(c.T).ravel())
+    return PssRules(
+        n=settings.n, count=settings.rules, points=r["points"].reshape(-1, 2),
+        weights=r["bsq_weights"].ravel(), var1=np.maximum(r["bsq_var1"], 0.0),
+        ct=np.concatenate(cts), jitter=r["jitter"],
+    )
