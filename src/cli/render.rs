@@ -391,6 +391,9 @@ fn single(args: &RenderArgs) -> anyhow::Result<()> {
     }
     image_files::check_outputs_apart(&outputs, args.reference.as_deref(), &args.env)?;
     let env = args.environment()?;
+    if let Some(k) = kind {
+        workbench::render::integrator::check_light(k, &env, "--integrator")?;
+    }
     image_files::check_out_dir_writable(out)?;
     let model_start = Instant::now();
     let model = if kind.is_some_and(|k| k.uses_sets()) {
