@@ -356,6 +356,46 @@ impl LightDistribution {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The guide tables invert exactly as the binary search does, at random `u`, at the
+    /// guide's own breakpoints `k/n` and next to every cumulative value, on a map with empty
+    /// bands and cells.
+    #[test]
+    fn guide_tables_invert_as_the_binary_search() {
+        let grid = Grid {
+            rows: 7,
+            cols: 9,
+            psi_start: -PI,
+        };
+        let y: Vec<f64> = (0..63)
+            .map(|i| {
+                if i % 5 == 0 || (18..27).contains(&i) {
+                    0.0
+                } else {
+                    (i % 7) as f64
+                }
+            })
+            .collect();
+        let d = LightDistribution::new(grid, y);
+        let t = &d.plain;
+        let mut us: Vec<f64> = (0..2000).map(|i| (i as f64 * 0.618_034).fract()).collect();
+        for &c in t.row_cdf.iter().chain(&t.col_cdf) {
+            us.extend([c, c - 1e-17, c + 1e-16, (c - f64::EPSILON).max(0.0)]);
+        }
+        us.extend((0..9).map(|k| k as f64 / 9.0));
+        us.extend((0..7).map(|k| k as f64 / 7.0));
+        for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+            assert_eq!(
+                t.row_guide.invert(&t.row_cdf, u),
+                invert(&t.row_cdf, u),
+                "row {u}"
+            );
+            for r in 0..7 {
+                let cdf = &t.col_cdf[r * 10..(r + 1) * 10];
+                assert_eq!(t.col_guides[r].invert(cdf, u), invert(cdf, u), "band {r} {u}");
+            }
+        }
+    }
     use crate::util::rng::stream;
     use rand::RngExt;
 
