@@ -448,6 +448,7 @@ mod tests {
             coverage95: 0.95,
             coverage95_edges: 0.95,
             seconds: 1.0,
+            rays_per_pixel: spp as f64,
         }
     }
 
