@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""results/vs-renderers/summary.md from the tables beside this script (issue 40.4).
+"""results/vs-renderers/summary.md from the tables results/vs-renderers-*/ (issue 40.4).
 
 Per (scene, map, spp): the best BQ variant's mean RMSE (bmc, bmc-sobol: today's BMC; the
 light-aware BQ variants are not in these tables yet) divided by the strongest baseline's (the
@@ -12,7 +12,7 @@ interpolated log-log against its mean seconds at the baseline's seconds, blank o
 import csv, math, os, sys
 from collections import defaultdict
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BASELINES = {"mis", "mis-comp", "mis-sobol", "mis-comp-sobol"}
 BQ = {"bmc", "bmc-sobol"}
 
@@ -32,7 +32,7 @@ rows = []
 for name in sorted(os.listdir(HERE)):
     folder = os.path.join(HERE, name)
     table = os.path.join(folder, "table.csv")
-    if not os.path.isfile(table):
+    if not name.startswith("vs-renderers-") or not os.path.isfile(table):
         continue
     _, _, scene, env = name.split("-", 3)
     cells = {}
