@@ -260,6 +260,9 @@ impl ImagePlan {
         };
         check_outputs_apart(&outputs, &req, n)?;
         let env = environment(&req, n)?;
+        if let Some(k) = kind {
+            super::integrator::check_light(k, &env, n(Field::Integrator))?;
+        }
         check_out_dir_writable(req.out)?;
         let setup_start = Instant::now();
         let model = match kind {
@@ -425,6 +428,7 @@ impl ImagePlan {
         check_outputs_apart(&outputs, &req, n)?;
         let error_max = check_error_max(req.error_max, n)?;
         let env = environment(&req, n)?;
+        super::integrator::check_light(kind, &env, n(Field::Integrator))?;
         check_out_dir_writable(req.out)?;
         let reference = read_reference(req.reference, width, height, n)?;
         let setup_start = Instant::now();

@@ -176,7 +176,8 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
     ];
     let external = plan.external.is_some();
     let more: &[&str] = if external { &EXTERNAL_ROW_COLUMNS } else { &[] };
-    w.write_record(VARIANT_COLUMNS.iter().chain(&head).chain(more))
+    let rays: &[&str] = if plan.counts_rays() { &[RAYS_COLUMN] } else { &[] };
+    w.write_record(VARIANT_COLUMNS.iter().chain(&head).chain(more).chain(rays))
         .expect(IN_MEMORY);
     for r in rows {
         let mut rest = vec![
@@ -191,11 +192,18 @@ pub fn rmse_csv(plan: &TablePlan, rows: &[Row]) -> Vec<u8> {
         if let Some(m) = &r.external {
             rest.extend([m.rmse_theirs, m.mean_l2_theirs, m.mean_l2_ours].map(num));
         }
+        if plan.counts_rays() {
+            rest.push(num(r.rays_per_pixel));
+        }
         w.write_record(variant_fields(&plan.variants[r.variant]).iter().chain(&rest))
             .expect(IN_MEMORY);
     }
     w.into_inner().expect(IN_MEMORY)
 }
+
+/// The column `rmse.csv` gains (after any external ones) in a table with a renderer's baseline
+/// ([`TablePlan::counts_rays`]): the mean shadow rays traced per hit pixel.
+pub const RAYS_COLUMN: &str = "rays_per_pixel";
 
 /// The columns `rmse.csv` gains in a table with `"external"`: each render's RMSE and mean
 /// per-pixel L2 against the external reference, and its mean L2 against the table's.
@@ -304,6 +312,18 @@ pub fn table_md(plan: &TablePlan, cells: &[Cell]) -> String {
     md_grid(plan, cells, &mut s, |c| {
         format!("{:.3} / {:.3}", c.coverage95, c.coverage95_edges)
     });
+    if plan.counts_rays() {
+        let _ = writeln!(
+            s,
+            "\nShadow rays traced per hit pixel (mean over the renders; light samples below the \
+             horizon or where the light is black trace none):\n"
+        );
+        md_grid(plan, cells, &mut s, |c| format!("{:.2}", c.rays_per_pixel));
+    }
+    if let Some(grid) = strongest_md(plan, cells) {
+        s.push('\n');
+        s.push_str(&grid);
+    }
     if let Some(e) = &plan.external {
         let _ = writeln!(
             s,
@@ -317,6 +337,57 @@ pub fn table_md(plan: &TablePlan, cells: &[Cell]) -> String {
         });
     }
     s
+}
+
+/// The table's candidates for its strongest baseline (issue 40.3): its `mis` variants with the
+/// power heuristic — plain, with compensation, with Sobol samples, or both.
+pub fn baseline_variants(plan: &TablePlan) -> Vec<usize> {
+    use crate::bq::estimator::mis::{Heuristic, LightMethod};
+    (0..plan.variants.len())
+        .filter(|&v| {
+            plan.variants[v]
+                .kind
+                .light
+                .is_some_and(|l| l.method == LightMethod::Mis && l.heuristic == Heuristic::Power)
+        })
+        .collect()
+}
+
+/// The strongest baseline at `spp`: the [`baseline_variants`] of least mean RMSE there.
+fn strongest_at<'a>(plan: &TablePlan, cells: &'a [Cell], spp: usize) -> Option<&'a Cell> {
+    baseline_variants(plan)
+        .into_iter()
+        .filter_map(|v| cells.iter().find(|c| c.variant == v && c.spp == spp))
+        .filter(|c| c.mean.is_finite())
+        .min_by(|a, b| a.mean.total_cmp(&b.mean))
+}
+
+/// Each variant's mean RMSE at equal spp divided by the strongest baseline's at that spp (a
+/// grid of `table.md`), with the baseline's name per column; None without a baseline.
+fn strongest_md(plan: &TablePlan, cells: &[Cell]) -> Option<String> {
+    if baseline_variants(plan).is_empty() {
+        return None;
+    }
+    let mut s = String::new();
+    let names: Vec<String> = plan
+        .spp
+        .iter()
+        .map(|&spp| match strongest_at(plan, cells, spp) {
+            Some(b) => format!("{spp}: {}", plan.variants[b.variant].label),
+            None => format!("{spp}: none"),
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "RMSE at equal spp relative to the strongest baseline, the best of the mis variants with \
+         the power heuristic (plain, compensated, Sobol) at each spp ({}); below 1 is better:\n",
+        names.join(", ")
+    );
+    md_grid(plan, cells, &mut s, |c| match strongest_at(plan, cells, c.spp) {
+        Some(b) if b.mean > 0.0 => format!("{:.3}", c.mean / b.mean),
+        _ => String::new(),
+    });
+    Some(s)
 }
 
 /// `0.05586 ± 0.00137`, or the mean alone without an interval (one repetition).
@@ -416,7 +487,44 @@ pub fn equal_time_md(plan: &TablePlan, cells: &[Cell]) -> Option<String> {
         }
         s.push('\n');
     }
+    if !baseline_variants(plan).is_empty() {
+        let _ = writeln!(
+            s,
+            "\nRMSE at equal time, relative to the strongest baseline (at each spp the mis variant \
+             of least RMSE there, as in table.md; each variant's RMSE interpolated, log–log, at \
+             the seconds that baseline took per image; below 1 is better):\n"
+        );
+        md_header(plan, &mut s, "Method");
+        for v in 0..plan.variants.len() {
+            let curve = time_curve(plan, cells, v);
+            let _ = write!(s, "| {} |", plan.variants[v].label);
+            for &spp in &plan.spp {
+                let ratio = strongest_at(plan, cells, spp)
+                    .and_then(|b| Some(log_log_at(&curve, b.seconds)? / b.mean));
+                match ratio {
+                    Some(r) => {
+                        let _ = write!(s, " {r:.3} |");
+                    }
+                    None => s.push_str(" |"),
+                }
+            }
+            s.push('\n');
+        }
+    }
     Some(s)
+}
+
+/// Variant `v`'s (seconds, mean RMSE) points, sorted by time, for [`log_log_at`].
+fn time_curve(plan: &TablePlan, cells: &[Cell], v: usize) -> Vec<(f64, f64)> {
+    let mut curve: Vec<(f64, f64)> = plan
+        .spp
+        .iter()
+        .filter_map(|&spp| cells.iter().find(|c| c.variant == v && c.spp == spp))
+        .map(|c| (c.seconds, c.mean))
+        .filter(|&(t, r)| t > 0.0 && r > 0.0 && t.is_finite() && r.is_finite())
+        .collect();
+    curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+    curve
 }
 
 /// `y(x)` on the piecewise-linear interpolant of `ln y` against `ln x` through `points` (sorted

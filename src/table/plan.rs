@@ -44,6 +44,13 @@ impl PartialEq for VariantModel {
 }
 
 impl TablePlan {
+    /// Whether the table has a renderer's baseline (`mc-light`, `mis`, …), whose shadow rays per
+    /// pixel are not its spp: then `rmse.csv` states them ([`super::export::RAYS_COLUMN`]) and
+    /// `table.md` has their grid and the ratios to the strongest baseline.
+    pub fn counts_rays(&self) -> bool {
+        self.variants.iter().any(|v| v.kind.light.is_some())
+    }
+
     /// The model variant `v` renders with: its own, else the table's.
     pub fn model_of<'a>(&'a self, v: &'a VariantPlan) -> Option<&'a BmcModel> {
         v.model.as_ref().map(|m| m.model.as_ref()).or(self.model.as_ref())
@@ -221,6 +228,8 @@ pub fn resolve(spec: &TableSpec, path: &Path) -> Result<TablePlan, String> {
     for (k, v) in spec.variants.iter().enumerate() {
         let at = format!("variants[{k}]");
         let variant = resolve_variant(v, &at, &variants)?;
+        crate::render::integrator::check_light(variant.kind, &env, "integrator")
+            .map_err(|e| err(format!("{at}.integrator"), e.0.trim_start_matches("integrator: ")))?;
         if let Some(a) = &adaptive {
             super::adaptive::plan::check_variant(a, variant.kind, v.scale, &at)?;
         }

@@ -444,6 +444,7 @@ mod tests {
             coverage95: 0.95,
             coverage95_edges: 0.95,
             seconds: 1.0,
+            rays_per_pixel: spp as f64,
         }
     }
 

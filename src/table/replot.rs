@@ -9,6 +9,7 @@
 //! for the tables of real maps; a table whose file does not load is skipped, named).
 
 use super::adaptive::runner::AdaptiveRow;
+use super::export::RAYS_COLUMN;
 use super::external::ExternalMeasures;
 use super::plan::TablePlan;
 use super::runner::Row;
@@ -40,6 +41,10 @@ fn fixed_rows(plan: &TablePlan, text: &str) -> Vec<Row> {
                 coverage95: f("coverage95"),
                 coverage95_edges: f("coverage95_edges"),
                 seconds: 0.0,
+                rays_per_pixel: match head.iter().position(|h| h == RAYS_COLUMN) {
+                    Some(i) => r[i].parse().unwrap(),
+                    None => u("spp") as f64,
+                },
                 external: plan.external.as_ref().map(|_| ExternalMeasures {
                     rmse_theirs: f("rmse_theirs"),
                     mean_l2_theirs: f("mean_l2_theirs"),

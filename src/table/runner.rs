@@ -28,6 +28,10 @@ pub struct Row {
     pub seconds: f64,
     /// The measures against an external reference (tables with `"external"`).
     pub external: Option<ExternalMeasures>,
+    /// Mean shadow rays traced per hit pixel ([`crate::render::integrator::RayCounter`]): `spp`
+    /// for the estimators of the family, fewer for a light sampler whose samples fall below the
+    /// horizon or where the light is black. In `rmse.csv` of tables with a renderer's baseline.
+    pub rays_per_pixel: f64,
 }
 
 /// The seed of repetition `rep` at `spp`: the same for every variant (paired renders).
@@ -90,6 +94,7 @@ pub fn run(
                 let (image, sds) = renderer.render_with_sd(&integrator, seed, &Silent);
                 let seconds = start.elapsed().as_secs_f64();
                 rows.push(Row {
+                    rays_per_pixel: integrator.counter.rays_per_pixel(),
                     variant: v,
                     spp,
                     repetition: rep,

@@ -428,7 +428,8 @@ fn parse_row(plan: &TablePlan, u: usize, v: usize, line: &str) -> Result<RowOf, 
     let external = plan.external.is_some();
     match &plan.adaptive {
         None => {
-            let n = 11 + if external { 3 } else { 0 } + 1;
+            let rays = 11 + if external { 3 } else { 0 };
+            let n = rays + usize::from(plan.counts_rays()) + 1;
             if f.len() != n {
                 return Err(format!("has {} columns, not {n}", f.len()));
             }
@@ -455,6 +456,11 @@ fn parse_row(plan: &TablePlan, u: usize, v: usize, line: &str) -> Result<RowOf, 
                 coverage95: share(f[9], "coverage95")?,
                 coverage95_edges: share(f[10], "coverage95_edges")?,
                 seconds: non_negative(f[n - 1], "seconds")?,
+                rays_per_pixel: if plan.counts_rays() {
+                    non_negative(f[rays], "rays_per_pixel")?
+                } else {
+                    spp as f64
+                },
                 external: if external {
                     Some(ExternalMeasures {
                         rmse_theirs: non_negative(f[11], "rmse_theirs")?,

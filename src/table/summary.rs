@@ -26,6 +26,8 @@ pub struct Cell {
     /// Means of the measures against an external reference (tables with `"external"`):
     /// RMSE and mean L2 against theirs, mean L2 against ours.
     pub external: Option<[f64; 3]>,
+    /// Mean over the renders of the shadow rays traced per hit pixel.
+    pub rays_per_pixel: f64,
 }
 
 /// Mean, standard deviation and 95% Student-t half-width of the RMSE per (variant, spp), in
@@ -59,6 +61,7 @@ pub fn summarise(plan: &TablePlan, rows: &[Row]) -> Vec<Cell> {
                 coverage95: mean(&coverage),
                 coverage95_edges: mean(&coverage_edges),
                 seconds: mean(&seconds),
+                rays_per_pixel: mean(&cell.iter().map(|r| r.rays_per_pixel).collect::<Vec<_>>()),
                 external: plan.external.as_ref().map(|_| {
                     let of = |f: fn(&super::external::ExternalMeasures) -> f64| -> f64 {
                         let v: Vec<f64> = cell.iter().filter_map(|r| r.external.as_ref().map(f)).collect();

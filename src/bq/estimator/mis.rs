@@ -23,6 +23,7 @@ use super::Uncertainty;
 use super::bq_pss::{PssOptions, PssRule, mis_integrand};
 use crate::integrand::lit::{Lit, Technique};
 use crate::sampling::primary::Sampler;
+use crate::util::geometry::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// A light-aware estimator.
@@ -177,46 +178,63 @@ impl LightEstimator {
         light_u: &[[f64; 2]],
         bsdf_u: &[[f64; 2]],
     ) -> (f64, Option<Uncertainty>) {
+        if let Some(rule) = self.pss_rule(light_u) {
+            return self.estimate_on_rule(f, &rule);
+        }
+        let (value, uncertainty) = self.estimate_channels(&OneChannel(f), light_u, bsdf_u);
+        (value[0], uncertainty.map(|u| u[0]))
+    }
+
+    /// [`LightEstimator::estimate`] for an integrand of `K` channels sharing their directions
+    /// (a scene pixel's three colour channels: one ray per direction serves all three), each
+    /// channel's estimate and standard error from the same terms `τ_i ∈ ℝ^K`.
+    pub fn estimate_channels<const K: usize>(
+        &self,
+        f: &dyn Techniques<K>,
+        light_u: &[[f64; 2]],
+        bsdf_u: &[[f64; 2]],
+    ) -> ([f64; K], Option<[Uncertainty; K]>) {
         let light = self.light_technique();
-        let terms: Vec<f64> = match self.method {
-            LightMethod::BqPss => {
-                let rule = self
-                    .pss_rule(light_u)
-                    .expect("the product Sobolev Gram matrix factors with the jitter ladder");
-                return self.estimate_on_rule(f, &rule);
-            }
-            LightMethod::McLight => light_u
+        let nonzero = |v: &[f64; K]| v.iter().any(|&x| x != 0.0);
+        // Every direction is drawn before any is evaluated: the light's tables are large (a
+        // 1024×512 map's are 8 MiB), and a short loop of independent look-ups lets their cache
+        // misses overlap, where one interleaved with a shadow ray each would wait for every one
+        // in turn. The values are the same either way.
+        let draw = |t: Technique, us: &[[f64; 2]]| -> Vec<(Vec3, f64)> {
+            us.iter().map(|&u| f.sample(t, u)).collect()
+        };
+        let terms: Vec<[f64; K]> = match self.method {
+            // Its weights are a rule's, built once per point set by the caller
+            // ([`LightEstimator::pss_rule`], [`LightEstimator::estimate_on_rule`]).
+            LightMethod::BqPss => panic!("bq-pss estimates on its rule, not on i.i.d. terms"),
+            LightMethod::McLight => draw(light, light_u)
                 .iter()
-                .map(|&u| {
-                    let (w, p) = f.sample(light, u);
-                    f.integrand(&w) / p
-                })
+                .map(|(w, p)| f.value(w).map(|v| v / p))
                 .collect(),
-            LightMethod::McBsdf => bsdf_u
+            LightMethod::McBsdf => draw(Technique::Bsdf, bsdf_u)
                 .iter()
-                .map(|&u| {
-                    let (w, p) = f.sample(Technique::Bsdf, u);
-                    f.integrand(&w) / p
-                })
+                .map(|(w, p)| f.value(w).map(|v| v / p))
                 .collect(),
             LightMethod::Mis => {
                 assert_eq!(light_u.len(), bsdf_u.len(), "mis pairs its samples");
-                light_u
-                    .iter()
-                    .zip(bsdf_u)
-                    .map(|(&a, &b)| {
-                        let mut tau = 0.0;
-                        let (x, p_l) = f.sample(light, a);
-                        let fx = f.integrand(&x);
-                        if fx != 0.0 {
+                draw(light, light_u)
+                    .into_iter()
+                    .zip(draw(Technique::Bsdf, bsdf_u))
+                    .map(|((x, p_l), (y, p_b))| {
+                        let mut tau = [0.0; K];
+                        let fx = f.value(&x);
+                        if nonzero(&fx) {
                             let w = self.heuristic.weight(p_l, f.pdf(Technique::Bsdf, &x));
-                            tau += w * fx / p_l;
+                            for (t, v) in tau.iter_mut().zip(fx) {
+                                *t += w * v / p_l;
+                            }
                         }
-                        let (y, p_b) = f.sample(Technique::Bsdf, b);
-                        let fy = f.integrand(&y);
-                        if fy != 0.0 {
+                        let fy = f.value(&y);
+                        if nonzero(&fy) {
                             let w = self.heuristic.weight(p_b, f.pdf(light, &y));
-                            tau += w * fy / p_b;
+                            for (t, v) in tau.iter_mut().zip(fy) {
+                                *t += w * v / p_b;
+                            }
                         }
                         tau
                     })
@@ -224,11 +242,16 @@ impl LightEstimator {
             }
         };
         let m = terms.len();
-        let value = terms.iter().sum::<f64>() / m as f64;
-        let uncertainty = (m >= 2).then(|| Uncertainty {
-            sd: crate::util::stats::sample_sd(&terms) / (m as f64).sqrt(),
-            dof: Some(m - 1),
-            amplitude: None,
+        let value = std::array::from_fn(|c| terms.iter().map(|t| t[c]).sum::<f64>() / m as f64);
+        let uncertainty = (m >= 2).then(|| {
+            std::array::from_fn(|c| {
+                let channel: Vec<f64> = terms.iter().map(|t| t[c]).collect();
+                Uncertainty {
+                    sd: crate::util::stats::sample_sd(&channel) / (m as f64).sqrt(),
+                    dof: Some(m - 1),
+                    amplitude: None,
+                }
+            })
         });
         (value, uncertainty)
     }
@@ -249,6 +272,37 @@ impl LightEstimator {
     pub fn estimate_on_rule(&self, f: &dyn Lit, rule: &PssRule) -> (f64, Option<Uncertainty>) {
         let g: Vec<f64> = rule.points.iter().map(|&u| mis_integrand(f, u)).collect();
         rule.estimate(self.pss.weights, &g)
+    }
+}
+
+/// What a light-aware estimator needs of an integrand of `K` channels: the two techniques'
+/// warps and densities ([`Lit::sample`], [`Lit::pdf`]) and the integrand's values at a local
+/// direction (0 below the horizon). [`Lit`] integrands are the one-channel case; a scene pixel
+/// ([`crate::render::integrator::light`]) the three-channel one.
+pub trait Techniques<const K: usize> {
+    /// The local direction technique `t` draws for the primary sample `u`, with its density.
+    fn sample(&self, t: Technique, u: [f64; 2]) -> (Vec3, f64);
+    /// The density with which technique `t` draws local direction `w`.
+    fn pdf(&self, t: Technique, w: &Vec3) -> f64;
+    /// `f(w)` per channel.
+    fn value(&self, w: &Vec3) -> [f64; K];
+}
+
+/// A [`Lit`] integrand as the one-channel [`Techniques`].
+struct OneChannel<'a>(&'a dyn Lit);
+
+impl Techniques<1> for OneChannel<'_> {
+    #[inline]
+    fn sample(&self, t: Technique, u: [f64; 2]) -> (Vec3, f64) {
+        self.0.sample(t, u)
+    }
+    #[inline]
+    fn pdf(&self, t: Technique, w: &Vec3) -> f64 {
+        self.0.pdf(t, w)
+    }
+    #[inline]
+    fn value(&self, w: &Vec3) -> [f64; 1] {
+        [self.0.integrand(w)]
     }
 }
 

@@ -10,17 +10,20 @@
 //! rotated sets for estimators with weights ([`sets`]) — and, for estimators with a prior mean,
 //! the checkerboard neighbours that supply it ([`neighbours`]).
 
+pub mod light;
 pub mod neighbours;
 pub mod sets;
 
 use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
+use crate::bq::estimator::mis::{Heuristic, LightEstimator, LightMethod};
 use crate::bq::estimator::{Method, Uncertainty};
 use crate::bq::model::BmcModel;
 use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::Solved;
 use crate::bq::weights::{BmcWeights, Scale};
 use crate::error::InputError;
+use crate::sampling::primary::Sampler;
 use crate::sampling::{Density, Design};
 use crate::util::geometry::{Frame, Vec3};
 use crate::util::rng::WorkbenchRng;
@@ -42,6 +45,10 @@ pub struct IntegratorKind {
     /// How an estimator with a prior mean (`bmcp`) gets its constant from the neighbours
     /// ([`NeighbourPrior`]); [`NeighbourPrior::Mean`] for every other estimator.
     pub neighbours: NeighbourPrior,
+    /// The renderer's baselines (`mc-light`, `mc-bsdf`, `mis` and their options, [`light`]):
+    /// the estimator that replaces `method` (then [`Method::Mc`], with cosine `density` for
+    /// the figures' markers). None for the estimators of the family.
+    pub light: Option<LightEstimator>,
 }
 
 impl IntegratorKind {
@@ -53,6 +60,7 @@ impl IntegratorKind {
         density: Density::Cosine,
         set_design: UNIFORM_SETS,
         neighbours: NeighbourPrior::Mean,
+        light: None,
     };
     /// `bmc`: precomputed sample sets rotated to the normal (math.md §4–5).
     pub const BMC: Self = Self::uniform(Method::Bmc);
@@ -65,6 +73,7 @@ impl IntegratorKind {
         density: Density::Uniform,
         set_design: UNIFORM_SETS,
         neighbours: NeighbourPrior::EdgeAware,
+        light: None,
     };
 
     const fn uniform(method: Method) -> Self {
@@ -73,7 +82,54 @@ impl IntegratorKind {
             density: Density::Uniform,
             set_design: UNIFORM_SETS,
             neighbours: NeighbourPrior::Mean,
+            light: None,
         }
+    }
+
+    /// A renderer's baseline ([`light`]).
+    pub const fn light(estimator: LightEstimator) -> Self {
+        IntegratorKind {
+            method: Method::Mc,
+            density: Density::Cosine,
+            set_design: UNIFORM_SETS,
+            neighbours: NeighbourPrior::Mean,
+            light: Some(estimator),
+        }
+    }
+
+    /// The renderer's baselines, in the order of the docs: `mc-light`, `mc-bsdf`, then `mis`
+    /// with the power heuristic, with the balance heuristic, each without and with
+    /// compensation; all of these first on independent, then on Sobol primary samples.
+    pub fn light_baselines() -> Vec<Self> {
+        let mut all = Vec::new();
+        for sampler in Sampler::ALL {
+            for method in LightMethod::ALL {
+                // bq-pss is a quadrature on these techniques, not a baseline, and not yet a
+                // render integrator (its rule would be built once per set, not per pixel).
+                if method == LightMethod::BqPss {
+                    continue;
+                }
+                let options: &[(Heuristic, bool)] = match method {
+                    LightMethod::Mis => &[
+                        (Heuristic::Power, false),
+                        (Heuristic::Balance, false),
+                        (Heuristic::Power, true),
+                        (Heuristic::Balance, true),
+                    ],
+                    _ => &[(Heuristic::Power, false)],
+                };
+                for &(heuristic, compensation) in options {
+                    all.push(Self::light(LightEstimator {
+                        method,
+                        heuristic,
+                        compensation,
+                        sampler,
+                        pss: Default::default(),
+                    }));
+                }
+            }
+        }
+        all
     }
 
     /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
@@ -91,6 +147,7 @@ impl IntegratorKind {
                     density: Density::Cosine,
                     set_design: UNIFORM_SETS,
                     neighbours: NeighbourPrior::Mean,
+                    light: None,
                 });
             }
             if method.uses_prior() {
@@ -109,14 +166,31 @@ impl IntegratorKind {
             }
             all.extend(with_sets.iter().map(|k| IntegratorKind { set_design, ..*k }));
         }
+        all.extend(Self::light_baselines());
         all
     }
 
     /// The name on the command line and in files: the estimator's, with `-cos` for
     /// cosine-weighted samples, `-edge` for the edge-aware neighbour prior and `-rings` for
     /// ring sample sets (`mc`, `mc-cos`, `bmc`, `bmcp`, `bmcp-edge`, `bsq`, `bmc-rings`,
-    /// `bmcp-rings`, `bmcp-edge-rings`, `bsq-rings`).
+    /// `bmcp-rings`, `bmcp-edge-rings`, `bsq-rings`). A renderer's baseline is its
+    /// estimator's name with `-balance` for the balance heuristic, `-comp` for compensation and
+    /// `-sobol` for Sobol primary samples, in that order (`mc-light`, `mis`, `mis-balance`,
+    /// `mis-comp`, `mis-balance-comp-sobol`, `mc-bsdf-sobol`).
     pub fn name(self) -> String {
+        if let Some(l) = self.light {
+            let mut name = l.method.name().to_string();
+            if l.heuristic == Heuristic::Balance {
+                name.push_str("-balance");
+            }
+            if l.compensation {
+                name.push_str("-comp");
+            }
+            if l.sampler == Sampler::Sobol {
+                name.push_str("-sobol");
+            }
+            return name;
+        }
         let base = match self.density {
             Density::Uniform => self.method.name().to_string(),
             Density::Cosine => format!("{}-cos", self.method.name()),
@@ -172,7 +246,7 @@ impl IntegratorKind {
     /// estimator with weights when its sets nest, so that each stage extends the one before it
     /// (uniform sets do, ring sets do not).
     pub fn adaptive(self) -> bool {
-        !self.uses_sets() || self.set_design.is_nested()
+        self.light.is_none() && (!self.uses_sets() || self.set_design.is_nested())
     }
 
     /// The integrators that can sample adaptively, by name, for messages.
@@ -220,6 +294,8 @@ pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), Inp
             .map_err(|m| InputError::new(format!("{what}: got {spp} for {kind}; {m}")))
     } else if spp == 0 {
         Err(InputError::new(format!("{what}: must be at least 1, got 0")))
+    } else if let Some(Err(m)) = kind.light.map(|l| l.method.check_count(spp)) {
+        Err(InputError::new(format!("{what}: got {spp} for {kind}; {m}")))
     } else if spp > MAX_MC_SPP {
         Err(InputError::new(format!(
             "{what}: at most {MAX_MC_SPP} samples per pixel, got {spp}"
@@ -277,6 +353,32 @@ pub fn check_memory(
             besides: Some((image_text, image)),
         },
     )
+}
+
+/// Validates a renderer's baseline against its light (`what` names the option or field): the
+/// environment must have power to sample (for any light technique), and `-comp` needs a light
+/// that is not constant (Karlík et al.'s compensated density is otherwise empty,
+/// [`crate::sampling::light::LightDistribution::has_compensation`]).
+pub fn check_light(kind: IntegratorKind, env: &Environment, what: &str) -> Result<(), InputError> {
+    let Some(l) = kind.light else { return Ok(()) };
+    if l.method != LightMethod::McBsdf && env.light().is_black() {
+        return Err(InputError::new(format!(
+            "{what}: {kind} samples the light, but the environment {} is black",
+            env.key()
+        )));
+    }
+    if l.compensation && !env.light().has_compensation() {
+        return Err(InputError::new(format!(
+            "{what}: {kind} uses compensation, but the environment {} is constant (mean luminance within 1% of \
+             its minimum): the compensated density is empty; use {}",
+            env.key(),
+            IntegratorKind::light(LightEstimator {
+                compensation: false,
+                ..l
+            })
+        )));
+    }
+    Ok(())
 }
 
 /// Validates the number of sample sets.
@@ -359,6 +461,33 @@ pub struct Integrator {
     /// The amplitude of the per-pixel posterior sds, when they are asked for
     /// ([`Integrator::with_uncertainty`]); None renders estimates only.
     pub uncertainty: Option<Scale>,
+    /// The shadow rays and pixels estimated so far (shared by clones).
+    pub counter: RayCounter,
+}
+
+/// Shadow rays traced and pixels estimated by an integrator, summed over threads (a sum, so the
+/// count does not depend on the order of work): a render table's rays per pixel.
+#[derive(Clone, Debug, Default)]
+pub struct RayCounter {
+    rays: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    pixels: std::sync::Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl RayCounter {
+    /// One more pixel, which traced `rays` shadow rays.
+    #[inline]
+    pub fn add(&self, rays: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.rays.fetch_add(rays, Relaxed);
+        self.pixels.fetch_add(1, Relaxed);
+    }
+
+    /// Mean shadow rays per estimated pixel (0 before any pixel).
+    pub fn rays_per_pixel(&self) -> f64 {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (r, p) = (self.rays.load(Relaxed), self.pixels.load(Relaxed));
+        if p == 0 { 0.0 } else { r as f64 / p as f64 }
+    }
 }
 
 impl Integrator {
@@ -370,10 +499,12 @@ impl Integrator {
                 density,
                 set_design: UNIFORM_SETS,
                 neighbours: NeighbourPrior::Mean,
+                light: None,
             },
             spp,
             sets: None,
             uncertainty: None,
+            counter: RayCounter::default(),
         }
     }
 
@@ -400,6 +531,7 @@ impl Integrator {
             spp,
             sets,
             uncertainty: None,
+            counter: RayCounter::default(),
         })
     }
 
@@ -447,6 +579,11 @@ impl Integrator {
         rng: &mut WorkbenchRng,
         prior: Rgb,
     ) -> (Rgb, Option<[Uncertainty; 3]>) {
+        if let Some(estimator) = &self.kind.light {
+            let (value, sd, rays) = light::estimate(estimator, self.spp, p, scene, env, rng);
+            self.counter.add(rays);
+            return (value, self.uncertainty.and(sd));
+        }
         let (points, set): (Vec<Vec3>, Option<&SampleSet>) = match &self.sets {
             Some(sets) => {
                 let (set, points) = sets.pick(rng);
@@ -454,6 +591,7 @@ impl Integrator {
             }
             None => (self.kind.density.sample_set(self.spp, rng), None),
         };
+        self.counter.add(points.len() as u64);
         let weights: Option<&BmcWeights> = set.map(|s| &s.weights);
         let mut values: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(points.len()));
         for v in &points {

@@ -160,6 +160,7 @@ fn one_sample_along_the_normal_shows_the_sky_reflected() {
         spp: 1,
         sets: Some(BmcSets::from_points(vec![vec![Vec3::z()]], false, &m, 0).unwrap()),
         uncertainty: None,
+        counter: Default::default(),
     };
     let w = sets(&integ).sets[0].weights.weights[0];
     let img = r.render(&integ, 0, &hidden());
@@ -479,6 +480,7 @@ fn ring_sets_match_the_dense_solve_on_the_same_points() {
                 spp,
                 sets: Some(BmcSets::from_points(points, true, &m, 11).unwrap()),
                 uncertainty: None,
+                counter: Default::default(),
             };
             for (a, b) in sets(&rings).sets.iter().zip(&sets(&dense).sets) {
                 let scale = b.weights.weights.iter().fold(0.0f64, |s, w| s.max(w.abs()));
