@@ -65,6 +65,21 @@ def _write(text: str) -> str:
     return path
 
 
+def _matpreview_text(root: str, env: str, shell: str) -> str:
+    """matpreview.xml with absolute paths, the map ``env`` (its own ``envmap.exr`` for the museum)
+    and the shell ``shell`` of ``SHELLS`` in place of its plastic."""
+    folder = os.path.join(root, MATPREVIEW)
+    with open(os.path.join(folder, "matpreview.xml")) as f:
+        text = f.read()
+    text = text.replace('value="envmap.exr"', f'value="{env_path(env) if env != "museum" else os.path.join(folder, "envmap.exr")}"')
+    text = text.replace('value="matpreview.serialized"', f'value="{os.path.join(folder, "matpreview.serialized")}"')
+    if SHELLS.get(shell):
+        text = re.sub(r'<bsdf type="plastic" id="bsdf-matpreview">.*?</bsdf>', SHELLS[shell], text, flags=re.S)
+    elif shell not in SHELLS:
+        raise SystemExit(f"error: shell {shell!r}; expected one of {list(SHELLS)}")
+    return text
+
+
 def source(name: str, env: str = "museum", shell: str = "plastic"):
     """``(xml_path, params)``: the scene ``name`` (``bsdf_spheres`` or ``matpreview``) as a
     temporary XML file with absolute paths (at its own resolution) and the parameters
@@ -81,15 +96,7 @@ def source(name: str, env: str = "museum", shell: str = "plastic"):
                             f'<include filename="{os.path.join(folder, "fragments", "sphere_grid.xml")}"/>')
         return _write(main), {}
     if name == "matpreview":
-        folder = os.path.join(root, MATPREVIEW)
-        with open(os.path.join(folder, "matpreview.xml")) as f:
-            text = f.read()
-        text = text.replace('value="envmap.exr"', f'value="{env_path(env) if env != "museum" else os.path.join(folder, "envmap.exr")}"')
-        text = text.replace('value="matpreview.serialized"', f'value="{os.path.join(folder, "matpreview.serialized")}"')
-        if SHELLS.get(shell):
-            text = re.sub(r'<bsdf type="plastic" id="bsdf-matpreview">.*?</bsdf>', SHELLS[shell], text, flags=re.S)
-        elif shell not in SHELLS:
-            raise SystemExit(f"error: shell {shell!r}; expected one of {list(SHELLS)}")
+        text = _matpreview_text(root, env, shell)
         return _write(text), {"max_depth": 2}
     raise SystemExit(f"error: scene {name!r}; expected bsdf_spheres or matpreview")
 
@@ -119,15 +126,7 @@ def load(name: str, res=None, env: str = "museum", shell: str = "plastic", spp: 
         path = _write(main)
         return mi.load_file(path, spp=spp), None
     if name == "matpreview":
-        folder = os.path.join(root, MATPREVIEW)
-        with open(os.path.join(folder, "matpreview.xml")) as f:
-            text = f.read()
-        text = text.replace('value="envmap.exr"', f'value="{env_path(env) if env != "museum" else os.path.join(folder, "envmap.exr")}"')
-        text = text.replace('value="matpreview.serialized"', f'value="{os.path.join(folder, "matpreview.serialized")}"')
-        if SHELLS.get(shell):
-            text = re.sub(r'<bsdf type="plastic" id="bsdf-matpreview">.*?</bsdf>', SHELLS[shell], text, flags=re.S)
-        elif shell not in SHELLS:
-            raise SystemExit(f"error: shell {shell!r}; expected one of {list(SHELLS)}")
+        text = _matpreview_text(root, env, shell)
         kwargs = {"spp": spp}
         if res:
             kwargs.update(width=res[0], height=res[1])

@@ -121,3 +121,20 @@ def mitsuba_data() -> pathlib.Path:
     if required:
         pytest.fail(f"WORKBENCH_REQUIRE_DATA=1 but {reason}")
     pytest.skip(reason)
+
+
+def assert_property_refused(mi, wbm, props, message):
+    """The integrator's properties ``props`` are refused with a ValueError starting ``message``:
+    by ``wbm.load_integrator``, and by Mitsuba's own loader (``mi.load_dict``, as from XML), which
+    re-raises it as a RuntimeError ending with it; both within 5 s, since the checks come before
+    any rule is computed or memory taken."""
+    import time
+
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError) as info:
+        wbm.load_integrator(props)
+    assert str(info.value).startswith(message), str(info.value)
+    with pytest.raises(RuntimeError) as info:
+        mi.load_dict({"type": "workbench", **props})
+    assert str(info.value).strip().splitlines()[-1].startswith("ValueError: " + message), str(info.value)[-300:]
+    assert time.perf_counter() - t0 < 5
