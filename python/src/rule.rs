@@ -143,7 +143,8 @@ pub fn rule<'py>(
             .check_count(n)
             .map_err(|m| value_error(format!("n: {n} with design {:?}: {m}", design.name())))?;
     }
-    workbench::bq::rule::check_generated_count(n, design, exact, "n").map_err(|e| value_error(e.0))?;
+    workbench::bq::rule::check_generated_count(n, design, exact, "n", "design")
+        .map_err(|e| value_error(e.0))?;
     check_min_points(method, n, "n")?;
     workbench::bq::rule::check_factor_memory(
         "n",
@@ -726,7 +727,7 @@ impl Rule {
                         .check_count(n)
                         .map_err(|m| value_error(format!("n: {n} with design {:?}: {m}", design.name())))?;
                 }
-                workbench::bq::rule::check_generated_count(n, design, exact, "n")
+                workbench::bq::rule::check_generated_count(n, design, exact, "n", "design")
                     .map_err(|e| value_error(e.0))?;
                 let points = workbench::bq::rule::generate_points(n, seed, design);
                 Rule::build(py, "n", points, design, true, resolved, seed)

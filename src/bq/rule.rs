@@ -295,13 +295,14 @@ pub fn check_generated_count(
     design: Design,
     exact_kernel_means: bool,
     what: &str,
+    design_setting: &str,
 ) -> Result<(), InputError> {
     if n == 0 {
         return check_point_count(n, what);
     }
     design
         .check_count(n)
-        .map_err(|m| InputError::new(format!("{what}: {n} with --design {design}: {m}")))?;
+        .map_err(|m| InputError::new(format!("{what}: {n} with {design_setting} {design}: {m}")))?;
     if design.structure() == Structure::Rings && exact_kernel_means {
         let max = crate::bq::factor::rings::MAX_RING_POINTS;
         if n > max {

@@ -82,6 +82,7 @@ pub fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    workbench::data::name_setting("--data");
     if let Some(dir) = cli.data {
         workbench::data::set_folder(dir);
     }

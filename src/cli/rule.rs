@@ -86,7 +86,7 @@ pub fn rule(args: RuleArgs) -> anyhow::Result<ExitCode> {
             points
         }
         None => {
-            workbench::bq::rule::check_generated_count(n, design, exact_kernel_means, "--n")?;
+            workbench::bq::rule::check_generated_count(n, design, exact_kernel_means, "--n", "--design")?;
             workbench::bq::rule::generate_points(n, args.seed, design)
         }
     };

@@ -19,14 +19,14 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-/// The environment variable naming the data folder when `--data` is not given.
+/// The environment variable naming the data folder when the caller names none.
 pub const ENV_VAR: &str = "WORKBENCH_DATA";
 
 /// Where the data folder was named, for messages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Origin {
-    /// `--data DIR`.
-    Flag,
+    /// By the caller's own setting, named as the caller names it (the CLI: `--data`).
+    Setting(&'static str),
     /// `WORKBENCH_DATA`.
     Env,
 }
@@ -39,10 +39,10 @@ pub struct Folder {
 }
 
 impl Folder {
-    /// `--data DIR` or `WORKBENCH_DATA=DIR`, for messages.
+    /// `SETTING DIR` (the CLI's `--data DIR`) or `WORKBENCH_DATA=DIR`, for messages.
     pub fn shown(&self) -> String {
         match self.origin {
-            Origin::Flag => format!("--data {}", self.path.display()),
+            Origin::Setting(name) => format!("{name} {}", self.path.display()),
             Origin::Env => format!("{ENV_VAR}={}", self.path.display()),
         }
     }
@@ -54,11 +54,28 @@ impl Folder {
 }
 
 static FLAG_FOLDER: OnceLock<PathBuf> = OnceLock::new();
+static FOLDER_SETTING: OnceLock<&'static str> = OnceLock::new();
 
-/// Sets the folder named by `--data DIR`, which takes precedence over `WORKBENCH_DATA`. Called
-/// once by the command line before any work; later calls are ignored.
+/// Names the caller's own data-folder setting in messages (the CLI: `--data`), whether or not it
+/// is given; without one (a library or Python caller), messages name only `WORKBENCH_DATA`.
+/// Called once before any work; later calls are ignored.
+pub fn name_setting(name: &'static str) {
+    let _ = FOLDER_SETTING.set(name);
+}
+
+/// Sets the folder given by the caller's setting ([`name_setting`]), which takes precedence
+/// over `WORKBENCH_DATA`. Called once before any work; later calls are ignored.
 pub fn set_folder(path: PathBuf) {
     let _ = FLAG_FOLDER.set(path);
+}
+
+/// How to name a data folder: `pass SETTING DIR or set WORKBENCH_DATA=DIR`, or only the latter
+/// for a caller without a setting of its own.
+fn how_to_set() -> String {
+    match FOLDER_SETTING.get() {
+        Some(name) => format!("pass {name} DIR or set {ENV_VAR}=DIR"),
+        None => format!("set {ENV_VAR}=DIR"),
+    }
 }
 
 /// The data folder: `--data DIR` if given, else `WORKBENCH_DATA` if set and not empty, else
@@ -67,7 +84,7 @@ pub fn folder() -> Result<Option<Folder>, DataError> {
     let named = match FLAG_FOLDER.get() {
         Some(p) => Folder {
             path: p.clone(),
-            origin: Origin::Flag,
+            origin: Origin::Setting(FOLDER_SETTING.get().copied().unwrap_or("the data folder")),
         },
         None => match std::env::var_os(ENV_VAR) {
             Some(p) if !p.is_empty() => Folder {
@@ -212,8 +229,8 @@ fn hex(bytes: &[u8]) -> String {
 pub enum DataError {
     /// A catalogue file was named but no data folder is set.
     #[error(
-        "`{}` is the catalogue's {} {} and no data folder is set: pass --data DIR or set {ENV_VAR}=DIR, the folder that holds it (`workbench data` lists the catalogue; docs/guide/data.md)",
-        entry.name, entry.kind.name(), entry.path
+        "`{}` is the catalogue's {} {} and no data folder is set: {}, the folder that holds it (`workbench data` lists the catalogue; docs/guide/data.md)",
+        entry.name, entry.kind.name(), entry.path, how_to_set()
     )]
     NoFolder { entry: &'static Entry },
     /// The folder named by `--data` or `WORKBENCH_DATA` is not a readable folder.
@@ -327,7 +344,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let folder = Folder {
             path: dir.path().to_path_buf(),
-            origin: Origin::Flag,
+            origin: Origin::Setting("--data"),
         };
         let e = check(&folder, entry).unwrap_err().to_string();
         let tail = format!(
