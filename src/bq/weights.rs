@@ -196,7 +196,7 @@ impl NumericalWarning {
             NumericalWarning::NegativePosteriorVariance { value } => format!(
                 "the posterior variance V̂ − zᵀQ⁻¹z is negative ({value:.3e}) and is reported as 0, \
                  so the posterior sd and credible intervals mean nothing; MC kernel means cause \
-                 this: use the exact kernel mean (\"kernel_mean\": \"exact\", --kernel-mean exact), \
+                 this: use the exact kernel mean (\"kernel_mean\": \"exact\"), \
                  or, if it is already exact, increase the noise σ_n²"
             ),
             NumericalWarning::ZeroAmplitude => "zero_amplitude: every residual is 0, so the fitted \

@@ -36,8 +36,12 @@ pub struct MergeArgs {
 pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
     let kind = workbench::job::shard_set::check_kinds(&args.dirs)?;
     if kind == workbench::irradiance::shard::KIND {
-        let (plan, report) =
-            workbench::irradiance::shard::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
+        let (plan, report) = workbench::irradiance::shard::merge(
+            &args.out,
+            &args.dirs,
+            &super::output::JOB_FLAGS,
+            &Bar::new(args.quiet),
+        )?;
         stdout(&workbench::irradiance::export::summary(&plan, &report.rows))?;
         status!(
             "merged the irradiance protocol's shards into {} ({:.2} s)",
@@ -47,7 +51,7 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     if kind == workbench::table::shard::KIND {
-        let report = workbench::table::shard::merge(&args.out, &args.dirs)?;
+        let report = workbench::table::shard::merge(&args.out, &args.dirs, &super::output::JOB_FLAGS)?;
         stdout(&report.table_md)?;
         stdout(&format!("\n{}", report.times_md))?;
         status!(
@@ -56,7 +60,12 @@ pub fn merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    let (plan, merged) = ex::job::merge(&args.out, &args.dirs, &Bar::new(args.quiet))?;
+    let (plan, merged) = ex::job::merge(
+        &args.out,
+        &args.dirs,
+        &super::output::JOB_FLAGS,
+        &Bar::new(args.quiet),
+    )?;
     let report = ex::RunReport {
         out_dir: merged.out_dir,
         cells: merged.findings.cells,

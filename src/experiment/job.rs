@@ -181,6 +181,11 @@ pub fn shard_manifest(plan: &Plan, identity: &Identity) -> Vec<u8> {
 }
 
 /// Merges experiment shard folders into `out` ([`crate::job::merge`]).
-pub fn merge(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Result<(Plan, MergeReport)> {
-    crate::job::merge::<Plan>(out, dirs, reporter)
+pub fn merge(
+    out: &Path,
+    dirs: &[PathBuf],
+    names: &crate::job::SettingNames,
+    reporter: &dyn Reporter,
+) -> crate::Result<(Plan, MergeReport)> {
+    crate::job::merge::<Plan>(out, dirs, names, reporter)
 }

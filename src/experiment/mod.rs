@@ -202,7 +202,7 @@ pub fn run_plan(
 
     let (findings, stopping, tolerance_checks, manifest) = match (summary, shard_spec) {
         (Some(summary), _) => {
-            let logs = crate::job::log_set(plan, vec![log_path]);
+            let logs = crate::job::log_set(plan, vec![log_path], &overrides.names);
             let findings = finish::write_set(plan, &mut folder, &summary, &logs)?;
             // Tolerance estimators' stopping outputs, from the same log.
             let (stopping, checks) = finish::write_stopping(plan, &mut folder, &logs)?;

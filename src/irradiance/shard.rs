@@ -318,9 +318,10 @@ pub fn run_shard(
 pub fn merge(
     out: &Path,
     dirs: &[PathBuf],
+    names: &crate::job::SettingNames,
     reporter: &dyn Reporter,
 ) -> crate::Result<(IrradiancePlan, super::Report)> {
-    crate::job::merge::<IrradiancePlan>(out, dirs, reporter)
+    crate::job::merge::<IrradiancePlan>(out, dirs, names, reporter)
 }
 
 #[cfg(test)]

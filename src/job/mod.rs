@@ -111,11 +111,12 @@ pub trait Job: Sized {
 }
 
 /// The logs of `paths` (of shards 1…n in order) of `job`.
-pub fn log_set<J: Job>(job: &J, paths: Vec<PathBuf>) -> LogSet {
+pub fn log_set<J: Job>(job: &J, paths: Vec<PathBuf>, names: &SettingNames) -> LogSet {
     LogSet {
         paths,
         columns: job.columns(),
         key: job.identity(Shard::WHOLE).plan_hash,
+        resume: names.resume,
     }
 }
 
@@ -183,15 +184,20 @@ pub fn read_rows<J: Job>(
 /// `workbench merge OUT DIR…` for shards of `J`: the set read and checked ([`shard_set`]), the
 /// plan rebuilt ([`Job::from_record`]), every row read and checked ([`read_rows`]) before the
 /// job writes anything ([`Job::write_merged`]).
-pub fn merge<J: Job>(out: &Path, dirs: &[PathBuf], reporter: &dyn Reporter) -> crate::Result<J::Merged> {
-    let set = shard_set::read_shards(dirs)?;
+pub fn merge<J: Job>(
+    out: &Path,
+    dirs: &[PathBuf],
+    names: &SettingNames,
+    reporter: &dyn Reporter,
+) -> crate::Result<J::Merged> {
+    let set = shard_set::read_shards(dirs, names)?;
     J::check_records(&set)?;
     let set = shard_set::check_set(set)?;
     // The merged manifest records one build, the one writing it: that must be the build whose
     // rows it holds (its summaries and plots are computed again here).
     shard_set::check_build(&set)?;
     let job = J::from_record(&set[0])?;
-    let logs = log_set(&job, set.iter().map(ShardFolder::units).collect());
+    let logs = log_set(&job, set.iter().map(ShardFolder::units).collect(), names);
     let mut gathered = job.gather();
     let per_unit = job.rows_per_unit();
     reporter.start(J::UNIT_NAME, job.units() as u64);

@@ -136,12 +136,13 @@ pub fn check_kinds(dirs: &[PathBuf]) -> Result<String, InputError> {
 }
 
 /// Reads a shard folder of any kind: its `shard.json` and the first line of its `units.csv`.
-pub fn read_shard(dir: &Path) -> Result<ShardFolder, InputError> {
+pub fn read_shard(dir: &Path, names: &super::SettingNames) -> Result<ShardFolder, InputError> {
     let shown = dir.display();
     let path = dir.join(SHARD_FILE);
     let text = crate::files::read::read_text(&path, FileKind::Record).map_err(|_| {
         InputError::new(format!(
-            "merge: {shown} is not a shard folder (no readable {SHARD_FILE}); make shards with `workbench run FILE --shard i/n --out DIR`"
+            "merge: {shown} is not a shard folder (no readable {SHARD_FILE}); make shards with {} i/n and {} DIR",
+            names.shard, names.out
         ))
     })?;
     let bad = |what: &str| InputError::new(format!("merge: {}: {what}", path.display()));
@@ -282,10 +283,10 @@ pub fn check_set(mut shards: Vec<ShardFolder>) -> Result<Vec<ShardFolder>, Input
 
 /// The shard folders `dirs` of one merge, read: refused if there are none or they are shards of
 /// different kinds of job ([`check_kinds`]), before any is read ([`read_shard`]).
-pub fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardFolder>, InputError> {
+pub fn read_shards(dirs: &[PathBuf], names: &super::SettingNames) -> Result<Vec<ShardFolder>, InputError> {
     if dirs.is_empty() {
         return Err(InputError::new("merge: give the shard folders to merge"));
     }
     check_kinds(dirs)?;
-    dirs.iter().map(|d| read_shard(d)).collect()
+    dirs.iter().map(|d| read_shard(d, names)).collect()
 }

@@ -211,6 +211,8 @@ pub struct LogSet {
     pub columns: String,
     /// The digests' key (the plan hash).
     pub key: String,
+    /// The caller's name for resuming a run ([`super::SettingNames::resume`]), for messages.
+    pub resume: &'static str,
 }
 
 impl LogSet {
@@ -246,8 +248,9 @@ impl LogSet {
         let incomplete = |path: &Path| -> Error {
             InputError::new(format!(
                 "{}: ends before its last unit; the run that wrote it did not finish (this shard is \
-                 half-written, run it again or resume it with --resume)",
-                path.display()
+                 half-written, run it again or resume it with {})",
+                path.display(),
+                self.resume
             ))
             .into()
         };

@@ -729,6 +729,6 @@ impl Job for TablePlan {
 }
 
 /// Merges the shard folders `dirs` of a render table into `out` ([`crate::job::merge`]).
-pub fn merge(out: &Path, dirs: &[PathBuf]) -> crate::Result<TableReport> {
-    crate::job::merge::<TablePlan>(out, dirs, &crate::util::report::Silent)
+pub fn merge(out: &Path, dirs: &[PathBuf], names: &crate::job::SettingNames) -> crate::Result<TableReport> {
+    crate::job::merge::<TablePlan>(out, dirs, names, &crate::util::report::Silent)
 }
