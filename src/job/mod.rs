@@ -174,7 +174,7 @@ pub fn read_rows<J: Job>(
             .into()
         };
         let row = job.parse_row(u, k, line.text).map_err(|m| wrong(&m))?;
-        if !line.intact {
+        if !line.intact() {
             return Err(wrong(unit_log::CHANGED));
         }
         each(u, k, row)

@@ -198,8 +198,19 @@ pub struct Line<'a> {
     /// The log it is in, and its line number there (1-based; the two header lines first).
     pub path: &'a Path,
     pub number: usize,
-    /// Whether its digest is the row's.
-    pub intact: bool,
+    /// The digest the row carries ("" if it has none), and the key it was made under.
+    digest: &'a str,
+    key: &'a str,
+}
+
+impl Line<'_> {
+    /// Whether its digest is the row's. Computed when asked, not on every read: a run reads its
+    /// own log back once per (integrand, estimator) to write `trials.csv` in cell order, rows it
+    /// wrote itself or checked when it resumed, and only a merge's first reading
+    /// ([`super::read_rows`]) has rows nobody has checked yet.
+    pub fn intact(&self) -> bool {
+        !self.digest.is_empty() && self.digest == digest(self.key, self.text)
+    }
 }
 
 /// The complete logs of every shard of a run (one log for an unsharded run), read in unit
@@ -265,12 +276,14 @@ impl LogSet {
                 if read == 0 || !line.ends_with('\n') {
                     return Err(incomplete(&self.paths[s]));
                 }
-                let (text, intact) = split_digest(&self.key, line.trim_end_matches(['\n', '\r']));
+                let whole = line.trim_end_matches(['\n', '\r']);
+                let (text, digest) = whole.rsplit_once(',').unwrap_or((whole, ""));
                 let at = Line {
                     text,
                     path: &self.paths[s],
                     number: 3 + (u / count) * per_unit + k,
-                    intact,
+                    digest,
+                    key: &self.key,
                 };
                 f(u, k, &at)?;
             }
