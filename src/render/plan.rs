@@ -140,6 +140,22 @@ pub struct ImageOutputs {
 }
 
 impl ImageOutputs {
+    /// The files of an image written to `out` (OpenEXR): its PNG and error image beside it, an
+    /// adaptive image's spp map, and the sd image's three files at `sd_out`.
+    pub fn new(out: &Path, adaptive: bool, sd_out: Option<&Path>) -> ImageOutputs {
+        ImageOutputs {
+            exr: out.to_path_buf(),
+            png: sibling_png(out, ""),
+            error_png: sibling_png(out, "-error"),
+            spp_png: adaptive.then(|| sibling_png(out, "-spp")),
+            sd: sd_out.map(|sd| SdOutputs {
+                exr: sd.to_path_buf(),
+                png: sibling_png(sd, ""),
+                coverage: sibling_png(sd, "-coverage"),
+            }),
+        }
+    }
+
     /// Each file with its name in messages (`--out (its PNG)`), for the file set's lock.
     pub fn labelled(&self, names: Names) -> Vec<(String, &Path)> {
         let out = names(Field::Out);
@@ -212,10 +228,9 @@ impl ImagePlan {
         check_size(width, height, n(Field::Size))?;
         let (kind, spp, seed, gps) = check_sampling(&req, n)?;
         if let Some(name) = req.table_only {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{name}: applies to tables (render SPEC.json), not single images"
-            ))
-            .into());
+            ));
         }
         let error_image_setting = req
             .error_scale
@@ -226,38 +241,26 @@ impl ImagePlan {
             && req.reference.is_none()
             && req.sd_out.is_none()
         {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{}: applies to the error image ({}) or the sd image ({}); give one of them",
                 n(field),
                 n(Field::Reference),
                 n(Field::SdOut)
-            ))
-            .into());
+            ));
         }
         let error_scale = req.error_scale.unwrap_or(ErrorScale::Absolute);
         if req.error_max.is_some() && error_scale != ErrorScale::Absolute {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{}: applies to {} absolute",
                 n(Field::ErrorMax),
                 n(Field::ErrorScale)
-            ))
-            .into());
+            ));
         }
         let error_colours = req.error_colours.unwrap_or(ColourMap::Viridis);
         let error_max = check_error_max(req.error_max, n)?;
         let scale = check_sd(&req, kind, n)?;
         // Never write over an input (the reference, an environment map) or one output over another.
-        let outputs = ImageOutputs {
-            exr: req.out.to_path_buf(),
-            png: sibling_png(req.out, ""),
-            error_png: sibling_png(req.out, "-error"),
-            spp_png: None,
-            sd: req.sd_out.map(|sd| SdOutputs {
-                exr: sd.to_path_buf(),
-                png: sibling_png(sd, ""),
-                coverage: sibling_png(sd, "-coverage"),
-            }),
-        };
+        let outputs = ImageOutputs::new(req.out, false, req.sd_out);
         check_outputs_apart(&outputs, &req, n)?;
         let env = environment(&req, n)?;
         if let Some(k) = kind {
@@ -312,72 +315,66 @@ impl ImagePlan {
         // grid model and a choice per stage.
         let resolved = match &req.model {
             Ok(m) => m.clone(),
-            Err(e) => return Err(InputError::new(e.0.clone()).into()),
+            Err(e) => return refuse(e.0.clone()),
         };
         if resolved.is_fitted() {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{} fitted: cannot be used with {} or {} yet; give a fixed kernel",
                 n(Field::Kernel),
                 n(Field::TargetSd),
                 n(Field::MaxSpp)
-            ))
-            .into());
+            ));
         }
         let (target_sd, max_spp) = match (req.target_sd, req.max_spp) {
             (Some(t), Some(m)) => (t, m),
             (Some(_), None) => {
-                return Err(InputError::new(format!(
+                return refuse(format!(
                     "{}: needs {} (the most samples a pixel may take), e.g. {} 1024",
                     n(Field::TargetSd),
                     n(Field::MaxSpp),
                     n(Field::MaxSpp)
-                ))
-                .into());
+                ));
             }
             (None, _) => {
-                return Err(InputError::new(format!(
+                return refuse(format!(
                     "{}: applies to adaptive sampling; give {} too",
                     n(Field::MaxSpp),
                     n(Field::TargetSd)
-                ))
-                .into());
+                ));
             }
         };
         if !(target_sd.is_finite() && target_sd > 0.0) {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{}: must be finite and > 0, got {}",
                 n(Field::TargetSd),
                 shown(target_sd)
-            ))
-            .into());
+            ));
         }
         let kind = match req.integrator {
             ImageIntegrator::Estimator(k) if k.adaptive() => k,
             other => {
-                return Err(InputError::new(format!(
+                return refuse(format!(
                     "{}: adaptive sampling needs an estimator with a per-pixel sd it can extend by stages \
                      ({}), not {} {other}",
                     n(Field::TargetSd),
                     IntegratorKind::adaptive_names(),
                     n(Field::Integrator)
-                ))
-                .into());
+                ));
             }
         };
         let first = req.spp.unwrap_or(DEFAULT_FIRST_SPP);
         check_spp(kind, first, n(Field::Spp))?;
         check_spp(kind, max_spp, n(Field::MaxSpp))?;
         if !kind.method.has_interval(first) {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{} {first}: the first stage of adaptive {} needs at least {} samples to state an interval",
                 n(Field::Spp),
                 kind.method.name().to_uppercase(),
                 kind.method.min_interval_points()
-            ))
-            .into());
+            ));
         }
         if max_spp < first {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{} {max_spp}: is below the first stage {} {first}{}",
                 n(Field::MaxSpp),
                 n(Field::Spp),
@@ -386,17 +383,15 @@ impl ImagePlan {
                 } else {
                     String::new()
                 }
-            ))
-            .into());
+            ));
         }
         if !kind.uses_sets()
             && let Some(name) = weight_setting_given(&req, n)
         {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{name}: applies to {} bmc, not {kind}",
                 n(Field::Integrator)
-            ))
-            .into());
+            ));
         }
         // Settings of fixed-spp images that adaptive ones do not take (an absolute error
         // scale is the only one there is).
@@ -409,22 +404,14 @@ impl ImagePlan {
                 .filter(|s| *s != ErrorScale::Absolute)
                 .map(|_| n(Field::ErrorScale)));
         if let Some(name) = unused {
-            return Err(
-                InputError::new(format!("{name}: does not apply to an adaptive single image")).into(),
-            );
+            return refuse(format!("{name}: does not apply to an adaptive single image"));
         }
         let gps = req.gps.unwrap_or(DEFAULT_GPS);
         check_gps(gps, n(Field::Gps))?;
         let (width, height) = size(&req);
         check_exr_out(req.out, n)?;
         check_size(width, height, n(Field::Size))?;
-        let outputs = ImageOutputs {
-            exr: req.out.to_path_buf(),
-            png: sibling_png(req.out, ""),
-            error_png: sibling_png(req.out, "-error"),
-            spp_png: Some(sibling_png(req.out, "-spp")),
-            sd: None,
-        };
+        let outputs = ImageOutputs::new(req.out, true, None);
         check_outputs_apart(&outputs, &req, n)?;
         let error_max = check_error_max(req.error_max, n)?;
         let env = environment(&req, n)?;
@@ -470,6 +457,12 @@ impl ImagePlan {
     }
 }
 
+/// Refuses the request: `message` names the setting and what is wrong (an [`InputError`],
+/// exit 2 at the CLI), before any work.
+fn refuse<T>(message: String) -> Result<T> {
+    Err(InputError::new(message).into())
+}
+
 /// The image's size: the request's, or the scene's.
 fn size(req: &ImageRequest<'_>) -> (usize, usize) {
     let (w, h) = req.scene.default_size();
@@ -501,13 +494,12 @@ fn check_sampling(req: &ImageRequest<'_>, n: Names) -> Result<(Option<Integrator
     let kind = match req.integrator {
         ImageIntegrator::Estimator(kind) => {
             if let Some(t) = req.tolerance {
-                return Err(InputError::new(format!(
+                return refuse(format!(
                     "{} {}: applies to {} exact, not {kind}",
                     n(Field::Tolerance),
                     shown(t),
                     n(Field::Integrator)
-                ))
-                .into());
+                ));
             }
             Some(kind)
         }
@@ -521,21 +513,19 @@ fn check_sampling(req: &ImageRequest<'_>, n: Names) -> Result<(Option<Integrator
                 .or(req.no_rotate.then(|| n(Field::NoRotate)))
                 .or(req.model_given);
             if let Some(name) = given {
-                return Err(InputError::new(format!(
+                return refuse(format!(
                     "{name}: does not apply to {} exact (the certified quadrature draws no samples)",
                     n(Field::Integrator)
-                ))
-                .into());
+                ));
             }
             let t = req.tolerance.unwrap_or(exact::DEFAULT_TOLERANCE);
             if !(exact::MIN_TOLERANCE..=1e-2).contains(&t) {
-                return Err(InputError::new(format!(
+                return refuse(format!(
                     "{}: must be in [{:e}, 1e-2] (absolute, per pixel and channel), got {}",
                     n(Field::Tolerance),
                     exact::MIN_TOLERANCE,
                     shown(t)
-                ))
-                .into());
+                ));
             }
             None
         }
@@ -549,12 +539,11 @@ fn check_sampling(req: &ImageRequest<'_>, n: Names) -> Result<(Option<Integrator
         && let Some(name) = weight_setting_given(req, n)
     {
         // Settings of the BMC integrators are errors with MC, not silently ignored.
-        return Err(InputError::new(format!(
+        return refuse(format!(
             "{name}: applies to the integrators with weights ({}), not {}",
             IntegratorKind::names_where(|k| k.uses_sets()).join(", "),
             req.integrator
-        ))
-        .into());
+        ));
     }
     let gps = req.gps.unwrap_or(DEFAULT_GPS);
     check_gps(gps, n(Field::Gps))?;
@@ -567,13 +556,12 @@ fn check_sd(req: &ImageRequest<'_>, kind: Option<IntegratorKind>, n: Names) -> R
     let scale = req.scale.unwrap_or(Scale::DEFAULT);
     let Some(sd) = req.sd_out else {
         if let Some(s) = req.scale {
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{} {}: applies to the posterior sd image; give {}",
                 n(Field::Scale),
                 s.name(),
                 n(Field::SdOut)
-            ))
-            .into());
+            ));
         }
         return Ok(scale);
     };
@@ -584,23 +572,21 @@ fn check_sd(req: &ImageRequest<'_>, kind: Option<IntegratorKind>, n: Names) -> R
             let (last, rest) = with_posterior
                 .split_last()
                 .expect("some integrator has a posterior");
-            return Err(InputError::new(format!(
+            return refuse(format!(
                 "{} {}: needs an integrator with a posterior ({} or {last}), not {}",
                 n(Field::SdOut),
                 sd.display(),
                 rest.join(", "),
                 req.integrator
-            ))
-            .into());
+            ));
         }
     }
     if sd.extension().and_then(|e| e.to_str()) != Some("exr") {
-        return Err(InputError::new(format!(
+        return refuse(format!(
             "{} {}: the sd image is OpenEXR; use a name ending in .exr",
             n(Field::SdOut),
             sd.display()
-        ))
-        .into());
+        ));
     }
     Ok(scale)
 }
@@ -610,12 +596,11 @@ fn check_exr_out(out: &Path, n: Names) -> Result<()> {
     if out.extension().and_then(|e| e.to_str()) == Some("exr") {
         return Ok(());
     }
-    Err(InputError::new(format!(
+    refuse(format!(
         "{} {}: the linear image is OpenEXR; use a name ending in .exr",
         n(Field::Out),
         out.display()
     ))
-    .into())
 }
 
 /// The top of the absolute error scale (or its default): finite and positive.
@@ -624,12 +609,11 @@ fn check_error_max(given: Option<f64>, n: Names) -> Result<f64> {
     if error_max.is_finite() && error_max > 0.0 {
         Ok(error_max)
     } else {
-        Err(InputError::new(format!(
+        refuse(format!(
             "{}: must be finite and > 0, got {}",
             n(Field::ErrorMax),
             shown(error_max)
         ))
-        .into())
     }
 }
 
