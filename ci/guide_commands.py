@@ -121,7 +121,8 @@ def run_page(page, args, report):
         shown = line
         if line.startswith("cargo run --release -- "):
             line = "workbench " + line[len("cargo run --release -- ") :]
-        why = next((w for r, w in NOT_RUN if r.search(line)), None)
+        bare = re.sub(r"^(\s*[A-Z_]+=\S*\s+)+", "", line)  # without leading VAR=value
+        why = next((w for r, w in NOT_RUN if r.search(bare)), None)
         if why is None and (PLACEHOLDER.search(line) or CAPS_WORD.search(line.split(" ", 1)[-1])):
             why = "a synopsis (placeholders)"
         if why is None and any(re.search(s, line) for s in args.skip):
