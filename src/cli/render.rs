@@ -48,7 +48,8 @@ pub struct RenderArgs {
     /// quadrature [default: 1e-9 under `sky` and `white`, 1e-6 under a map (the texel sum)].
     #[arg(long)]
     pub tolerance: Option<f64>,
-    /// Number of BMC sample sets ("GPs"); one is picked at random per pixel [default: 4].
+    /// Number of BMC sample sets ("GPs"), or of `bq-pss`'s point sets; one is picked at random
+    /// per pixel [default: 4].
     #[arg(long)]
     pub gps: Option<usize>,
     /// Do not rotate the BMC sample set by a random azimuth per pixel.

@@ -386,7 +386,7 @@ impl ImagePlan {
             ));
         }
         if !kind.uses_sets()
-            && let Some(name) = weight_setting_given(&req, n)
+            && let Some(name) = weight_setting_given(&req, n, None)
         {
             return refuse(format!(
                 "{name}: applies to {} bmc, not {kind}",
@@ -479,9 +479,15 @@ fn build(model: std::result::Result<ResolvedModel, InputError>, reporter: &dyn R
 }
 
 /// The first setting given that only integrators with weights use (sets, rotation, the
-/// model's), if any: an error with MC rather than silently ignored.
-fn weight_setting_given<'a>(req: &ImageRequest<'a>, n: Names) -> Option<&'a str> {
+/// model's), if any: an error with MC rather than silently ignored. `kind` takes the number of
+/// sets when it is `bq-pss` (its point sets); the adaptive image asks with none.
+fn weight_setting_given<'a>(
+    req: &ImageRequest<'a>,
+    n: Names,
+    kind: Option<IntegratorKind>,
+) -> Option<&'a str> {
     req.gps
+        .filter(|_| !kind.is_some_and(|k| k.takes_gps()))
         .map(|_| n(Field::Gps))
         .or(req.no_rotate.then(|| n(Field::NoRotate)))
         .or(req.model_given)
@@ -536,7 +542,7 @@ fn check_sampling(req: &ImageRequest<'_>, n: Names) -> Result<(Option<Integrator
         check_spp(kind, spp, n(Field::Spp))?;
     }
     if kind.is_some_and(|k| !k.uses_sets())
-        && let Some(name) = weight_setting_given(req, n)
+        && let Some(name) = weight_setting_given(req, n, kind)
     {
         // Settings of the BMC integrators are errors with MC, not silently ignored.
         return refuse(format!(
@@ -580,6 +586,16 @@ fn check_sd(req: &ImageRequest<'_>, kind: Option<IntegratorKind>, n: Names) -> R
                 req.integrator
             ));
         }
+    }
+    if let (Some(k), Some(s)) = (kind, req.scale)
+        && k.uses_point_sets()
+    {
+        return Err(InputError::new(format!(
+            "{} {}: not used by {k}, whose amplitude is its rule's (fitted by ml)",
+            n(Field::Scale),
+            s.name()
+        ))
+        .into());
     }
     if sd.extension().and_then(|e| e.to_str()) != Some("exr") {
         return refuse(format!(

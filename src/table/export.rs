@@ -78,6 +78,8 @@ pub fn manifest(plan: &TablePlan, results: &Path) -> Vec<u8> {
                 serde_json::json!({"label": v.label, "integrator": v.kind, "gps": v.gps, "rotate": v.rotate});
             j["sd"] = if v.kind.uses_sets() {
                 serde_json::json!({"scale": v.scale.name()})
+            } else if v.kind.has_posterior() {
+                "the posterior sd of its rule, amplitude fitted by ml to the pixel's values (bq-pss, math.md §11 (a)), Student-t".into()
             } else {
                 "the standard error of the mean, Student-t with spp − 1 degrees of freedom".into()
             };
@@ -154,6 +156,8 @@ pub const VARIANT_COLUMNS: [&str; 4] = ["variant", "integrator", "gps", "rotate"
 pub fn variant_fields(v: &VariantPlan) -> [String; 4] {
     let (gps, rotate) = if v.kind.uses_sets() {
         (v.gps.to_string(), v.rotate.to_string())
+    } else if v.kind.takes_gps() {
+        (v.gps.to_string(), String::new())
     } else {
         (String::new(), String::new())
     };

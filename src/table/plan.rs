@@ -504,7 +504,7 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
         ));
     }
     if !kind.uses_sets() {
-        if let Some(g) = v.gps {
+        if let Some(g) = v.gps.filter(|_| !kind.takes_gps()) {
             return Err(err(
                 format!("{at}.gps"),
                 format!("{g} is not used by integrator {kind}"),
@@ -517,12 +517,14 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
             ));
         }
         if let Some(s) = v.scale {
+            let why = if kind.uses_point_sets() {
+                "its sd is its rule's: the amplitude fitted by ml for bmc and bsq, the standard error for equal and cv"
+            } else {
+                "its sd is the standard error of its mean"
+            };
             return Err(err(
                 format!("{at}.scale"),
-                format!(
-                    "{:?} is not used by integrator {kind} (its sd is the standard error of its mean)",
-                    s.name()
-                ),
+                format!("{:?} is not used by integrator {kind} ({why})", s.name()),
             ));
         }
         if let Some((field, value)) = v.model.as_ref().and_then(|m| m.given_fields().into_iter().next()) {
@@ -531,10 +533,20 @@ fn resolve_variant(v: &VariantSpec, at: &str, earlier: &[VariantPlan]) -> Result
                 format!("{value} is not used by integrator {kind}"),
             ));
         }
+        // bq-pss's point sets (its only setting besides the name).
+        let gps = match v.gps {
+            Some(g) if kind.takes_gps() => {
+                let g = usize::try_from(g).unwrap_or(usize::MAX);
+                check_gps(g, "gps").map_err(|e| err(format!("{at}.gps"), e.0.trim_start_matches("gps: ")))?;
+                g
+            }
+            _ if kind.takes_gps() => DEFAULT_GPS,
+            _ => 0,
+        };
         return Ok(VariantPlan {
             label,
             kind,
-            gps: 0,
+            gps,
             rotate: false,
             scale: Scale::DEFAULT,
             model: None,

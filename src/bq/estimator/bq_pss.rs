@@ -32,7 +32,6 @@ use super::Uncertainty;
 use crate::bq::factor::dense::SpdWorkspace;
 use crate::bq::factor::{Factor, NotPositiveDefinite};
 use crate::bq::kernel::primary::SobolevOrder;
-use crate::integrand::lit::{Lit, Technique};
 use serde::{Deserialize, Serialize};
 
 /// How `bq-pss` weights its points: the two quadratures and the two ablations (module docs).
@@ -90,27 +89,10 @@ impl Default for PssOptions {
     }
 }
 
-/// The one-sample MIS integrand `G(u)` (module docs) of `f` at the primary sample `u`: two
-/// evaluations of `f` (one ray each where there is visibility), balance weights.
-pub fn mis_integrand(f: &dyn Lit, u: [f64; 2]) -> f64 {
-    let light = Technique::Light { compensated: false };
-    let mut g = 0.0;
-    for t in [light, Technique::Bsdf] {
-        let (x, p) = f.sample(t, u);
-        let fx = f.integrand(&x);
-        if fx != 0.0 {
-            let q = match t {
-                Technique::Bsdf => f.pdf(light, &x),
-                Technique::Light { .. } => f.pdf(Technique::Bsdf, &x),
-            };
-            g += fx / (p + q);
-        }
-    }
-    g
-}
-
 /// A point set in `[0, 1)²` with its kernel weights, computed once (the kernel mean is 1, so
 /// they do not depend on the integrand): reuse it for every integrand, pixel and channel.
+/// `G` is [`super::mis::mis_integrand`].
+#[derive(Clone, Debug)]
 pub struct PssRule {
     pub order: SobolevOrder,
     pub points: Vec<[f64; 2]>,
@@ -275,11 +257,15 @@ fn control_variate(order: SobolevOrder, points: &[[f64; 2]], g: &[f64]) -> (f64,
     (value, uncertainty)
 }
 
-/// `K` rules of `M` Owen-scrambled Sobol points each, a fresh scramble per set from the streams
-/// `(seed, set)`: for a renderer that reuses a few sets across pixels (pick one per pixel at
-/// random, math.md §11 (a)), weights computed once here.
+/// `K` rules of `M` points each drawn by `sampler` (Owen-scrambled Sobol, a fresh scramble per
+/// set, or independent uniform points) from the streams `(seed, M, set)`: for a renderer that
+/// reuses a few sets across pixels (pick one per pixel at random, math.md §11 (a)), weights
+/// computed once here. The points are used as drawn: a shift would move them off the points
+/// `Q` was factored for (the product Sobolev kernels are not periodic), so the weights would no
+/// longer be the set's.
 pub fn point_sets(
     seed: u64,
+    sampler: crate::sampling::primary::Sampler,
     sets: usize,
     m: usize,
     order: SobolevOrder,
@@ -287,7 +273,7 @@ pub fn point_sets(
     (0..sets)
         .map(|k| {
             let mut rng = crate::util::rng::stream(seed, &[PSS_SETS_STREAM, m as u64, k as u64]);
-            PssRule::new(crate::sampling::primary::sobol_points(m, &mut rng), order)
+            PssRule::new(sampler.points(m, &mut rng), order)
         })
         .collect()
 }
@@ -330,7 +316,14 @@ mod tests {
     /// every integrand.
     #[test]
     fn the_estimate_is_the_sets_weights_times_the_values() {
-        let rules = point_sets(3, 2, 16, SobolevOrder::One).unwrap();
+        let rules = point_sets(
+            3,
+            crate::sampling::primary::Sampler::Sobol,
+            2,
+            16,
+            SobolevOrder::One,
+        )
+        .unwrap();
         assert_ne!(rules[0].points, rules[1].points);
         for g in [vec![1.0; 16], (0..16).map(|i| i as f64).collect::<Vec<_>>()] {
             let w = rules[0].weights(PssWeights::Bmc);

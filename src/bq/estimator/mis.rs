@@ -20,7 +20,7 @@
 //! an Owen-scrambled Sobol set, a fresh scramble per technique and trial.
 
 use super::Uncertainty;
-use super::bq_pss::{PssOptions, PssRule, mis_integrand};
+use super::bq_pss::{PssOptions, PssRule};
 use crate::integrand::lit::{Lit, Technique};
 use crate::sampling::primary::Sampler;
 use crate::util::geometry::Vec3;
@@ -52,6 +52,18 @@ impl LightMethod {
         LightMethod::Mis,
         LightMethod::BqPss,
     ];
+
+    /// The renderer's baselines: Monte Carlo averages of i.i.d. terms `f/p` (math.md §11).
+    pub const BASELINES: [LightMethod; 3] = [LightMethod::McLight, LightMethod::McBsdf, LightMethod::Mis];
+
+    /// The quadratures that compose with light sampling (math.md §11 (a)–(c)): weights on a
+    /// point set rather than i.i.d. terms.
+    pub const QUADRATURES: [LightMethod; 1] = [LightMethod::BqPss];
+
+    /// Whether the estimator is one of [`LightMethod::BASELINES`].
+    pub fn is_baseline(self) -> bool {
+        Self::BASELINES.contains(&self)
+    }
 
     /// The name in experiment files and CSVs.
     pub fn name(self) -> &'static str {
@@ -178,22 +190,50 @@ impl LightEstimator {
         light_u: &[[f64; 2]],
         bsdf_u: &[[f64; 2]],
     ) -> (f64, Option<Uncertainty>) {
-        if let Some(rule) = self.pss_rule(light_u) {
-            return self.estimate_on_rule(f, &rule);
-        }
         let (value, uncertainty) = self.estimate_channels(&OneChannel(f), light_u, bsdf_u);
         (value[0], uncertainty.map(|u| u[0]))
     }
 
     /// [`LightEstimator::estimate`] for an integrand of `K` channels sharing their directions
     /// (a scene pixel's three colour channels: one ray per direction serves all three), each
-    /// channel's estimate and standard error from the same terms `τ_i ∈ ℝ^K`.
+    /// channel's estimate and standard error from the same terms `τ_i ∈ ℝ^K`. A quadrature
+    /// (`bq-pss`) builds its rule on `light_u` and estimates on it
+    /// ([`LightEstimator::estimate_channels_on_rule`]); a caller that reuses point sets builds
+    /// their rules once instead.
     pub fn estimate_channels<const K: usize>(
         &self,
         f: &dyn Techniques<K>,
         light_u: &[[f64; 2]],
         bsdf_u: &[[f64; 2]],
     ) -> ([f64; K], Option<[Uncertainty; K]>) {
+        if let Some(rule) = self.pss_rule(light_u) {
+            return self.estimate_channels_on_rule(f, &rule);
+        }
+        let terms = self.baseline_terms(f, light_u, bsdf_u);
+        let m = terms.len();
+        let value = std::array::from_fn(|c| terms.iter().map(|t| t[c]).sum::<f64>() / m as f64);
+        let uncertainty = (m >= 2).then(|| {
+            std::array::from_fn(|c| {
+                let channel: Vec<f64> = terms.iter().map(|t| t[c]).collect();
+                Uncertainty {
+                    sd: crate::util::stats::sample_sd(&channel) / (m as f64).sqrt(),
+                    dof: Some(m - 1),
+                    amplitude: None,
+                }
+            })
+        });
+        (value, uncertainty)
+    }
+
+    /// A baseline's i.i.d. terms (module docs), whose mean is `Î`: `f/p` of each sample for
+    /// `mc-light` and `mc-bsdf`, the pair terms `τ_i` for `mis`. Empty for a quadrature, which
+    /// has weights instead ([`LightEstimator::estimate_channels`] never asks it for terms).
+    fn baseline_terms<const K: usize>(
+        &self,
+        f: &dyn Techniques<K>,
+        light_u: &[[f64; 2]],
+        bsdf_u: &[[f64; 2]],
+    ) -> Vec<[f64; K]> {
         let light = self.light_technique();
         let nonzero = |v: &[f64; K]| v.iter().any(|&x| x != 0.0);
         // Every direction is drawn before any is evaluated: the light's tables are large (a
@@ -203,10 +243,8 @@ impl LightEstimator {
         let draw = |t: Technique, us: &[[f64; 2]]| -> Vec<(Vec3, f64)> {
             us.iter().map(|&u| f.sample(t, u)).collect()
         };
-        let terms: Vec<[f64; K]> = match self.method {
-            // Its weights are a rule's, built once per point set by the caller
-            // ([`LightEstimator::pss_rule`], [`LightEstimator::estimate_on_rule`]).
-            LightMethod::BqPss => panic!("bq-pss estimates on its rule, not on i.i.d. terms"),
+        match self.method {
+            LightMethod::BqPss => Vec::new(),
             LightMethod::McLight => draw(light, light_u)
                 .iter()
                 .map(|(w, p)| f.value(w).map(|v| v / p))
@@ -240,20 +278,7 @@ impl LightEstimator {
                     })
                     .collect()
             }
-        };
-        let m = terms.len();
-        let value = std::array::from_fn(|c| terms.iter().map(|t| t[c]).sum::<f64>() / m as f64);
-        let uncertainty = (m >= 2).then(|| {
-            std::array::from_fn(|c| {
-                let channel: Vec<f64> = terms.iter().map(|t| t[c]).collect();
-                Uncertainty {
-                    sd: crate::util::stats::sample_sd(&channel) / (m as f64).sqrt(),
-                    dof: Some(m - 1),
-                    amplitude: None,
-                }
-            })
-        });
-        (value, uncertainty)
+        }
     }
 }
 
@@ -270,9 +295,55 @@ impl LightEstimator {
     /// `bq-pss`'s `Î` and sd on a rule built once for its points: `G` at each point (two
     /// evaluations of `f`), then the rule's weights.
     pub fn estimate_on_rule(&self, f: &dyn Lit, rule: &PssRule) -> (f64, Option<Uncertainty>) {
-        let g: Vec<f64> = rule.points.iter().map(|&u| mis_integrand(f, u)).collect();
-        rule.estimate(self.pss.weights, &g)
+        let (value, uncertainty) = self.estimate_channels_on_rule(&OneChannel(f), rule);
+        (value[0], uncertainty.map(|u| u[0]))
     }
+
+    /// [`LightEstimator::estimate_on_rule`] for an integrand of `K` channels sharing their
+    /// directions: `G(u) ∈ ℝ^K` at each of the rule's points ([`mis_integrand`], two
+    /// evaluations of `f` serving every channel), then the rule's weights and amplitude per
+    /// channel.
+    pub fn estimate_channels_on_rule<const K: usize>(
+        &self,
+        f: &dyn Techniques<K>,
+        rule: &PssRule,
+    ) -> ([f64; K], Option<[Uncertainty; K]>) {
+        let g: Vec<[f64; K]> = rule.points.iter().map(|&u| mis_integrand(f, u)).collect();
+        let per_channel: [(f64, Option<Uncertainty>); K] = std::array::from_fn(|c| {
+            let channel: Vec<f64> = g.iter().map(|v| v[c]).collect();
+            rule.estimate(self.pss.weights, &channel)
+        });
+        let value = per_channel.map(|(v, _)| v);
+        let uncertainty = per_channel
+            .iter()
+            .all(|(_, u)| u.is_some())
+            .then(|| per_channel.map(|(_, u)| u.expect("checked")));
+        (value, uncertainty)
+    }
+}
+
+/// The one-sample MIS integrand `G(u)` of `f` at the primary sample `u`
+/// ([`super::bq_pss`]'s module docs): `f(x_L) / (p_L(x_L) + p_B(x_L)) + f(x_B) / (p_L(x_B) +
+/// p_B(x_B))`, `x_t = T_t(u)`, balance weights with `n_t = 1` (Veach's one-sample MIS; math.md
+/// §11 (a)); two evaluations of `f` per channel-vector (one ray each where there is
+/// visibility), the uncompensated light density.
+pub fn mis_integrand<const K: usize>(f: &dyn Techniques<K>, u: [f64; 2]) -> [f64; K] {
+    let light = Technique::Light { compensated: false };
+    let mut g = [0.0; K];
+    for t in [light, Technique::Bsdf] {
+        let (x, p) = f.sample(t, u);
+        let fx = f.value(&x);
+        if fx.iter().any(|&v| v != 0.0) {
+            let q = match t {
+                Technique::Bsdf => f.pdf(light, &x),
+                Technique::Light { .. } => f.pdf(Technique::Bsdf, &x),
+            };
+            for (gc, v) in g.iter_mut().zip(fx) {
+                *gc += v / (p + q);
+            }
+        }
+    }
+    g
 }
 
 /// What a light-aware estimator needs of an integrand of `K` channels: the two techniques'

@@ -11,7 +11,7 @@
 //! samples below the surface's horizon trace none, and [`PixelLight::rays`] counts what is
 //! traced.
 
-use super::ShadingPoint;
+use super::{PssSets, ShadingPoint};
 use crate::bq::estimator::mis::{LightEstimator, Techniques};
 use crate::integrand::lit::Technique;
 use crate::render::env::Environment;
@@ -74,24 +74,31 @@ impl Techniques<3> for PixelLight<'_> {
 /// The estimate of `L_o` at `p` by `estimator` with `spp` samples (split as
 /// [`crate::bq::estimator::mis::LightMethod::counts`]), each technique's primary samples drawn
 /// from the pixel's own stream `rng` by the estimator's sampler (Sobol: a fresh Owen scramble per
-/// pixel and technique); with the standard error per channel and the shadow rays traced.
+/// pixel and technique); with the standard error per channel and the shadow rays traced. A
+/// quadrature with point sets (`bq-pss`, `sets`) instead picks one of its sets from `rng` and
+/// states its posterior sd ([`super::pss`]).
 pub fn estimate(
     estimator: &LightEstimator,
+    sets: Option<&PssSets>,
     spp: usize,
     p: &ShadingPoint,
     scene: &Scene,
     env: &Environment,
     rng: &mut crate::util::rng::WorkbenchRng,
 ) -> (Rgb, Option<[crate::bq::estimator::Uncertainty; 3]>, u64) {
-    let (n_light, n_bsdf) = estimator.method.counts(spp);
-    let light_u = estimator.sampler.points(n_light, rng);
-    let bsdf_u = estimator.sampler.points(n_bsdf, rng);
     let pixel = PixelLight {
         point: p,
         scene,
         env,
         rays: Cell::new(0),
     };
+    if let Some(sets) = sets {
+        let (value, sd) = estimator.estimate_channels_on_rule(&pixel, sets.pick(rng));
+        return (value, sd, pixel.rays.get());
+    }
+    let (n_light, n_bsdf) = estimator.method.counts(spp);
+    let light_u = estimator.sampler.points(n_light, rng);
+    let bsdf_u = estimator.sampler.points(n_bsdf, rng);
     let (value, sd) = estimator.estimate_channels(&pixel, &light_u, &bsdf_u);
     (value, sd, pixel.rays.get())
 }
@@ -103,6 +110,7 @@ mod tests {
     use crate::render::integrator::{Integrator, IntegratorKind};
     use crate::render::renderer::Renderer;
     use crate::render::scene::SceneKind;
+    use crate::sampling::primary::Sampler;
     use crate::util::rng::stream;
 
     /// A 32×16 map with a small bright "sun" (50× the rest), a blue-to-white gradient and a
@@ -125,15 +133,18 @@ mod tests {
         Environment::Map(EnvMap::from_texels(w, h, texels).with_lookup(lookup))
     }
 
-    /// Each renderer baseline is unbiased at a scene pixel: over 300 pixels' worth of seeds at
-    /// 16 spp, the mean of its estimates lies within 4 standard errors (the estimates' sd/√300)
-    /// of the exact reference ([`crate::render::exact`]), in every channel, on both scenes,
-    /// under `sky`, `white` and a map with a sun and a black band under both lookups, at pixels
-    /// on the sphere, on the floor and in its shadow.
-    #[test]
-    fn each_baseline_is_unbiased_at_scene_pixels() {
-        let reps = 300;
-        let spp = 16;
+    /// Checks that each integrator of `kinds` is unbiased at scene pixels: over `reps` pixels'
+    /// worth of seeds at `spp`, the mean of its estimates lies within 4 standard errors (the
+    /// estimates' sd/√reps) of the exact reference ([`crate::render::exact`]), in every channel,
+    /// on both scenes, under `sky`, `white` and a map with a sun and a black band under both
+    /// lookups, at pixels on the sphere, on the floor and in its shadow. `build(kind, rep)` is
+    /// the integrator of repetition `rep`. Returns the number of (integrator, pixel) cases.
+    fn check_unbiased_at_scene_pixels(
+        kinds: &[IntegratorKind],
+        spp: usize,
+        reps: u64,
+        build: &dyn Fn(IntegratorKind, u64) -> Integrator,
+    ) -> usize {
         let mut envs = vec![Environment::Sky, Environment::White];
         envs.extend(Lookup::ALL.map(test_map));
         let mut checked = 0;
@@ -147,14 +158,20 @@ mod tests {
                 assert!(points.len() >= 3, "{scene:?}: too few hit pixels");
                 for (k, p) in points.iter().enumerate() {
                     let exact = crate::render::exact::integrate(p, &renderer.scene, env, 1e-7);
-                    for kind in IntegratorKind::light_baselines() {
+                    for &kind in kinds {
                         if crate::render::integrator::check_light(kind, env, "test").is_err() {
                             continue;
                         }
-                        let integrator = Integrator::build(kind, spp, 0, false, None, 0).unwrap();
+                        let fixed = build(kind, 0);
+                        assert_eq!(fixed.spp, spp);
                         let mut sum = [0.0; 3];
                         let mut sq = [0.0; 3];
                         for rep in 0..reps {
+                            let integrator = if kind.uses_point_sets() {
+                                build(kind, rep)
+                            } else {
+                                fixed.clone()
+                            };
                             let mut rng = stream(40, &[k as u64, rep]);
                             let v = integrator.estimate(p, &renderer.scene, env, &mut rng, [0.0; 3]);
                             for c in 0..3 {
@@ -162,11 +179,11 @@ mod tests {
                                 sq[c] += v[c] * v[c];
                             }
                         }
+                        let n = reps as f64;
                         for c in 0..3 {
-                            let mean = sum[c] / reps as f64;
-                            let var = (sq[c] / reps as f64 - mean * mean).max(0.0) * reps as f64
-                                / (reps - 1) as f64;
-                            let se = (var / reps as f64).sqrt();
+                            let mean = sum[c] / n;
+                            let var = (sq[c] / n - mean * mean).max(0.0) * n / (n - 1.0);
+                            let se = (var / n).sqrt();
                             let gap = (mean - exact.value[c]).abs();
                             let allowed = 4.0 * se + exact.error + 1e-9 * exact.value[c].abs();
                             assert!(
@@ -182,7 +199,44 @@ mod tests {
                 }
             }
         }
+        checked
+    }
+
+    /// Each renderer baseline is unbiased at scene pixels
+    /// ([`check_unbiased_at_scene_pixels`], 300 repetitions).
+    #[test]
+    fn each_baseline_is_unbiased_at_scene_pixels() {
+        let kinds = IntegratorKind::light_baselines();
+        let checked = check_unbiased_at_scene_pixels(&kinds, 16, 300, &|kind, _| {
+            Integrator::build(kind, 16, 0, false, None, 0).unwrap()
+        });
         assert!(checked > 300, "{checked}");
+    }
+
+    /// `bq-pss` on its default sampler (scrambled Sobol sets) is unbiased at scene pixels over
+    /// its randomised point sets, with every weighting and both kernel orders, at 64 spp (32
+    /// points; [`check_unbiased_at_scene_pixels`], 300 repetitions): repetition `rep` draws its
+    /// own 4 sets from seed `rep` (as a render table's repetitions do) and the pixel picks one.
+    /// So is `bq-pss-equal-uniform` (plain MC on `G`) at 16 spp.
+    ///
+    /// Not claimed, because measured otherwise (2026-12-02): at 16 spp (8 points) order 2
+    /// with `bmc` or `bsq` weights is 4.1–4.8 SE off at a few pixels, and the kernel-weighted
+    /// variants on independent points (`-uniform`) are 4–8 SE off at 16 and 64 spp: weights
+    /// fitted to a set's own points are not an unbiased rule over random sets (for BMC
+    /// `E[1ᵀQ⁻¹1] < 1`), least so on well-spread points.
+    #[test]
+    fn each_light_quadrature_is_unbiased_at_scene_pixels() {
+        let sobol: Vec<IntegratorKind> = IntegratorKind::light_quadratures()
+            .into_iter()
+            .filter(|k| k.light.is_some_and(|l| l.sampler == Sampler::Sobol))
+            .collect();
+        assert_eq!(sobol.len(), 8);
+        let build = |spp| move |kind, rep| Integrator::build(kind, spp, 4, false, None, 1000 + rep).unwrap();
+        let checked = check_unbiased_at_scene_pixels(&sobol, 64, 300, &build(64));
+        assert!(checked >= 200, "{checked}");
+        let equal = [IntegratorKind::from_name("bq-pss-equal-uniform").unwrap()];
+        let checked = check_unbiased_at_scene_pixels(&equal, 16, 300, &build(16));
+        assert!(checked >= 25, "{checked}");
     }
 
     /// Rays are counted where they are traced: `mc-bsdf` traces one per sample under `white`

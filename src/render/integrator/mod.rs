@@ -12,12 +12,15 @@
 
 pub mod light;
 pub mod neighbours;
+pub mod pss;
 pub mod sets;
 
 use super::env::Environment;
 use super::scene::{Hit, Rgb, Scene};
+use crate::bq::estimator::bq_pss::{PssOptions, PssWeights};
 use crate::bq::estimator::mis::{Heuristic, LightEstimator, LightMethod};
 use crate::bq::estimator::{Method, Uncertainty};
+use crate::bq::kernel::primary::SobolevOrder;
 use crate::bq::model::BmcModel;
 use crate::bq::rule::{Rule, Values};
 use crate::bq::weights::Solved;
@@ -28,6 +31,7 @@ use crate::sampling::{Density, Design};
 use crate::util::geometry::{Frame, Vec3};
 use crate::util::rng::WorkbenchRng;
 pub use neighbours::NeighbourPrior;
+pub use pss::PssSets;
 pub use sets::{BmcSets, SampleSet};
 use std::f64::consts::PI;
 
@@ -97,18 +101,14 @@ impl IntegratorKind {
         }
     }
 
-    /// The renderer's baselines, in the order of the docs: `mc-light`, `mc-bsdf`, then `mis`
-    /// with the power heuristic, with the balance heuristic, each without and with
-    /// compensation; all of these first on independent, then on Sobol primary samples.
+    /// The renderer's baselines ([`LightMethod::BASELINES`]), in the order of the docs:
+    /// `mc-light`, `mc-bsdf`, then `mis` with the power heuristic, with the balance heuristic,
+    /// each without and with compensation; all of these first on independent, then on Sobol
+    /// primary samples.
     pub fn light_baselines() -> Vec<Self> {
         let mut all = Vec::new();
         for sampler in Sampler::ALL {
-            for method in LightMethod::ALL {
-                // bq-pss is a quadrature on these techniques, not a baseline, and not yet a
-                // render integrator (its rule would be built once per set, not per pixel).
-                if method == LightMethod::BqPss {
-                    continue;
-                }
+            for method in LightMethod::BASELINES {
                 let options: &[(Heuristic, bool)] = match method {
                     LightMethod::Mis => &[
                         (Heuristic::Power, false),
@@ -130,6 +130,40 @@ impl IntegratorKind {
             }
         }
         all
+    }
+
+    /// The Bayesian quadratures that compose with light sampling ([`LightMethod::QUADRATURES`],
+    /// math.md §11 (a)), in the order of the docs: `bq-pss` of kernel order 1, then 2, each with
+    /// the weights `bmc`, `bsq`, `equal`, `cv`, first on Sobol (its default sampler, as in `run`),
+    /// then on independent primary samples ([`pss`]).
+    pub fn light_quadratures() -> Vec<Self> {
+        let mut all = Vec::new();
+        for sampler in [Sampler::Sobol, Sampler::Uniform] {
+            for order in SobolevOrder::ALL {
+                for weights in PssWeights::ALL {
+                    all.push(Self::light(LightEstimator {
+                        method: LightMethod::BqPss,
+                        heuristic: Heuristic::default(),
+                        compensation: false,
+                        sampler,
+                        pss: PssOptions { order, weights },
+                    }));
+                }
+            }
+        }
+        all
+    }
+
+    /// Whether the integrator is a light-aware quadrature with precomputed point sets
+    /// (`bq-pss`, [`pss`]): it takes `gps` (its number of sets) but no model or rotation.
+    pub fn uses_point_sets(self) -> bool {
+        self.light.is_some_and(|l| !l.method.is_baseline())
+    }
+
+    /// Whether the integrator takes a number of sets (`gps`): the estimators with weights'
+    /// hemisphere sets ([`IntegratorKind::uses_sets`]) or `bq-pss`'s point sets.
+    pub fn takes_gps(self) -> bool {
+        self.uses_sets() || self.uses_point_sets()
     }
 
     /// Every integrator, in the order of the docs: each estimator of [`Method::ALL`] on
@@ -167,6 +201,7 @@ impl IntegratorKind {
             all.extend(with_sets.iter().map(|k| IntegratorKind { set_design, ..*k }));
         }
         all.extend(Self::light_baselines());
+        all.extend(Self::light_quadratures());
         all
     }
 
@@ -176,8 +211,26 @@ impl IntegratorKind {
     /// `bmcp-rings`, `bmcp-edge-rings`, `bsq-rings`). A renderer's baseline is its
     /// estimator's name with `-balance` for the balance heuristic, `-comp` for compensation and
     /// `-sobol` for Sobol primary samples, in that order (`mc-light`, `mis`, `mis-balance`,
-    /// `mis-comp`, `mis-balance-comp-sobol`, `mc-bsdf-sobol`).
+    /// `mis-comp`, `mis-balance-comp-sobol`, `mc-bsdf-sobol`). `bq-pss` names the options of
+    /// `run`'s spec that differ from their defaults (order 1, weights `bmc`, sampler `sobol`):
+    /// `-order2`, then `-bsq`, `-equal` or `-cv`, then `-uniform` (`bq-pss`, `bq-pss-cv`,
+    /// `bq-pss-order2-bsq-uniform`).
     pub fn name(self) -> String {
+        if let Some(l) = self.light.filter(|l| l.method == LightMethod::BqPss) {
+            let mut name = l.method.name().to_string();
+            if l.pss.order != SobolevOrder::One {
+                name.push_str(&format!("-order{}", l.pss.order.number()));
+            }
+            if l.pss.weights != PssWeights::Bmc {
+                name.push('-');
+                name.push_str(l.pss.weights.name());
+            }
+            if l.sampler != Sampler::Sobol {
+                name.push('-');
+                name.push_str(l.sampler.name());
+            }
+            return name;
+        }
         if let Some(l) = self.light {
             let mut name = l.method.name().to_string();
             if l.heuristic == Heuristic::Balance {
@@ -255,9 +308,13 @@ impl IntegratorKind {
     }
 
     /// Whether the integrator states a posterior sd per pixel and channel (`render --sd-out`):
-    /// its estimator has a posterior ([`Method::has_posterior`]).
+    /// its estimator has a posterior ([`Method::has_posterior`]), or it is `bq-pss` with kernel
+    /// weights (`bmc`, `bsq`; its ablations state a standard error, as MC).
     pub fn has_posterior(self) -> bool {
-        self.method.has_posterior()
+        match self.light {
+            Some(l) => l.method == LightMethod::BqPss && l.pss.weights.needs_kernel(),
+            None => self.method.has_posterior(),
+        }
     }
 }
 
@@ -296,6 +353,9 @@ pub fn check_spp(kind: IntegratorKind, spp: usize, what: &str) -> Result<(), Inp
         Err(InputError::new(format!("{what}: must be at least 1, got 0")))
     } else if let Some(Err(m)) = kind.light.map(|l| l.method.check_count(spp)) {
         Err(InputError::new(format!("{what}: got {spp} for {kind}; {m}")))
+    } else if kind.uses_point_sets() {
+        // Its spp/2 points are factored once per set, as a weight set's are.
+        crate::bq::rule::check_point_count(spp / 2, what)
     } else if spp > MAX_MC_SPP {
         Err(InputError::new(format!(
             "{what}: at most {MAX_MC_SPP} samples per pixel, got {spp}"
@@ -322,6 +382,16 @@ pub fn check_memory(
 ) -> Result<(), InputError> {
     let image = 48u64.saturating_mul(pixels as u64);
     let image_text = format!("a {pixels}-pixel image");
+    if kind.uses_point_sets() {
+        let sets = PssSets::bytes(spp / 2, gps);
+        return crate::bq::rule::check_memory(
+            &format!(
+                "{what}: {image_text} and {gps} point sets of {} points for {kind}",
+                spp / 2
+            ),
+            image.saturating_add(sets),
+        );
+    }
     let Some(model) = model.filter(|_| kind.uses_sets()) else {
         return crate::bq::rule::check_memory(&format!("{what}: {image_text}"), image);
     };
@@ -458,6 +528,8 @@ pub struct Integrator {
     pub spp: usize,
     /// The weighted sets (exactly when `kind.uses_sets()`).
     pub sets: Option<BmcSets>,
+    /// `bq-pss`'s weighted point sets (exactly when `kind.uses_point_sets()`).
+    pub pss: Option<PssSets>,
     /// The amplitude of the per-pixel posterior sds, when they are asked for
     /// ([`Integrator::with_uncertainty`]); None renders estimates only.
     pub uncertainty: Option<Scale>,
@@ -503,6 +575,7 @@ impl Integrator {
             },
             spp,
             sets: None,
+            pss: None,
             uncertainty: None,
             counter: RayCounter::default(),
         }
@@ -510,7 +583,8 @@ impl Integrator {
 
     /// Builds the integrator `kind` with `spp` samples; for estimators with weights, `gps`
     /// sample sets of `kind.set_design` drawn from `seed` and weighted under `model` (needed only by those,
-    /// so that MC never pays for the kernel-mean table).
+    /// so that MC never pays for the kernel-mean table); for `bq-pss`, `gps` point sets of
+    /// `spp/2` primary samples drawn from `seed` and weighted once ([`pss`]).
     pub fn build(
         kind: IntegratorKind,
         spp: usize,
@@ -526,10 +600,15 @@ impl Integrator {
         } else {
             None
         };
+        let pss = match kind.light {
+            Some(l) if kind.uses_point_sets() => Some(PssSets::generate(&l, spp, gps, seed)?),
+            _ => None,
+        };
         Ok(Integrator {
             kind,
             spp,
             sets,
+            pss,
             uncertainty: None,
             counter: RayCounter::default(),
         })
@@ -580,7 +659,8 @@ impl Integrator {
         prior: Rgb,
     ) -> (Rgb, Option<[Uncertainty; 3]>) {
         if let Some(estimator) = &self.kind.light {
-            let (value, sd, rays) = light::estimate(estimator, self.spp, p, scene, env, rng);
+            let (value, sd, rays) =
+                light::estimate(estimator, self.pss.as_ref(), self.spp, p, scene, env, rng);
             self.counter.add(rays);
             return (value, self.uncertainty.and(sd));
         }

@@ -159,6 +159,7 @@ fn one_sample_along_the_normal_shows_the_sky_reflected() {
         kind: IntegratorKind::BMC,
         spp: 1,
         sets: Some(BmcSets::from_points(vec![vec![Vec3::z()]], false, &m, 0).unwrap()),
+        pss: None,
         uncertainty: None,
         counter: Default::default(),
     };
@@ -479,6 +480,7 @@ fn ring_sets_match_the_dense_solve_on_the_same_points() {
                 kind: dense_kind,
                 spp,
                 sets: Some(BmcSets::from_points(points, true, &m, 11).unwrap()),
+                pss: None,
                 uncertainty: None,
                 counter: Default::default(),
             };

@@ -378,7 +378,7 @@ fn sd_out_bad_input_is_exit_2() {
         &[&{
             let names = IntegratorKind::names_where(|k| k.has_posterior());
             let (last, rest) = names.split_last().unwrap();
-            assert!(rest.contains(&"bmc".to_string()) && last.ends_with("-rings"));
+            assert!(rest.contains(&"bmc".to_string()) && last == "bq-pss-order2-bsq-uniform");
             format!(
                 "--sd-out s.exr: needs an integrator with a posterior ({} or {last}), not mc",
                 rest.join(", ")
