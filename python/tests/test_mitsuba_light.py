@@ -104,6 +104,67 @@ def test_the_envmap_is_read_as_mitsuba_loaded_it_and_hashed_by_content():
     assert lightbq.env_map(mi.load_dict(point_lit("bmc-light"))) is None
 
 
+def test_the_test_scenes_museum_map_is_read_as_an_rgb_float_array(mitsuba_data):
+    """bsdf_spheres's own ``envmap`` (museum.exr, loaded through the XML as Mitsuba's tests load
+    it): the texels are the file's RGB channels, float32, C-contiguous, height × width × 3, the
+    transform a 4 × 4, and two loads of the scene hash alike."""
+    from workbench.mitsuba import lightbq
+
+    xml = str(mitsuba_data / "tests" / "scenes" / "bsdf_spheres" / "test_envmap_path.xml")
+    a = lightbq.env_map(mi.load_file(xml, spp=1, integrator="path"))
+    b = lightbq.env_map(mi.load_file(xml, spp=1, integrator="path"))
+    file = np.array(mi.Bitmap(str(mitsuba_data / "common" / "textures" / "museum.exr")), dtype=np.float32)
+    assert a.texels.ndim == 3 and a.texels.shape == file.shape[:2] + (3,) and a.texels.dtype == np.float32
+    assert a.texels.flags["C_CONTIGUOUS"] and np.array_equal(a.texels, file[..., :3])
+    assert a.to_world.shape == (4, 4) and a.scale == 1.0
+    assert a.digest == b.digest and len(a.digest) == 64
+
+
+def test_the_hash_follows_the_content_not_the_file(tmp_path):
+    """The same texels under two file names hash alike (an RGBA file: its alpha is not light);
+    one changed texel, or another scale, is another hash."""
+    from workbench.mitsuba import lightbq
+
+    rng = np.random.default_rng(5)
+    rgba = rng.uniform(0.0, 2.0, size=(8, 16, 4)).astype(np.float32)
+    for name, image in [("a.exr", rgba), ("b.exr", rgba), ("c.exr", np.where(np.arange(4) == 3, 0.25, rgba))]:
+        mi.Bitmap(image, mi.Bitmap.PixelFormat.RGBA).write(str(tmp_path / name))
+    changed = rgba.copy()
+    changed[3, 5, 1] += 0.5
+    mi.Bitmap(changed, mi.Bitmap.PixelFormat.RGBA).write(str(tmp_path / "d.exr"))
+
+    def read(name, scale=1.0):
+        return lightbq.env_map(mi.load_dict({"type": "scene", "e": {
+            "type": "envmap", "filename": str(tmp_path / name), "scale": scale}}))
+
+    a, b, c, d = read("a.exr"), read("b.exr"), read("c.exr"), read("d.exr")
+    assert np.array_equal(a.texels, rgba[..., :3])
+    assert a.digest == b.digest == c.digest  # another alpha is not another light
+    assert d.digest != a.digest and read("a.exr", 0.5).digest != a.digest
+
+
+def test_kernel_means_are_computed_once_per_map_content(tmp_path):
+    """The cache the bmc-light binding will call (lightbq.cached_kernel_means): one computation
+    per (map content, kernel parameters), its seconds kept; another map or parameter recomputes."""
+    from workbench.mitsuba import lightbq
+
+    image = np.full((4, 8, 3), 0.5, dtype=np.float32)
+    image[1, 2] = 3.0
+    mi.Bitmap(image).write(str(tmp_path / "m.exr"))
+    scene = {"type": "scene", "e": {"type": "envmap", "filename": str(tmp_path / "m.exr")}}
+    calls = []
+
+    def compute(env):
+        calls.append(env.digest)
+        return float(env.texels.sum())
+
+    first = lightbq.cached_kernel_means(lightbq.env_map(mi.load_dict(scene)), ("test", 1.4), compute)
+    again = lightbq.cached_kernel_means(lightbq.env_map(mi.load_dict(scene)), ("test", 1.4), compute)
+    other = lightbq.cached_kernel_means(lightbq.env_map(mi.load_dict(scene)), ("test", 1.8), compute)
+    assert len(calls) == 2 and again is first and other is not first
+    assert first.value == float(image.sum()) and first.seconds >= 0
+
+
 def test_bq_pss_is_unbiased_on_a_lambertian_plane_under_a_constant_sky():
     """Every ground pixel's value is ALBEDO · 1 = 0.5 exactly (no occluder): the mean over the
     16×16 pixels of bq-pss (8 points, 4 camera samples, a fixed seed) within 4 standard errors

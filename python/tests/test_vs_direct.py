@@ -125,3 +125,33 @@ def test_mitsubas_test_scene_on_a_crop(tmp_path, variant, mitsuba_data):
                     "--no-equal-time"])
     table = rows(out)
     assert len(table) == 1 + 6 + 1 and all(float(r["rmse"]) > 0 for r in table)
+
+
+def test_a_users_scene_with_an_include_a_point_and_an_area_light(tmp_path, variant):
+    """``--scene FILE.xml`` as a user writes one (issues 41, 43): a ``$res`` default, its objects
+    in an included file beside it, no sampler, no map; a point light (delta) and an area light.
+    No mis_compensation configuration, and the table names the delta light."""
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "objects.xml").write_text(
+        '<scene version="3.0.0"><shape type="rectangle"><transform name="to_world"><scale value="6"/>'
+        '</transform><bsdf type="diffuse"/></shape><shape type="sphere"><point name="center" x="0" y="0" z="1"/>'
+        '<bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></shape></scene>')
+    (tmp_path / "scene.xml").write_text(
+        '<scene version="3.0.0"><default name="res" value="12"/><sensor type="perspective">'
+        '<float name="fov" value="40"/><transform name="to_world"><lookat origin="0, -5, 3" target="0, 0, 0.7" '
+        'up="0, 0, 1"/></transform><film type="hdrfilm"><integer name="width" value="$res"/>'
+        '<integer name="height" value="$res"/></film></sensor>'
+        '<emitter type="point"><point name="position" x="2" y="-2" z="4"/><rgb name="intensity" value="20"/></emitter>'
+        '<shape type="rectangle"><transform name="to_world"><translate x="-2" y="0" z="4"/></transform>'
+        '<emitter type="area"><rgb name="radiance" value="3"/></emitter></shape>'
+        '<include filename="parts/objects.xml"/></scene>')
+    out = tmp_path / "out"
+    vs_direct.main(["--scene", str(tmp_path / "scene.xml"), "--spps", "4", "--seeds", "2", "--ref-spp", "64",
+                    "--methods", "bq-pss", "--out", str(out), "--no-equal-time"])
+    table = rows(out)
+    assert [r["method"] for r in table][0] == "bq-pss" and len(table) == 1 + 4 + 1  # no mis_compensation
+    assert all(float(r["rmse"]) > 0 for r in table)
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["delta_emitters"] == ["point"] and not meta["has_envmap"]
+    md = (out / "table.md").read_text()
+    assert "no `mis_compensation` configuration" in md and "Delta lights (point)" in md

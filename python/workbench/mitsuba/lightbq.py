@@ -9,8 +9,9 @@ issue 41) need of a scene, checked before any render, and the scene's map as Mit
 - :func:`env_map`: the ``envmap`` emitter's texels — the ``Bitmap`` Mitsuba built from the file
   (its ``data`` parameter, without the columns it pads for the wrap-around lookup), its
   ``scale`` and ``to_world`` — and their content hash (SHA-256 of the texels, shape and scale),
-  the key under which the map's kernel means are cached (:data:`KERNEL_MEANS`): a map is
-  precomputed once per process whatever the number of renders, scenes or integrators.
+  the key under which the map's kernel means are cached (:data:`KERNEL_MEANS`,
+  :func:`cached_kernel_means`): a map is precomputed once per process whatever the number of
+  renders, scenes or integrators, and the precomputation's seconds are kept beside it.
 
 The rules, weights and light-measure kernel means themselves come from the Rust core (issue 40)
 through the Python package; nothing of that maths is implemented here.
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import time
 
 import numpy as np
 
@@ -30,8 +32,17 @@ from .properties import LIGHT_METHODS
 #: The methods that integrate against the light's measure (need a map or an area).
 MEASURE_METHODS = ("bmc-light", "bmc-split")
 
-#: content hash of a map (and the kernel's parameters) → its kernel means, per process.
+#: (content hash of a map, the kernel's parameters) → :class:`Cached` kernel means, per process.
 KERNEL_MEANS: dict = {}
+
+
+@dataclasses.dataclass(frozen=True)
+class Cached:
+    """A map's precomputed kernel means and the seconds their computation took (stated by the
+    light methods: issue 41 asks for bmc-light's per-map precomputation time)."""
+
+    value: object
+    seconds: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,6 +117,20 @@ def env_map(scene):
     h.update(np.float64(scale).tobytes())
     h.update(texels.tobytes())
     return EnvMap(texels=texels, scale=scale, to_world=to_world, digest=h.hexdigest())
+
+
+def cached_kernel_means(env: EnvMap, params: tuple, compute) -> Cached:
+    """``compute(env)`` — the Rust core's kernel means of the map ``env`` under the kernel's
+    ``params`` (hashable) — once per process per (map content, params): a second scene or render
+    with the same texels and scale, whatever its file name, reuses them; another scale or texel
+    is another key. Nothing of the maths is here, only the cache."""
+    key = (env.digest, params)
+    hit = KERNEL_MEANS.get(key)
+    if hit is None:
+        t0 = time.perf_counter()
+        value = compute(env)
+        hit = KERNEL_MEANS[key] = Cached(value=value, seconds=time.perf_counter() - t0)
+    return hit
 
 
 def prepare(settings, scene):
