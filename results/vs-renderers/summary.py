@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """results/vs-renderers/summary.md from the tables results/vs-renderers-*/ (issue 40.4).
 
-Per (scene, map, spp): the best BQ variant's mean RMSE (bmc, bmc-sobol: today's BMC; the
-light-aware BQ variants are not in these tables yet) divided by the strongest baseline's (the
+Per (scene, map, spp): the best BQ variant's mean RMSE (bmc, bmc-sobol: today's BMC; bq-pss
+and its bsq and order-2 variants, math.md §11 (a); not bq-pss-equal, the equal-weight ablation,
+shown in its own column) divided by the strongest baseline's (the
 mis variant with the power heuristic of least RMSE at that spp), at equal spp (table.csv) and at
 equal time (timings.csv, machine-dependent and not committed: each BQ variant's RMSE
 interpolated log-log against its mean seconds at the baseline's seconds, blank outside).
@@ -14,7 +15,10 @@ from collections import defaultdict
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BASELINES = {"mis", "mis-comp", "mis-sobol", "mis-comp-sobol"}
-BQ = {"bmc", "bmc-sobol"}
+BQ = {"bmc", "bmc-sobol", "bq-pss", "bq-pss-bsq", "bq-pss-order2"}
+# Equal weights on bq-pss's points: RQMC on the one-sample MIS integrand, the ablation that shows
+# how much of bq-pss's gain is the kernel's (not a BQ variant, so never "best BQ").
+ABLATION = "bq-pss-equal"
 
 
 def at_time(curve, t):
@@ -62,15 +66,20 @@ for name in sorted(os.listdir(HERE)):
                     best = (r, lab)
             if best:
                 eq_time = f"{best[0] / b_rmse:.3f} ({best[1]})"
-        rows.append((scene, env, spp, b_lab, b_rmse, q_lab, q_rmse, eq_time))
+        abl = [rm for (lab, integ, s), rm in cells.items() if s == spp and integ == ABLATION]
+        abl_ratio = f"{abl[0] / b_rmse:.3f}" if abl else ""
+        rows.append((scene, env, spp, b_lab, b_rmse, q_lab, q_rmse, eq_time, abl_ratio))
 
 print("# BQ against the renderer's baselines (results/vs-renderers)\n")
 print("Made by `python3 results/vs-renderers/summary.py > results/vs-renderers/summary.md` from each")
 print("table's table.csv (equal spp) and its uncommitted timings.csv (equal time: wall clock on the")
-print("2-core machine under heavy load, 2026-12-02; machine-dependent). Best BQ = least RMSE of")
-print("bmc and bmc-sobol (4 sets); strongest baseline = least RMSE of mis, mis-comp, mis-sobol,")
-print("mis-comp-sobol at that spp. Below 1: BQ wins. 48×48 images, 3 repetitions, exact references.\n")
-print("| scene | map | spp | strongest baseline (RMSE) | best BQ (RMSE) | BQ / baseline, equal spp | BQ / baseline, equal time |")
-print("|---|---|---:|---|---|---:|---:|")
-for scene, env, spp, bl, br, ql, qr, et in rows:
-    print(f"| {scene} | {env} | {spp} | {bl} ({br:.5f}) | {ql} ({qr:.5f}) | {qr / br:.3f} | {et} |")
+print("2-core machine, load average ≈ 1, 2026-12-02; machine-dependent). Best BQ = least RMSE of")
+print("bmc, bmc-sobol (4 sets), bq-pss, bq-pss-bsq and bq-pss-order2 (4 point sets); the last column is")
+print("bq-pss-equal (equal weights on bq-pss's points: the RQMC ablation) at equal spp; strongest baseline = least RMSE of mis, mis-comp, mis-sobol,")
+print("mis-comp-sobol at that spp. Below 1: BQ wins. 48×48 images, 3 repetitions, exact references.")
+print("Equal time: the least RMSE among the BQ variants whose measured seconds bracket the baseline's")
+print("(no extrapolation), so it may name a variant other than the equal-spp best, or be blank.\n")
+print("| scene | map | spp | strongest baseline (RMSE) | best BQ (RMSE) | BQ / baseline, equal spp | BQ / baseline, equal time | bq-pss-equal / baseline, equal spp |")
+print("|---|---|---:|---|---|---:|---:|---:|")
+for scene, env, spp, bl, br, ql, qr, et, ab in rows:
+    print(f"| {scene} | {env} | {spp} | {bl} ({br:.5f}) | {ql} ({qr:.5f}) | {qr / br:.3f} | {et} | {ab} |")

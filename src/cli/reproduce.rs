@@ -96,22 +96,22 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("thesis-images", "f9e7fc339178b8ba", 860.0),
     // The exact reference under Pisa (about 860 s of CPU) plus 120 renders (3 min 40 s).
     ("thesis-table-4-1", "353c191c83777ada", 650.0),
-    // The renderer's baselines against BMC (issue 40.4), 48×48 tables: the renders' seconds
-    // plus ≈ 20 s for the exact reference; 2026-12-02, the machine shared (load average ≈ 16).
-    ("vs-renderers-thesis-archi", "f369e9a34462383d", 38.0),
-    ("vs-renderers-thesis-forest", "4272f6137d2e13a4", 38.0),
-    ("vs-renderers-thesis-grace", "7ed70c88b39d9d0f", 31.0),
-    ("vs-renderers-thesis-park", "a0022b68799e06c4", 41.0),
-    ("vs-renderers-thesis-pisa", "382cf245a79676ad", 40.0),
-    ("vs-renderers-thesis-sky", "b5d934339ffeab87", 42.0),
-    ("vs-renderers-thesis-studio", "fd53b9c64d402734", 37.0),
-    ("vs-renderers-workbench-archi", "358d2f485f91ba90", 36.0),
-    ("vs-renderers-workbench-forest", "532929da6cd1da37", 40.0),
-    ("vs-renderers-workbench-grace", "4b0aefd827fca41c", 29.0),
-    ("vs-renderers-workbench-park", "967e8b1e431312cd", 38.0),
-    ("vs-renderers-workbench-pisa", "438d09a96c544ea6", 37.0),
-    ("vs-renderers-workbench-sky", "91c1b281734ffa38", 40.0),
-    ("vs-renderers-workbench-studio", "65ac9a58dbb0c395", 34.0),
+    // The renderer's baselines and bq-pss against BMC (issue 40.4), 48×48 tables, exact
+    // reference included; 2026-12-02, the machine nearly idle (load average ≈ 1).
+    ("vs-renderers-thesis-archi", "ce896ac8c0912b48", 5.2),
+    ("vs-renderers-thesis-forest", "cc12a765cfd83823", 5.7),
+    ("vs-renderers-thesis-grace", "27fa9833a726b00a", 2.4),
+    ("vs-renderers-thesis-park", "0717e949d687fa83", 5.0),
+    ("vs-renderers-thesis-pisa", "38706c55859e4698", 4.6),
+    ("vs-renderers-thesis-sky", "6ca5da810dd9ca32", 5.5),
+    ("vs-renderers-thesis-studio", "57562926a01b60d3", 4.9),
+    ("vs-renderers-workbench-archi", "5ff7fd7694e4beb7", 3.6),
+    ("vs-renderers-workbench-forest", "a465095dd9b6a9c2", 4.3),
+    ("vs-renderers-workbench-grace", "237f939ecc946aeb", 1.8),
+    ("vs-renderers-workbench-park", "c75cb3d4f614f878", 3.8),
+    ("vs-renderers-workbench-pisa", "60c299651a58ed25", 3.5),
+    ("vs-renderers-workbench-sky", "9713e22b64a44b8f", 4.0),
+    ("vs-renderers-workbench-studio", "37a1fdaf7d3337b0", 4.0),
 ];
 
 enum Job {
