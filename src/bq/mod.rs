@@ -11,6 +11,7 @@ pub mod factor;
 pub mod fitted;
 pub mod kernel;
 pub mod kernel_mean;
+pub mod light_measure;
 pub mod model;
 pub mod rule;
 pub mod stages;

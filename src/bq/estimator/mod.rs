@@ -14,6 +14,7 @@
 //! ([`crate::integrand::lit`]). An experiment names either kind by [`MethodName`].
 
 pub mod bmc;
+pub mod bmc_light;
 pub mod bmcp;
 pub mod bq_pss;
 pub mod bsq;

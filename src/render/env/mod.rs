@@ -283,6 +283,12 @@ impl EnvMap {
         self.texels.iter().flatten().fold(0.0, |m, &v| m.max(v))
     }
 
+    /// The FNV-1a hash of the texels and their size (what a decoded file's cache keys carry),
+    /// computed afresh: also for a map built from texels, whose stored hash is 0.
+    pub fn content_hash(&self) -> u64 {
+        texel_hash(self.width, self.height, &self.texels)
+    }
+
     /// How directions find texels.
     pub fn lookup_kind(&self) -> Lookup {
         self.lookup
