@@ -10,6 +10,7 @@ use pyo3::types::PyDict;
 use workbench::bq::estimator::bq_pss::{PssWeights, point_sets};
 use workbench::bq::factor::SpdWorkspace;
 use workbench::bq::kernel::primary::SobolevOrder;
+use workbench::sampling::primary::Sampler;
 
 use crate::args::Whole;
 use crate::value_error;
@@ -52,7 +53,7 @@ pub fn pss_rules<'py>(
     workbench::util::memory::check(&format!("{sets} bq-pss sets of n = {n} points"), bytes)
         .map_err(value_error)?;
     let rules = py
-        .detach(|| point_sets(seed, sets, n, order))
+        .detach(|| point_sets(seed, Sampler::Sobol, sets, n, order))
         .map_err(|e| value_error(format!("n: {e}")))?;
     let mut points = Array3::<f64>::zeros((sets, n, 2));
     let mut bmc = Array2::<f64>::zeros((sets, n));
