@@ -20,7 +20,6 @@ use crate::bq::estimator::bq_pss::{PssRule, point_sets};
 use crate::bq::estimator::mis::LightEstimator;
 use crate::bq::factor::NotPositiveDefinite;
 use crate::util::rng::WorkbenchRng;
-use rand::RngExt;
 use std::sync::Arc;
 
 /// `bq-pss`'s point sets with their weights, shared by every pixel (and by clones).
@@ -48,12 +47,7 @@ impl PssSets {
     /// The set for a pixel, picked uniformly from its stream (no draw with one set).
     #[inline]
     pub fn pick(&self, rng: &mut WorkbenchRng) -> &PssRule {
-        let k = if self.rules.len() > 1 {
-            rng.random_range(0..self.rules.len())
-        } else {
-            0
-        };
-        &self.rules[k]
+        &self.rules[super::sets::choose_set(self.rules.len(), rng)]
     }
 
     /// The bytes the sets keep: each a factor of `M²` doubles and `O(M)` besides.

@@ -181,11 +181,7 @@ impl BmcSets {
     /// rotation.
     #[inline]
     pub fn choose(&self, rng: &mut WorkbenchRng) -> (usize, f64) {
-        let set = if self.sets.len() > 1 {
-            rng.random_range(0..self.sets.len())
-        } else {
-            0
-        };
+        let set = choose_set(self.sets.len(), rng);
         let phi = if self.rotate {
             TAU * rng.random::<f64>()
         } else {
@@ -207,6 +203,14 @@ impl BmcSets {
             .collect();
         (set, points)
     }
+}
+
+/// A pixel's set among `count` reused sets, uniform, from its stream; with one set nothing is
+/// drawn, so the pixel's later draws are as before. Shared by the hemisphere rules' sets and
+/// bq-pss's point sets.
+#[inline]
+pub fn choose_set(count: usize, rng: &mut WorkbenchRng) -> usize {
+    if count > 1 { rng.random_range(0..count) } else { 0 }
 }
 
 #[cfg(test)]
